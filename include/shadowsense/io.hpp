@@ -1,0 +1,4 @@
+// Umbrella header for image-file I/O; link shadowsense::io (adds OpenCV imgcodecs).
+#pragma once
+
+#include <shadowsense/shadowsense.hpp>

@@ -1,0 +1,7 @@
+// Umbrella header: everything that needs only OpenCV core + imgproc and Eigen.
+// Image-file I/O (datasets, the scene generator's writers) is in <shadowsense/io.hpp>.
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/image_check.hpp>
+#include <shadowsense/version.hpp>
