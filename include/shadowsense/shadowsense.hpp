@@ -5,3 +5,6 @@
 #include <shadowsense/error.hpp>
 #include <shadowsense/image_check.hpp>
 #include <shadowsense/version.hpp>
+#include <shadowsense/fsm.hpp>
+#include <shadowsense/segment.hpp>
+#include <shadowsense/track.hpp>

@@ -1,0 +1,699 @@
+// Shadow and contact segmentation (paper section 4.3): two colour classes, "shadow" and
+// "contact"; the binary mask of each is smoothed with a Gaussian blur, its contours found with
+// cv::findContours (Suzuki-Abe), thresholded by size and merged when close; the result is a box
+// per class (and per blob, for multi-touch) and the contact position is the centroid of the
+// contact region.
+//
+// Two ways to colour-classify a pixel (SegmenterCalibration::mode):
+//  * fixed_ranges - the paper's method: a pixel is in a class when its B, G and R values each lie
+//    in that class's inclusive range. Cheap, but breaks when the light changes.
+//  * relative     - the default: each pixel is divided by a reference colour of the lit, empty
+//    skin, giving per-channel ratios q = I / reference. darkness = 1 - mean(q); warmth =
+//    q_R - q_B. A hovering shadow darkens the fabric roughly neutrally; a part in contact is
+//    darkest and skin-tinted (warm). shadow: darkness >= shadow_darkness; contact: darkness >=
+//    contact_darkness and warmth >= contact_warmth. The reference is either estimated from each
+//    frame (a high percentile of each channel; works on single, independent frames at any light
+//    level) or, with Config::adaptive, a per-pixel model of the empty skin that is updated slowly
+//    on pixels outside any shadow (for video: follows slow light changes and vignetting).
+//
+// Calibration (fit_calibration) fits the ranges and thresholds from frames of the empty skin and
+// a few labelled touch frames; save_calibration / load_calibration store them in a small text
+// file (format in docs/tracking_eval.md).
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/image_check.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <fstream>
+#include <numeric>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// Inclusive per-channel range in BGR order.
+struct ColourRange {
+  cv::Vec3b lower{0, 0, 0};
+  cv::Vec3b upper{0, 0, 0};
+  bool contains(const cv::Vec3b& p) const {
+    return p[0] >= lower[0] && p[0] <= upper[0] && p[1] >= lower[1] && p[1] <= upper[1] &&
+           p[2] >= lower[2] && p[2] <= upper[2];
+  }
+  bool operator==(const ColourRange&) const = default;
+};
+
+enum class SegmentMode { fixed_ranges, relative };
+
+struct SegmenterCalibration {
+  SegmentMode mode = SegmentMode::relative;
+  // fixed_ranges mode.
+  ColourRange shadow_range{{0, 0, 0}, {120, 120, 120}};
+  ColourRange contact_range{{0, 0, 40}, {90, 110, 160}};
+  // relative mode.
+  float shadow_darkness = 0.2f;
+  float contact_darkness = 0.45f;
+  float contact_warmth = 0.08f;
+  float reference_percentile = 0.9f; // per-frame reference: this percentile of each channel
+  bool operator==(const SegmenterCalibration&) const = default;
+};
+
+// A group of nearby contours of one class.
+struct Blob {
+  cv::Rect box;          // inclusive pixel coverage of the group
+  cv::Point2f centroid;  // centroid of the group's mask pixels
+  double area = 0;       // mask pixels in the group
+  float darkness = 0;    // mean darkness of its pixels (relative mode; 0 in fixed_ranges)
+  float edge_width = 0;  // mean width of the darkness ramp at its edge, px (shadow blobs)
+  bool touching = false; // shadow blobs: a contact blob lies inside
+};
+
+struct Segmentation {
+  std::vector<Blob> shadows;
+  std::vector<Blob> contacts;
+  std::optional<cv::Rect> shadow_box;       // union of all shadow blobs (the paper's box)
+  std::optional<cv::Rect> contact_box;      // union of all contact blobs
+  std::optional<cv::Point2f> contact_point; // centroid of all contact pixels
+  cv::Mat shadow_mask;                      // CV_8UC1 0/255, after blur and threshold
+  cv::Mat contact_mask;                     // CV_8UC1 0/255, after blur and threshold
+};
+
+namespace detail {
+
+inline void validate_calibration(const SegmenterCalibration& c, const std::string& where) {
+  auto in01 = [](float v) { return std::isfinite(v) && v >= 0.f && v <= 1.f; };
+  require(in01(c.shadow_darkness), where + ": shadow_darkness must be in [0, 1]");
+  require(in01(c.contact_darkness), where + ": contact_darkness must be in [0, 1]");
+  require(std::isfinite(c.contact_warmth) && c.contact_warmth >= -1.f && c.contact_warmth <= 1.f,
+          where + ": contact_warmth must be in [-1, 1]");
+  require(std::isfinite(c.reference_percentile) && c.reference_percentile > 0.f &&
+              c.reference_percentile <= 1.f,
+          where + ": reference_percentile must be in (0, 1]");
+  for (int k = 0; k < 3; ++k) {
+    require(c.shadow_range.lower[k] <= c.shadow_range.upper[k],
+            where + ": shadow_range lower exceeds upper in channel " + std::to_string(k));
+    require(c.contact_range.lower[k] <= c.contact_range.upper[k],
+            where + ": contact_range lower exceeds upper in channel " + std::to_string(k));
+  }
+}
+
+// Union-find over small index sets (contour grouping).
+struct DisjointSets {
+  std::vector<int> parent;
+  void reset(int n) {
+    parent.resize(static_cast<std::size_t>(n));
+    std::iota(parent.begin(), parent.end(), 0);
+  }
+  int find(int i) {
+    while (parent[static_cast<std::size_t>(i)] != i) {
+      parent[static_cast<std::size_t>(i)] =
+          parent[static_cast<std::size_t>(parent[static_cast<std::size_t>(i)])];
+      i = parent[static_cast<std::size_t>(i)];
+    }
+    return i;
+  }
+  void unite(int a, int b) { parent[static_cast<std::size_t>(find(a))] = find(b); }
+};
+
+// Gap between two boxes in pixels (0 when they touch or overlap): Chebyshev distance.
+inline int box_gap(const cv::Rect& a, const cv::Rect& b) {
+  const int gx = std::max({0, b.x - (a.x + a.width), a.x - (b.x + b.width)});
+  const int gy = std::max({0, b.y - (a.y + a.height), a.y - (b.y + b.height)});
+  return std::max(gx, gy);
+}
+
+} // namespace detail
+
+class Segmenter {
+public:
+  struct Config {
+    SegmenterCalibration calibration{};
+    int pre_blur = 3;            // box blur of the colour image before classification (0/1 = off)
+    int mask_blur = 5;           // Gaussian kernel for the binary masks (odd; 0/1 = off)
+    double min_shadow_area = 30; // contours smaller than this (mask px) are dropped
+    double min_contact_area = 6;
+    int shadow_merge_gap = 12; // contours whose boxes are this close (px) form one blob
+    int contact_merge_gap = 4;
+    bool adaptive = false;    // per-pixel empty-skin model updated over time (video)
+    float adapt_rate = 0.05f; // weight of a new frame in the empty-skin model
+  };
+
+  Segmenter() : Segmenter(Config{}) {}
+  explicit Segmenter(const Config& c) : config_(c) {
+    detail::validate_calibration(c.calibration, "Segmenter");
+    detail::require(c.pre_blur >= 0 && c.pre_blur <= 15, "Segmenter: pre_blur must be in [0, 15]");
+    detail::require(c.mask_blur >= 0 && c.mask_blur <= 31 &&
+                        (c.mask_blur <= 1 || c.mask_blur % 2 == 1),
+                    "Segmenter: mask_blur must be 0, 1 or an odd number up to 31");
+    detail::require(std::isfinite(c.min_shadow_area) && c.min_shadow_area >= 0 &&
+                        std::isfinite(c.min_contact_area) && c.min_contact_area >= 0,
+                    "Segmenter: minimum areas must be finite and >= 0");
+    detail::require(c.shadow_merge_gap >= 0 && c.contact_merge_gap >= 0,
+                    "Segmenter: merge gaps must be >= 0");
+    detail::require(std::isfinite(c.adapt_rate) && c.adapt_rate > 0 && c.adapt_rate <= 1,
+                    "Segmenter: adapt_rate must be in (0, 1]");
+  }
+
+  // Sets the empty-skin model of the adaptive mode from a frame of the empty skin.
+  void set_background(const cv::Mat& empty_frame) {
+    require_colour_image(empty_frame, "Segmenter::set_background: empty_frame");
+    smooth(empty_frame);
+    smoothed_.convertTo(background_, CV_32FC3);
+  }
+  bool has_background() const { return !background_.empty(); }
+
+  // Segments one BGR frame into `out` (buffers reused across calls).
+  void segment(const cv::Mat& bgr, Segmentation& out) {
+    require_colour_image(bgr, "Segmenter::segment: image");
+    smooth(bgr);
+    classify(out);
+    finish_mask(out.shadow_mask);
+    finish_mask(out.contact_mask);
+    extract(out.shadow_mask, config_.min_shadow_area, config_.shadow_merge_gap, out.shadows);
+    extract(out.contact_mask, config_.min_contact_area, config_.contact_merge_gap, out.contacts);
+    summarise(out);
+    if (config_.adaptive) adapt(out);
+  }
+  Segmentation segment(const cv::Mat& bgr) {
+    Segmentation s;
+    segment(bgr, s);
+    return s;
+  }
+
+  // Per-pixel darkness and warmth (relative mode features) of the last segmented frame, CV_32F.
+  const cv::Mat& darkness() const { return darkness_; }
+  const cv::Mat& warmth() const { return warmth_; }
+
+  const Config& config() const { return config_; }
+
+  // Per-frame reference colour (BGR) the relative mode would use for `bgr` without adaptation.
+  cv::Vec3f frame_reference(const cv::Mat& bgr) {
+    require_colour_image(bgr, "Segmenter::frame_reference: image");
+    smooth(bgr);
+    return percentile_reference();
+  }
+
+private:
+  void smooth(const cv::Mat& bgr) {
+    if (config_.pre_blur > 1)
+      cv::blur(bgr, smoothed_, cv::Size(config_.pre_blur, config_.pre_blur), cv::Point(-1, -1),
+               cv::BORDER_REPLICATE);
+    else
+      bgr.copyTo(smoothed_);
+  }
+
+  // Value at the configured percentile of each channel (histograms over every second pixel).
+  cv::Vec3f percentile_reference() const {
+    std::array<std::array<int, 256>, 3> hist{};
+    int n = 0;
+    for (int y = 0; y < smoothed_.rows; y += 2) {
+      const cv::Vec3b* row = smoothed_.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < smoothed_.cols; x += 2, ++n)
+        for (int k = 0; k < 3; ++k) ++hist[k][row[x][k]];
+    }
+    const int target =
+        std::max(1, static_cast<int>(std::ceil(config_.calibration.reference_percentile * n)));
+    cv::Vec3f ref;
+    for (int k = 0; k < 3; ++k) {
+      int acc = 0, v = 0;
+      for (; v < 255; ++v) {
+        acc += hist[k][v];
+        if (acc >= target) break;
+      }
+      ref[k] = std::max(1.0f, static_cast<float>(v));
+    }
+    return ref;
+  }
+
+  void classify(Segmentation& out) {
+    const cv::Size size = smoothed_.size();
+    out.shadow_mask.create(size, CV_8UC1);
+    out.contact_mask.create(size, CV_8UC1);
+    const SegmenterCalibration& cal = config_.calibration;
+    if (cal.mode == SegmentMode::fixed_ranges) {
+      darkness_.release();
+      warmth_.release();
+      for (int y = 0; y < size.height; ++y) {
+        const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+        uchar* s = out.shadow_mask.ptr<uchar>(y);
+        uchar* c = out.contact_mask.ptr<uchar>(y);
+        for (int x = 0; x < size.width; ++x) {
+          const bool contact = cal.contact_range.contains(in[x]);
+          c[x] = contact ? 255 : 0;
+          s[x] = (contact || cal.shadow_range.contains(in[x])) ? 255 : 0;
+        }
+      }
+      return;
+    }
+    darkness_.create(size, CV_32F);
+    warmth_.create(size, CV_32F);
+    const bool per_pixel = config_.adaptive && !background_.empty() && background_.size() == size;
+    if (config_.adaptive && !per_pixel) smoothed_.convertTo(background_, CV_32FC3); // first frame
+    const cv::Vec3f ref = percentile_reference();
+    const std::array<float, 3> inv{1.f / ref[0], 1.f / ref[1], 1.f / ref[2]};
+    const float ts = cal.shadow_darkness, tc = cal.contact_darkness, tw = cal.contact_warmth;
+    for (int y = 0; y < size.height; ++y) {
+      const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+      const cv::Vec3f* bg = per_pixel ? background_.ptr<cv::Vec3f>(y) : nullptr;
+      float* dk = darkness_.ptr<float>(y);
+      float* wm = warmth_.ptr<float>(y);
+      uchar* s = out.shadow_mask.ptr<uchar>(y);
+      uchar* c = out.contact_mask.ptr<uchar>(y);
+      for (int x = 0; x < size.width; ++x) {
+        float qb, qg, qr;
+        if (bg) {
+          qb = in[x][0] / std::max(bg[x][0], 1.f);
+          qg = in[x][1] / std::max(bg[x][1], 1.f);
+          qr = in[x][2] / std::max(bg[x][2], 1.f);
+        } else {
+          qb = in[x][0] * inv[0];
+          qg = in[x][1] * inv[1];
+          qr = in[x][2] * inv[2];
+        }
+        const float d = 1.f - (qb + qg + qr) * (1.f / 3.f);
+        const float w = qr - qb;
+        dk[x] = d;
+        wm[x] = w;
+        s[x] = d >= ts ? 255 : 0;
+        c[x] = (d >= tc && w >= tw) ? 255 : 0;
+        if (c[x]) s[x] = 255;
+      }
+    }
+  }
+
+  // Gaussian blur of the binary mask, then back to binary at half height: a majority filter that
+  // removes speckle and fills pinholes without moving straight edges.
+  void finish_mask(cv::Mat& mask) {
+    if (config_.mask_blur <= 1) return;
+    cv::GaussianBlur(mask, blurred_, cv::Size(config_.mask_blur, config_.mask_blur), 0, 0,
+                     cv::BORDER_REPLICATE);
+    cv::threshold(blurred_, mask, 127, 255, cv::THRESH_BINARY);
+  }
+
+  void extract(const cv::Mat& mask, double min_area, int merge_gap, std::vector<Blob>& blobs) {
+    blobs.clear();
+    contours_.clear();
+    cv::findContours(mask, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    kept_.clear();
+    for (std::size_t i = 0; i < contours_.size(); ++i) {
+      const cv::Rect r = cv::boundingRect(contours_[i]);
+      const double area = cv::countNonZero(mask(r)); // pixels, not the polygon's area
+      if (area >= min_area && area > 0) kept_.push_back({r, area});
+    }
+    const int n = static_cast<int>(kept_.size());
+    sets_.reset(n);
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j)
+        if (detail::box_gap(kept_[static_cast<std::size_t>(i)].box,
+                            kept_[static_cast<std::size_t>(j)].box) <= merge_gap)
+          sets_.unite(i, j);
+    for (int i = 0; i < n; ++i) {
+      if (sets_.find(i) != i) continue;
+      cv::Rect box;
+      for (int j = 0; j < n; ++j)
+        if (sets_.find(j) == i)
+          box = box.empty() ? kept_[static_cast<std::size_t>(j)].box
+                            : (box | kept_[static_cast<std::size_t>(j)].box);
+      Blob b;
+      b.box = box;
+      const cv::Moments m = cv::moments(mask(box), true);
+      b.area = m.m00;
+      b.centroid = m.m00 > 0 ? cv::Point2f(static_cast<float>(box.x + m.m10 / m.m00),
+                                           static_cast<float>(box.y + m.m01 / m.m00))
+                             : cv::Point2f(box.x + box.width * 0.5f, box.y + box.height * 0.5f);
+      if (!darkness_.empty())
+        b.darkness = static_cast<float>(cv::mean(darkness_(box), mask(box))[0]);
+      blobs.push_back(b);
+    }
+    std::sort(blobs.begin(), blobs.end(), [](const Blob& a, const Blob& b) {
+      return a.area != b.area ? a.area > b.area
+                              : (a.box.x != b.box.x ? a.box.x < b.box.x : a.box.y < b.box.y);
+    });
+  }
+
+  void summarise(Segmentation& out) const {
+    out.shadow_box.reset();
+    out.contact_box.reset();
+    out.contact_point.reset();
+    // A contact is also shadow: make sure the shadow box covers every contact.
+    for (const Blob& c : out.contacts) {
+      bool inside = false;
+      for (Blob& s : out.shadows)
+        if ((s.box & c.box).area() > 0) s.touching = inside = true;
+      if (!inside) out.shadows.push_back(Blob{c.box, c.centroid, c.area, c.darkness, 0.f, true});
+    }
+    for (const Blob& s : out.shadows)
+      out.shadow_box = out.shadow_box ? (*out.shadow_box | s.box) : s.box;
+    double sx = 0, sy = 0, sa = 0;
+    for (const Blob& c : out.contacts) {
+      out.contact_box = out.contact_box ? (*out.contact_box | c.box) : c.box;
+      sx += c.centroid.x * c.area;
+      sy += c.centroid.y * c.area;
+      sa += c.area;
+    }
+    if (sa > 0)
+      out.contact_point = cv::Point2f(static_cast<float>(sx / sa), static_cast<float>(sy / sa));
+  }
+
+  // Slow update of the empty-skin model on pixels well outside any shadow.
+  void adapt(const Segmentation& out) {
+    cv::dilate(out.shadow_mask, dilated_, cv::Mat(), cv::Point(-1, -1), 3);
+    const float a = config_.adapt_rate;
+    for (int y = 0; y < smoothed_.rows; ++y) {
+      const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+      const uchar* m = dilated_.ptr<uchar>(y);
+      cv::Vec3f* bg = background_.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < smoothed_.cols; ++x)
+        if (!m[x])
+          for (int k = 0; k < 3; ++k) bg[x][k] += a * (static_cast<float>(in[x][k]) - bg[x][k]);
+    }
+  }
+
+  struct Kept {
+    cv::Rect box;
+    double area;
+  };
+  Config config_;
+  cv::Mat smoothed_, blurred_, darkness_, warmth_, background_, dilated_;
+  std::vector<std::vector<cv::Point>> contours_;
+  std::vector<Kept> kept_;
+  detail::DisjointSets sets_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Calibration: fit the colour classes from frames of the empty skin and labelled touch frames.
+
+// A touch frame with its labels: masks of the same size, CV_8UC1, non-zero = pixel in the class.
+// The contact pixels should also be marked in shadow_mask (a contact is part of the shadow); the
+// fit treats them so either way.
+struct LabelledFrame {
+  cv::Mat image;
+  cv::Mat shadow_mask;
+  cv::Mat contact_mask;
+};
+
+namespace detail {
+
+inline void require_label_mask(const cv::Mat& m, const cv::Mat& image, const std::string& name) {
+  require(!m.empty() && m.type() == CV_8UC1 && m.size() == image.size(),
+          name + " must be a CV_8UC1 mask of the image's size (" + std::to_string(image.cols) +
+              "x" + std::to_string(image.rows) + ")");
+}
+
+// Threshold t minimising false positives + false negatives for "value >= t" given histograms of
+// positives and negatives over bins [lo, lo + n*step).
+inline float best_threshold(const std::vector<double>& pos, const std::vector<double>& neg,
+                            float lo, float step) {
+  const std::size_t n = pos.size();
+  double fn = 0; // positives below bin i
+  double fp = std::accumulate(neg.begin(), neg.end(), 0.0);
+  double best = fn + fp;
+  std::size_t best_i = 0;
+  for (std::size_t i = 1; i <= n; ++i) {
+    fn += pos[i - 1];
+    fp -= neg[i - 1];
+    if (fn + fp < best) {
+      best = fn + fp;
+      best_i = i;
+    }
+  }
+  return lo + step * static_cast<float>(best_i);
+}
+
+inline cv::Vec3b channel_percentile(const std::array<std::array<double, 256>, 3>& h, double p) {
+  cv::Vec3b out;
+  for (int k = 0; k < 3; ++k) {
+    const double total = std::accumulate(h[k].begin(), h[k].end(), 0.0);
+    double acc = 0;
+    int v = 0;
+    for (; v < 255; ++v) {
+      acc += h[k][v];
+      if (acc >= p * total && acc > 0) break;
+    }
+    out[k] = static_cast<uchar>(v);
+  }
+  return out;
+}
+
+} // namespace detail
+
+// Fits the relative-mode thresholds (shadow_darkness; contact_darkness and contact_warmth jointly)
+// by minimising misclassified pixels over all given frames, and the fixed-mode colour ranges
+// (contact: the 0.5..99.5 percentiles of contact pixels per channel; shadow: from the 0.1
+// percentile of shadow pixels up to just below the 1st percentile of empty-skin pixels). `base`
+// supplies the pre-blur and reference percentile the fitted values will be used with; the
+// returned calibration keeps base's mode. Throws InvalidArgument if no touch frame is given, a
+// frame is not an 8-bit colour image, or a mask does not match its image.
+inline SegmenterCalibration fit_calibration(const std::vector<cv::Mat>& empty_frames,
+                                            const std::vector<LabelledFrame>& touch_frames,
+                                            const Segmenter::Config& base = {}) {
+  detail::require(!touch_frames.empty(),
+                  "fit_calibration: no labelled touch frames; expected at least one");
+  for (std::size_t i = 0; i < empty_frames.size(); ++i)
+    require_colour_image(empty_frames[i],
+                         ("fit_calibration: empty_frames[" + std::to_string(i) + "]").c_str());
+  for (std::size_t i = 0; i < touch_frames.size(); ++i) {
+    const std::string n = "fit_calibration: touch_frames[" + std::to_string(i) + "]";
+    require_colour_image(touch_frames[i].image, (n + ".image").c_str());
+    detail::require_label_mask(touch_frames[i].shadow_mask, touch_frames[i].image,
+                               n + ".shadow_mask");
+    detail::require_label_mask(touch_frames[i].contact_mask, touch_frames[i].image,
+                               n + ".contact_mask");
+  }
+  // Features with the relative mode on each frame's own reference.
+  Segmenter::Config cfg = base;
+  cfg.calibration.mode = SegmentMode::relative;
+  cfg.adaptive = false;
+  cfg.mask_blur = 0;
+  Segmenter seg(cfg);
+  constexpr float lo = -0.5f, step = 0.005f;
+  constexpr int nb = 300; // darkness/warmth bins over [-0.5, 1.0)
+  auto bin = [&](float v) {
+    return std::clamp(static_cast<int>(std::floor((v - lo) / step)), 0, nb - 1);
+  };
+  std::vector<double> s_pos(nb), s_neg(nb);
+  std::vector<double> c_pos(nb * nb), c_neg(nb * nb); // [darkness bin][warmth bin]
+  std::array<std::array<double, 256>, 3> h_contact{}, h_shadow{}, h_empty{};
+  Segmentation scratch;
+  auto accumulate = [&](const cv::Mat& img, const cv::Mat* sm, const cv::Mat* cm) {
+    seg.segment(img, scratch);
+    cv::Mat smooth;
+    if (cfg.pre_blur > 1)
+      cv::blur(img, smooth, cv::Size(cfg.pre_blur, cfg.pre_blur), cv::Point(-1, -1),
+               cv::BORDER_REPLICATE);
+    else
+      smooth = img;
+    for (int y = 0; y < img.rows; ++y) {
+      const float* d = seg.darkness().ptr<float>(y);
+      const float* w = seg.warmth().ptr<float>(y);
+      const cv::Vec3b* px = smooth.ptr<cv::Vec3b>(y);
+      for (int x = 0; x < img.cols; ++x) {
+        const bool c = cm && cm->at<uchar>(y, x);
+        const bool s = c || (sm && sm->at<uchar>(y, x));
+        (s ? s_pos : s_neg)[static_cast<std::size_t>(bin(d[x]))] += 1;
+        (c ? c_pos : c_neg)[static_cast<std::size_t>(bin(d[x]) * nb + bin(w[x]))] += 1;
+        auto& h = c ? h_contact : (s ? h_shadow : h_empty);
+        for (int k = 0; k < 3; ++k) h[k][px[x][k]] += 1;
+      }
+    }
+  };
+  for (const cv::Mat& e : empty_frames) accumulate(e, nullptr, nullptr);
+  for (const LabelledFrame& f : touch_frames) accumulate(f.image, &f.shadow_mask, &f.contact_mask);
+
+  SegmenterCalibration cal = base.calibration;
+  cal.shadow_darkness = std::clamp(detail::best_threshold(s_pos, s_neg, lo, step), 0.f, 1.f);
+  // Contact: pixels with darkness >= td and warmth >= tw. 2-D suffix sums over the histograms.
+  std::vector<double> sp((nb + 1) * (nb + 1)), sn((nb + 1) * (nb + 1));
+  auto at = [&](std::vector<double>& v, int i, int j) -> double& {
+    return v[static_cast<std::size_t>(i * (nb + 1) + j)];
+  };
+  for (int i = nb - 1; i >= 0; --i)
+    for (int j = nb - 1; j >= 0; --j) {
+      const std::size_t k = static_cast<std::size_t>(i * nb + j);
+      at(sp, i, j) = c_pos[k] + at(sp, i + 1, j) + at(sp, i, j + 1) - at(sp, i + 1, j + 1);
+      at(sn, i, j) = c_neg[k] + at(sn, i + 1, j) + at(sn, i, j + 1) - at(sn, i + 1, j + 1);
+    }
+  const double total_pos = at(sp, 0, 0);
+  double best = -1;
+  int bi = nb, bj = nb;
+  const int i0 = bin(0.f); // contact darkness threshold at least 0
+  for (int i = i0; i <= nb; ++i)
+    for (int j = 0; j <= nb; ++j) {
+      const double err = (total_pos - at(sp, i, j)) + at(sn, i, j);
+      if (best < 0 || err < best) {
+        best = err;
+        bi = i;
+        bj = j;
+      }
+    }
+  cal.contact_darkness = std::clamp(lo + step * static_cast<float>(bi), 0.f, 1.f);
+  cal.contact_warmth = std::clamp(lo + step * static_cast<float>(bj), -1.f, 1.f);
+
+  // Fixed ranges (the paper's mode), for comparison and for rigs with constant light.
+  if (std::accumulate(h_contact[0].begin(), h_contact[0].end(), 0.0) > 0)
+    cal.contact_range = {detail::channel_percentile(h_contact, 0.005),
+                         detail::channel_percentile(h_contact, 0.995)};
+  auto merged = h_shadow;
+  for (int k = 0; k < 3; ++k)
+    for (int v = 0; v < 256; ++v) merged[k][v] += h_contact[k][v];
+  if (std::accumulate(merged[0].begin(), merged[0].end(), 0.0) > 0) {
+    cv::Vec3b lower = detail::channel_percentile(merged, 0.001);
+    cv::Vec3b upper = detail::channel_percentile(merged, 0.99);
+    if (std::accumulate(h_empty[0].begin(), h_empty[0].end(), 0.0) > 0) {
+      const cv::Vec3b empty_low = detail::channel_percentile(h_empty, 0.01);
+      for (int k = 0; k < 3; ++k)
+        upper[k] =
+            static_cast<uchar>(std::max<int>(lower[k], std::min<int>(upper[k], empty_low[k] - 1)));
+    }
+    cal.shadow_range = {lower, upper};
+  }
+  detail::validate_calibration(cal, "fit_calibration");
+  return cal;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Calibration file: UTF-8 text, one "key value..." per line, '#' starts a comment. First
+// non-comment line: "shadowsense_segmenter_calibration 1". Keys (all required, each once):
+//   mode fixed_ranges|relative
+//   shadow_range  B_lo G_lo R_lo B_hi G_hi R_hi      (integers 0..255)
+//   contact_range B_lo G_lo R_lo B_hi G_hi R_hi
+//   shadow_darkness F  contact_darkness F  contact_warmth F  reference_percentile F
+
+inline std::string calibration_to_string(const SegmenterCalibration& c) {
+  detail::validate_calibration(c, "calibration_to_string");
+  std::ostringstream o;
+  o.precision(9);
+  auto range = [&](const ColourRange& r) {
+    o << int(r.lower[0]) << ' ' << int(r.lower[1]) << ' ' << int(r.lower[2]) << ' '
+      << int(r.upper[0]) << ' ' << int(r.upper[1]) << ' ' << int(r.upper[2]) << '\n';
+  };
+  o << "# shadowsense segmenter calibration (see docs/tracking_eval.md)\n";
+  o << "shadowsense_segmenter_calibration 1\n";
+  o << "mode " << (c.mode == SegmentMode::relative ? "relative" : "fixed_ranges") << '\n';
+  o << "shadow_range ";
+  range(c.shadow_range);
+  o << "contact_range ";
+  range(c.contact_range);
+  o << "shadow_darkness " << c.shadow_darkness << '\n';
+  o << "contact_darkness " << c.contact_darkness << '\n';
+  o << "contact_warmth " << c.contact_warmth << '\n';
+  o << "reference_percentile " << c.reference_percentile << '\n';
+  return o.str();
+}
+
+// Parses the text format above; throws ModelFileError naming the line on any problem.
+inline SegmenterCalibration calibration_from_string(const std::string& text,
+                                                    const std::string& source = "calibration") {
+  SegmenterCalibration c;
+  std::istringstream in(text);
+  std::string line;
+  int line_no = 0;
+  bool header = false;
+  std::vector<std::string> seen;
+  auto fail = [&](const std::string& what) {
+    throw ModelFileError(source + ":" + std::to_string(line_no) + ": " + what);
+  };
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.erase(hash);
+    std::istringstream ls(line);
+    std::string key;
+    if (!(ls >> key)) continue;
+    if (!header) {
+      int version = 0;
+      if (key != "shadowsense_segmenter_calibration" || !(ls >> version))
+        fail("expected the header 'shadowsense_segmenter_calibration 1'");
+      if (version != 1)
+        fail("format version " + std::to_string(version) + " is not supported; expected 1");
+      header = true;
+      continue;
+    }
+    if (std::find(seen.begin(), seen.end(), key) != seen.end())
+      fail("key '" + key + "' appears twice");
+    seen.push_back(key);
+    auto read_float = [&](float& v) {
+      std::string tok;
+      if (!(ls >> tok)) fail("key '" + key + "' needs a number");
+      try {
+        std::size_t used = 0;
+        v = std::stof(tok, &used);
+        if (used != tok.size() || !std::isfinite(v)) throw std::invalid_argument(tok);
+      } catch (const std::exception&) {
+        fail("key '" + key + "': '" + tok + "' is not a finite number");
+      }
+    };
+    auto read_range = [&](ColourRange& r) {
+      int v[6];
+      for (int& x : v) {
+        if (!(ls >> x)) fail("key '" + key + "' needs six integers (B G R low, B G R high)");
+        if (x < 0 || x > 255)
+          fail("key '" + key + "': value " + std::to_string(x) + " is outside 0..255");
+      }
+      r = {cv::Vec3b(uchar(v[0]), uchar(v[1]), uchar(v[2])),
+           cv::Vec3b(uchar(v[3]), uchar(v[4]), uchar(v[5]))};
+    };
+    if (key == "mode") {
+      std::string m;
+      ls >> m;
+      if (m == "relative")
+        c.mode = SegmentMode::relative;
+      else if (m == "fixed_ranges")
+        c.mode = SegmentMode::fixed_ranges;
+      else
+        fail("mode '" + m + "' is unknown; expected relative or fixed_ranges");
+    } else if (key == "shadow_range")
+      read_range(c.shadow_range);
+    else if (key == "contact_range")
+      read_range(c.contact_range);
+    else if (key == "shadow_darkness")
+      read_float(c.shadow_darkness);
+    else if (key == "contact_darkness")
+      read_float(c.contact_darkness);
+    else if (key == "contact_warmth")
+      read_float(c.contact_warmth);
+    else if (key == "reference_percentile")
+      read_float(c.reference_percentile);
+    else
+      fail("unknown key '" + key + "'");
+    std::string extra;
+    if (ls >> extra) fail("unexpected extra value '" + extra + "' after key '" + key + "'");
+  }
+  if (!header)
+    throw ModelFileError(source + ": empty; expected a shadowsense segmenter calibration");
+  for (const char* k : {"mode", "shadow_range", "contact_range", "shadow_darkness",
+                        "contact_darkness", "contact_warmth", "reference_percentile"})
+    if (std::find(seen.begin(), seen.end(), k) == seen.end())
+      throw ModelFileError(source + ": key '" + k + "' is missing");
+  try {
+    detail::validate_calibration(c, source);
+  } catch (const InvalidArgument& e) {
+    throw ModelFileError(e.what());
+  }
+  return c;
+}
+
+inline void save_calibration(const SegmenterCalibration& c, const std::string& path) {
+  const std::string text = calibration_to_string(c);
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw IoError("save_calibration: cannot open '" + path + "' for writing");
+  f << text;
+  if (!f.flush()) throw IoError("save_calibration: writing '" + path + "' failed");
+}
+
+inline SegmenterCalibration load_calibration(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw IoError("load_calibration: cannot open '" + path + "' for reading");
+  std::ostringstream ss;
+  ss << f.rdbuf();
+  return calibration_from_string(ss.str(), path);
+}
+
+SHADOWSENSE_NAMESPACE_END
