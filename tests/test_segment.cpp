@@ -313,3 +313,49 @@ TEST_CASE("empty and wrong-type images, bad masks and bad configs are rejected")
   bad.calibration.contact_darkness = -0.1f;
   CHECK_THROWS_AS(Segmenter{bad}, InvalidArgument);
 }
+
+TEST_CASE("hover height from penumbra width and darkness: fit on some heights, predict others") {
+  const cv::Size size(220, 220); // penumbra narrow against the shadow: the model's range
+  // Constructed physics: the penumbra widens and the shadow fades as the hand rises.
+  auto hover_blob = [&](double height_cm, unsigned seed) {
+    const double sigma = 1.0 + 0.8 * height_cm, amplitude = 0.95 - 0.035 * height_cm;
+    cv::Mat op = blurred_shape(size, sigma, [&](cv::Mat& m) {
+      cv::circle(m, cv::Point(110, 110), 60, amplitude, cv::FILLED);
+    });
+    Segmenter::Config cfg = test_config();
+    cfg.calibration.shadow_darkness = 0.1f;
+    Segmenter seg(cfg);
+    const Segmentation r =
+        seg.segment(make_scene(size, 0.9, op, cv::Mat::zeros(size, CV_8UC1), seed).image);
+    REQUIRE(r.shadows.size() == 1);
+    CHECK_FALSE(r.shadows[0].touching);
+    return r.shadows[0];
+  };
+  std::vector<HoverSample> samples;
+  float last_width = 0;
+  for (double h : {2.0, 5.0, 8.0, 11.0, 14.0}) {
+    const Blob b = hover_blob(h, static_cast<unsigned>(h * 10));
+    CHECK(b.edge_width > last_width); // monotone in height
+    last_width = b.edge_width;
+    samples.push_back({b.edge_width, b.darkness, h});
+  }
+  const HoverHeightModel model = fit_hover_height(samples);
+  for (double h : {3.5, 9.5, 12.5}) {
+    const Blob b = hover_blob(h, 500 + static_cast<unsigned>(h));
+    CHECK(model.estimate(b.edge_width, b.darkness) == doctest::Approx(h).epsilon(0.1));
+  }
+  // With the model in the config, non-touching shadows carry the estimate.
+  Segmenter::Config cfg = test_config();
+  cfg.calibration.shadow_darkness = 0.1f;
+  cfg.hover_model = model;
+  cv::Mat op = blurred_shape(size, 1.0 + 0.8 * 6, [&](cv::Mat& m) {
+    cv::circle(m, cv::Point(110, 110), 60, 0.95 - 0.035 * 6, cv::FILLED);
+  });
+  const Segmentation r =
+      Segmenter(cfg).segment(make_scene(size, 0.9, op, cv::Mat::zeros(size, CV_8UC1), 77).image);
+  REQUIRE(r.shadows.size() == 1);
+  REQUIRE(r.shadows[0].hover_height_cm);
+  CHECK(*r.shadows[0].hover_height_cm == doctest::Approx(6.0).epsilon(0.15));
+  CHECK_THROWS_AS(fit_hover_height({samples[0], samples[1]}), InvalidArgument);
+  CHECK_THROWS_AS(fit_hover_height({samples[0], samples[0], samples[0]}), InvalidArgument);
+}

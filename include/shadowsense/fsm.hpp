@@ -102,8 +102,8 @@ enum class DiagonalTie { horizontal, vertical };
 
 // What the machine sees in one frame.
 struct TouchObservation {
-  bool shadow = false;                // an overall shadow is detected
-  std::optional<cv::Point2f> contact; // contact position (image pixels), if a contact is detected
+  bool shadow = false;                  // an overall shadow is detected
+  std::optional<cv::Point2f> contact{}; // contact position (image pixels), if a contact is detected
 };
 
 // One transition (from != to), or a change of the windowed direction while in move (from == to ==
@@ -113,7 +113,7 @@ struct TouchEvent {
   TouchState from = TouchState::none;
   TouchState to = TouchState::none;
   Direction direction = Direction::none; // windowed direction (move events), else none
-  std::optional<cv::Point2f> position;   // contact position when the event has one
+  std::optional<cv::Point2f> position{}; // contact position when the event has one
 };
 
 class TouchStateMachine {

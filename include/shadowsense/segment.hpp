@@ -68,22 +68,70 @@ struct SegmenterCalibration {
 
 // A group of nearby contours of one class.
 struct Blob {
-  cv::Rect box;          // inclusive pixel coverage of the group
-  cv::Point2f centroid;  // centroid of the group's mask pixels
-  double area = 0;       // mask pixels in the group
-  float darkness = 0;    // mean darkness of its pixels (relative mode; 0 in fixed_ranges)
-  float edge_width = 0;  // mean width of the darkness ramp at its edge, px (shadow blobs)
-  bool touching = false; // shadow blobs: a contact blob lies inside
+  cv::Rect box{};         // inclusive pixel coverage of the group
+  cv::Point2f centroid{}; // centroid of the group's mask pixels
+  double area = 0;        // mask pixels in the group
+  float darkness = 0;     // mean darkness of its pixels (relative mode; 0 in fixed_ranges)
+  float edge_width = 0;   // mean width of the darkness ramp at its edge, px (shadow blobs)
+  bool touching = false;  // shadow blobs: a contact blob lies inside
+  std::optional<float>
+      hover_height_cm{}; // shadow blobs not touching, when a HoverHeightModel is set
 };
+
+// Hover height of a shadow that touches nothing, from its penumbra width and darkness (paper
+// 3.1: the shadow blurs and fades as the part rises): height = intercept + per_edge_px *
+// edge_width + per_darkness * darkness, clamped at 0. Fit it with fit_hover_height.
+struct HoverHeightModel {
+  double intercept = 0;
+  double per_edge_px = 0;
+  double per_darkness = 0;
+  double estimate(float edge_width, float darkness) const {
+    return std::max(0.0, intercept + per_edge_px * edge_width + per_darkness * darkness);
+  }
+};
+
+struct HoverSample {
+  float edge_width = 0; // Blob::edge_width
+  float darkness = 0;   // Blob::darkness
+  double height_cm = 0; // true height of the hovering part
+};
+
+// Least-squares fit of a HoverHeightModel. Throws InvalidArgument with fewer than 3 samples,
+// non-finite values, or samples that do not determine the three coefficients.
+inline HoverHeightModel fit_hover_height(const std::vector<HoverSample>& samples) {
+  detail::require(samples.size() >= 3, "fit_hover_height: " + std::to_string(samples.size()) +
+                                           " samples; expected at least 3");
+  cv::Mat a(static_cast<int>(samples.size()), 3, CV_64F),
+      b(static_cast<int>(samples.size()), 1, CV_64F);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const HoverSample& s = samples[i];
+    detail::require(std::isfinite(s.edge_width) && std::isfinite(s.darkness) &&
+                        std::isfinite(s.height_cm),
+                    "fit_hover_height: sample " + std::to_string(i) + " is not finite");
+    const int r = static_cast<int>(i);
+    a.at<double>(r, 0) = 1;
+    a.at<double>(r, 1) = s.edge_width;
+    a.at<double>(r, 2) = s.darkness;
+    b.at<double>(r, 0) = s.height_cm;
+  }
+  cv::Mat x;
+  const cv::Mat ata = a.t() * a;
+  detail::require(
+      std::abs(cv::determinant(ata)) > 1e-9,
+      "fit_hover_height: the samples do not vary enough in edge width and darkness to fit "
+      "the model");
+  cv::solve(ata, a.t() * b, x, cv::DECOMP_CHOLESKY);
+  return {x.at<double>(0), x.at<double>(1), x.at<double>(2)};
+}
 
 struct Segmentation {
   std::vector<Blob> shadows;
   std::vector<Blob> contacts;
-  std::optional<cv::Rect> shadow_box;       // union of all shadow blobs (the paper's box)
-  std::optional<cv::Rect> contact_box;      // union of all contact blobs
-  std::optional<cv::Point2f> contact_point; // centroid of all contact pixels
-  cv::Mat shadow_mask;                      // CV_8UC1 0/255, after blur and threshold
-  cv::Mat contact_mask;                     // CV_8UC1 0/255, after blur and threshold
+  std::optional<cv::Rect> shadow_box{};       // union of all shadow blobs (the paper's box)
+  std::optional<cv::Rect> contact_box{};      // union of all contact blobs
+  std::optional<cv::Point2f> contact_point{}; // centroid of all contact pixels
+  cv::Mat shadow_mask;                        // CV_8UC1 0/255, after blur and threshold
+  cv::Mat contact_mask;                       // CV_8UC1 0/255, after blur and threshold
 };
 
 namespace detail {
@@ -142,6 +190,7 @@ public:
     double min_contact_area = 6;
     int shadow_merge_gap = 12; // contours whose boxes are this close (px) form one blob
     int contact_merge_gap = 4;
+    std::optional<HoverHeightModel> hover_model{}; // sets Blob::hover_height_cm when present
     bool adaptive = false;    // per-pixel empty-skin model updated over time (video)
     float adapt_rate = 0.05f; // weight of a new frame in the empty-skin model
   };
@@ -177,7 +226,7 @@ public:
     classify(out);
     finish_mask(out.shadow_mask);
     finish_mask(out.contact_mask);
-    extract(out.shadow_mask, config_.min_shadow_area, config_.shadow_merge_gap, out.shadows);
+    extract(out.shadow_mask, config_.min_shadow_area, config_.shadow_merge_gap, out.shadows, true);
     extract(out.contact_mask, config_.min_contact_area, config_.contact_merge_gap, out.contacts);
     summarise(out);
     if (config_.adaptive) adapt(out);
@@ -298,7 +347,8 @@ private:
     cv::threshold(blurred_, mask, 127, 255, cv::THRESH_BINARY);
   }
 
-  void extract(const cv::Mat& mask, double min_area, int merge_gap, std::vector<Blob>& blobs) {
+  void extract(const cv::Mat& mask, double min_area, int merge_gap, std::vector<Blob>& blobs,
+               bool measure_edges = false) {
     blobs.clear();
     contours_.clear();
     cv::findContours(mask, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
@@ -306,7 +356,7 @@ private:
     for (std::size_t i = 0; i < contours_.size(); ++i) {
       const cv::Rect r = cv::boundingRect(contours_[i]);
       const double area = cv::countNonZero(mask(r)); // pixels, not the polygon's area
-      if (area >= min_area && area > 0) kept_.push_back({r, area});
+      if (area >= min_area && area > 0) kept_.push_back({r, area, i});
     }
     const int n = static_cast<int>(kept_.size());
     sets_.reset(n);
@@ -329,8 +379,10 @@ private:
       b.centroid = m.m00 > 0 ? cv::Point2f(static_cast<float>(box.x + m.m10 / m.m00),
                                            static_cast<float>(box.y + m.m01 / m.m00))
                              : cv::Point2f(box.x + box.width * 0.5f, box.y + box.height * 0.5f);
-      if (!darkness_.empty())
+      if (!darkness_.empty()) {
         b.darkness = static_cast<float>(cv::mean(darkness_(box), mask(box))[0]);
+        if (measure_edges) b.edge_width = edge_width(i, b.darkness);
+      }
       blobs.push_back(b);
     }
     std::sort(blobs.begin(), blobs.end(), [](const Blob& a, const Blob& b) {
@@ -348,8 +400,14 @@ private:
       bool inside = false;
       for (Blob& s : out.shadows)
         if ((s.box & c.box).area() > 0) s.touching = inside = true;
-      if (!inside) out.shadows.push_back(Blob{c.box, c.centroid, c.area, c.darkness, 0.f, true});
+      if (!inside)
+        out.shadows.push_back(Blob{c.box, c.centroid, c.area, c.darkness, 0.f, true, std::nullopt});
     }
+    if (config_.hover_model)
+      for (Blob& s : out.shadows)
+        if (!s.touching)
+          s.hover_height_cm =
+              static_cast<float>(config_.hover_model->estimate(s.edge_width, s.darkness));
     for (const Blob& s : out.shadows)
       out.shadow_box = out.shadow_box ? (*out.shadow_box | s.box) : s.box;
     double sx = 0, sy = 0, sa = 0;
@@ -377,9 +435,35 @@ private:
     }
   }
 
+  // Width of the darkness ramp at a blob's edge: its mean darkness divided by the mean darkness
+  // gradient on its contour (a Gaussian penumbra of sigma s gives about 2.5 s). Grows with the
+  // height of a hovering part; see HoverHeightModel.
+  float edge_width(int group, float darkness) {
+    double sum = 0;
+    int n = 0;
+    const int w = darkness_.cols, h = darkness_.rows;
+    for (std::size_t j = 0; j < kept_.size(); ++j) {
+      if (sets_.find(static_cast<int>(j)) != group) continue;
+      for (const cv::Point& p : contours_[kept_[j].contour]) {
+        const int x0 = std::max(p.x - 1, 0), x1 = std::min(p.x + 1, w - 1);
+        const int y0 = std::max(p.y - 1, 0), y1 = std::min(p.y + 1, h - 1);
+        if (x0 == x1 || y0 == y1) continue;
+        const float gx =
+            (darkness_.at<float>(p.y, x1) - darkness_.at<float>(p.y, x0)) / float(x1 - x0);
+        const float gy =
+            (darkness_.at<float>(y1, p.x) - darkness_.at<float>(y0, p.x)) / float(y1 - y0);
+        sum += std::hypot(gx, gy);
+        ++n;
+      }
+    }
+    if (n == 0 || sum <= 0) return 0.f;
+    return static_cast<float>(darkness / (sum / n));
+  }
+
   struct Kept {
     cv::Rect box;
     double area;
+    std::size_t contour;
   };
   Config config_;
   cv::Mat smoothed_, blurred_, darkness_, warmth_, background_, dilated_;

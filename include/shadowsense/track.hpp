@@ -19,16 +19,16 @@ SHADOWSENSE_NAMESPACE_BEGIN
 
 // One thing seen in one frame (typically a contact or a shadow blob of the segmenter).
 struct Detection {
-  cv::Point2f position; // where the thing is (image pixels), e.g. the contact centroid
-  cv::Rect box;         // its bounding box (may be empty if unknown)
+  cv::Point2f position{}; // where the thing is (image pixels), e.g. the contact centroid
+  cv::Rect box{};         // its bounding box (may be empty if unknown)
 };
 
 struct Track {
-  int id = 0;           // unique per tracker, never reused, starting at 1
-  cv::Point2f position; // last matched position
-  cv::Point2f velocity; // pixels per millisecond, smoothed
-  cv::Rect box;         // last matched box
-  int hits = 0;         // frames matched so far
+  int id = 0;             // unique per tracker, never reused, starting at 1
+  cv::Point2f position{}; // last matched position
+  cv::Point2f velocity{}; // pixels per millisecond, smoothed
+  cv::Rect box{};         // last matched box
+  int hits = 0;           // frames matched so far
   double first_seen_ms = 0;
   double last_seen_ms = 0;
   bool confirmed = false;   // hits >= Config::hits_to_confirm (once true, stays true)
