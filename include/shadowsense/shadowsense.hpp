@@ -8,3 +8,6 @@
 #include <shadowsense/fsm.hpp>
 #include <shadowsense/segment.hpp>
 #include <shadowsense/track.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/model_file.hpp>
+#include <shadowsense/densenet.hpp>

@@ -1,0 +1,443 @@
+// The reference DenseNet forward pass over a ModelFile, equal to torchvision's DenseNet up to
+// float rounding: conv0-norm0-relu0-pool0, dense blocks of norm1-relu1-conv1(1x1)-norm2-relu2-
+// conv2(3x3) layers whose outputs are concatenated, transitions norm-relu-conv(1x1)-avgpool(2),
+// then norm5-relu-global average pool-classifier.
+//
+// How it is fast without changing results beyond rounding:
+// - norm0 is folded into conv0 and norm2 into conv1 (they directly follow the convolution);
+//   norm1, the transition norms and norm5 precede a ReLU on the concatenated input, so they are
+//   applied as per-channel affine + ReLU while the convolution's input panel is packed.
+// - each dense block keeps its features in one pre-allocated buffer: a layer writes its new
+//   channels behind the existing ones, concatenation copies nothing.
+// - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
+//   buffer so packing needs no bounds checks.
+// - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
+//   result is the same up to rounding) which costs 4x fewer multiply-adds.
+// - all buffers are sized at construction for the largest input seen so far and reused.
+#pragma once
+
+#include <shadowsense/detail/gemm.hpp>
+#include <shadowsense/error.hpp>
+#include <shadowsense/model_file.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/version.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+class DenseNet {
+public:
+  struct Config {
+    int threads = 1; // worker threads incl. the caller
+    GemmKernelKind kernel = GemmKernelKind::automatic;
+    bool run_self_test = true; // run the model file's embedded self-test in the constructor
+  };
+
+  explicit DenseNet(const ModelFile& model) : DenseNet(model, Config{}) {}
+  DenseNet(const ModelFile& model, Config config)
+      : config_(config), arch_(model.architecture), class_names_(model.class_names),
+        preprocess_(model.preprocess) {
+    model.validate();
+    kernel_ = detail::select_micro_kernel(config.kernel);
+    pool_ = std::make_unique<detail::ThreadPool>(config.threads);
+    build(model);
+    if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
+  }
+
+  const DenseNetArchitecture& architecture() const { return arch_; }
+  const std::vector<std::string>& class_names() const { return class_names_; }
+  const PreprocessParams& preprocess_params() const { return preprocess_; }
+  int num_classes() const { return arch_.num_classes; }
+  const char* kernel_name() const { return kernel_.name; }
+  int threads() const { return pool_->size(); }
+
+  // Whether an h x w input survives conv0 (stride 2), pool0 (stride 2) and every
+  // transition's 2x2 pool (floor) with at least one pixel, as torchvision requires.
+  bool accepts(int h, int w) const {
+    const int transitions = static_cast<int>(arch_.block_config.size()) - 1;
+    auto ok = [&](int s) {
+      if (s < 1) return false;
+      s = (s - 1) / 2 + 1; // conv0
+      s = (s - 1) / 2 + 1; // pool0
+      return (s >> transitions) >= 1;
+    };
+    return ok(h) && ok(w);
+  }
+
+  // Logits for an n x 3 x h x w tensor (n x num_classes values, row per image). The returned
+  // span stays valid until the next call.
+  std::span<const float> logits(const Tensor& input) {
+    detail::require(!input.empty() && input.c() == 3,
+                    "DenseNet: input is " +
+                        (input.empty() ? std::string("empty") : input.shape_string()) +
+                        ", expected n x 3 x h x w");
+    detail::require(accepts(input.h(), input.w()),
+                    "DenseNet: input " + input.shape_string() +
+                        " is too small for the pooling stages, expected h and w with "
+                        "ceil(ceil(size / 2) / 2) >= " +
+                        std::to_string(1 << (arch_.block_config.size() - 1)));
+    detail::require(input.all_finite(),
+                    "DenseNet: input holds NaN or Inf values, expected finite numbers");
+    ensure_buffers(input.h(), input.w());
+    logits_.resize(static_cast<std::size_t>(input.n()) * arch_.num_classes);
+    for (int i = 0; i < input.n(); ++i)
+      forward_one(input.image(i).data(),
+                  std::span<float>(logits_).subspan(static_cast<std::size_t>(i) * arch_.num_classes,
+                                                    arch_.num_classes));
+    return logits_;
+  }
+
+  // Multiply-adds of one forward pass at h x w (for GFLOP/s reports; 1 MAC = 2 FLOP).
+  double macs(int h, int w) const {
+    double total = 0;
+    int H = (h - 1) / 2 + 1, W = (w - 1) / 2 + 1;
+    total += double(arch_.init_features) * 147 * H * W;
+    H = (H - 1) / 2 + 1;
+    W = (W - 1) / 2 + 1;
+    int c = arch_.init_features;
+    const int inner = arch_.bn_size * arch_.growth_rate;
+    for (std::size_t b = 0; b < arch_.block_config.size(); ++b) {
+      for (int l = 0; l < arch_.block_config[b]; ++l) {
+        const int cin = c + l * arch_.growth_rate;
+        total += double(inner) * cin * H * W + double(arch_.growth_rate) * inner * 9 * H * W;
+      }
+      c += arch_.block_config[b] * arch_.growth_rate;
+      if (b + 1 < arch_.block_config.size()) {
+        total += double(c / 2) * c * H * W; // as torchvision computes it (conv before pool)
+        c /= 2;
+        H /= 2;
+        W /= 2;
+      }
+    }
+    return total + double(arch_.num_classes) * c;
+  }
+
+private:
+  struct Affine { // y = max(0, x * scale + shift)
+    std::vector<float> scale, shift;
+  };
+  struct Layer {
+    Affine norm1;
+    detail::PackedMatrix conv1; // norm2 folded in
+    std::vector<float> bias1;
+    detail::PackedMatrix conv2;
+  };
+  struct Block {
+    std::vector<Layer> layers;
+    Affine transition_norm;          // empty for the last block
+    detail::PackedMatrix transition; // (c/2) x c
+    int c_in = 0, c_out = 0;
+  };
+
+  Affine affine(const ModelFile& m, const std::string& prefix) const {
+    const auto& g = m.tensor(prefix + ".weight").values;
+    const auto& b = m.tensor(prefix + ".bias").values;
+    const auto& mu = m.tensor(prefix + ".running_mean").values;
+    const auto& var = m.tensor(prefix + ".running_var").values;
+    Affine a;
+    for (std::size_t i = 0; i < g.size(); ++i) {
+      const double s = double(g[i]) / std::sqrt(double(var[i]) + double(arch_.bn_eps));
+      a.scale.push_back(static_cast<float>(s));
+      a.shift.push_back(static_cast<float>(double(b[i]) - double(mu[i]) * s));
+    }
+    return a;
+  }
+
+  // Weights (out x in...) scaled per output row by the following BatchNorm; returns the bias.
+  std::vector<float> fold(const ModelFile& m, const std::string& conv, const std::string& norm,
+                          std::vector<float>& w) const {
+    w = m.tensor(conv).values;
+    const Affine a = affine(m, norm);
+    const std::size_t per_row = w.size() / a.scale.size();
+    const auto& g = m.tensor(norm + ".weight").values;
+    const auto& var = m.tensor(norm + ".running_var").values;
+    for (std::size_t o = 0; o < a.scale.size(); ++o) {
+      const double s = double(g[o]) / std::sqrt(double(var[o]) + double(arch_.bn_eps));
+      for (std::size_t k = 0; k < per_row; ++k)
+        w[o * per_row + k] = static_cast<float>(double(w[o * per_row + k]) * s);
+    }
+    return a.shift;
+  }
+
+  void build(const ModelFile& m) {
+    std::vector<float> w;
+    bias0_ = fold(m, "features.conv0.weight", "features.norm0", w);
+    conv0_.pack(w.data(), arch_.init_features, 3 * 49, kernel_.mr);
+    int c = arch_.init_features;
+    const int k = arch_.growth_rate, inner = arch_.bn_size * arch_.growth_rate;
+    max_k_ = std::max(147, inner * 9);
+    for (std::size_t b = 0; b < arch_.block_config.size(); ++b) {
+      Block blk;
+      blk.c_in = c;
+      const std::string bname = "features.denseblock" + std::to_string(b + 1);
+      for (int l = 0; l < arch_.block_config[b]; ++l) {
+        const std::string p = bname + ".denselayer" + std::to_string(l + 1);
+        Layer layer;
+        const int cin = c + l * k;
+        layer.norm1 = affine(m, p + ".norm1");
+        layer.bias1 = fold(m, p + ".conv1.weight", p + ".norm2", w);
+        layer.conv1.pack(w.data(), inner, cin, kernel_.mr);
+        const auto& w2 = m.tensor(p + ".conv2.weight").values;
+        layer.conv2.pack(w2.data(), k, inner * 9, kernel_.mr);
+        max_k_ = std::max(max_k_, cin);
+        blk.layers.push_back(std::move(layer));
+      }
+      c += arch_.block_config[b] * k;
+      blk.c_out = c;
+      max_k_ = std::max(max_k_, c);
+      if (b + 1 < arch_.block_config.size()) {
+        const std::string t = "features.transition" + std::to_string(b + 1);
+        blk.transition_norm = affine(m, t + ".norm");
+        const auto& wt = m.tensor(t + ".conv.weight").values;
+        blk.transition.pack(wt.data(), c / 2, c, kernel_.mr);
+        c /= 2;
+      }
+      blocks_.push_back(std::move(blk));
+    }
+    norm5_ = affine(m, "features.norm5");
+    classifier_w_ = m.tensor("classifier.weight").values;
+    classifier_b_ = m.tensor("classifier.bias").values;
+    scratch_.resize(static_cast<std::size_t>(pool_->size()));
+    for (auto& s : scratch_) {
+      s.panel.assign(static_cast<std::size_t>(max_k_) * kernel_.nr, 0.0f);
+      s.tile.assign(static_cast<std::size_t>(kernel_.mr) * kernel_.nr, 0.0f);
+      s.index.assign(static_cast<std::size_t>(kernel_.nr), 0);
+    }
+  }
+
+  void ensure_buffers(int h, int w) {
+    if (h == in_h_ && w == in_w_) return;
+    in_h_ = h;
+    in_w_ = w;
+    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
+    h0_ = (h - 1) / 2 + 1;
+    w0_ = (w - 1) / 2 + 1;
+    conv0_out_.assign(static_cast<std::size_t>(arch_.init_features) * h0_ * w0_, 0.0f);
+    int H = (h0_ - 1) / 2 + 1, W = (w0_ - 1) / 2 + 1;
+    block_h_.clear();
+    block_w_.clear();
+    block_buf_.clear();
+    bottleneck_.clear();
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      block_h_.push_back(H);
+      block_w_.push_back(W);
+      block_buf_.emplace_back(static_cast<std::size_t>(blocks_[b].c_out) * H * W, 0.0f);
+      // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
+      // block so each border stays 0.
+      bottleneck_.emplace_back(
+          static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate) * (H + 2) * (W + 2), 0.0f);
+      H /= 2;
+      W /= 2;
+    }
+    pooled_.assign(static_cast<std::size_t>(blocks_.back().c_out), 0.0f);
+  }
+
+  void forward_one(const float* in, std::span<float> out) {
+    const int H = in_h_, W = in_w_, nr = kernel_.nr;
+    // conv0 (7x7, stride 2, pad 3) + folded norm0 + relu0.
+    const int PW = W + 6, PH = H + 6;
+    for (int c = 0; c < 3; ++c)
+      for (int y = 0; y < H; ++y)
+        std::copy_n(in + (static_cast<std::size_t>(c) * H + y) * W, W,
+                    padded_input_.data() + (static_cast<std::size_t>(c) * PH + y + 3) * PW + 3);
+    {
+      const int n = h0_ * w0_, w0 = w0_;
+      const float* src = padded_input_.data();
+      auto pack = [&](float* dst, int n0, int cols, int* idx) {
+        for (int j = 0; j < cols; ++j) {
+          const int y = (n0 + j) / w0, x = (n0 + j) % w0;
+          idx[j] = 2 * y * PW + 2 * x;
+        }
+        for (int c = 0; c < 3; ++c)
+          for (int ky = 0; ky < 7; ++ky)
+            for (int kx = 0; kx < 7; ++kx) {
+              const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
+              float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
+              for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
+              for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+            }
+      };
+      float* out0 = conv0_out_.data();
+      auto store = [&](int m, int n0, int cols, const float* v) {
+        float* d = out0 + static_cast<std::size_t>(m) * n + n0;
+        const float b = bias0_[static_cast<std::size_t>(m)];
+        for (int j = 0; j < cols; ++j) d[j] = std::max(v[j] + b, 0.0f);
+      };
+      detail::gemm(kernel_, conv0_, n, pack, store, *pool_, scratch_);
+    }
+    // pool0: max 3x3, stride 2, pad 1 (inputs are >= 0 after ReLU, padding never wins).
+    {
+      const int bh = block_h_[0], bw = block_w_[0];
+      float* dst = block_buf_[0].data();
+      for (int c = 0; c < arch_.init_features; ++c) {
+        const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
+        for (int y = 0; y < bh; ++y)
+          for (int x = 0; x < bw; ++x) {
+            float mx = -INFINITY;
+            for (int dy = -1; dy <= 1; ++dy) {
+              const int iy = 2 * y + dy;
+              if (iy < 0 || iy >= h0_) continue;
+              for (int dx = -1; dx <= 1; ++dx) {
+                const int ix = 2 * x + dx;
+                if (ix < 0 || ix >= w0_) continue;
+                mx = std::max(mx, s[iy * w0_ + ix]);
+              }
+            }
+            dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] = mx;
+          }
+      }
+    }
+    const int k = arch_.growth_rate;
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      const int bh = block_h_[b], bw = block_w_[b], n = bh * bw;
+      float* feat = block_buf_[b].data();
+      const Block& blk = blocks_[b];
+      for (std::size_t l = 0; l < blk.layers.size(); ++l) {
+        const Layer& layer = blk.layers[l];
+        const int cin = blk.c_in + static_cast<int>(l) * k;
+        // conv1 (1x1) on relu(norm1(features)), + folded norm2, relu2 -> padded bottleneck.
+        const int pw = bw + 2;
+        float* bott = bottleneck_[b].data();
+        const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
+        {
+          auto pack = [&](float* dst, int n0, int cols, int*) {
+            for (int c = 0; c < cin; ++c) {
+              const float* s = feat + static_cast<std::size_t>(c) * n + n0;
+              float* d = dst + static_cast<std::size_t>(c) * nr;
+              const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
+              const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
+              for (int j = 0; j < cols; ++j) d[j] = std::max(s[j] * sc + sh, 0.0f);
+              for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+            }
+          };
+          auto store = [&](int m, int n0, int cols, const float* v) {
+            float* d = bott + static_cast<std::size_t>(m) * plane;
+            const float bias = layer.bias1[static_cast<std::size_t>(m)];
+            int y = n0 / bw, x = n0 % bw;
+            for (int j = 0; j < cols; ++j) {
+              d[(y + 1) * pw + x + 1] = std::max(v[j] + bias, 0.0f);
+              if (++x == bw) {
+                x = 0;
+                ++y;
+              }
+            }
+          };
+          detail::gemm(kernel_, layer.conv1, n, pack, store, *pool_, scratch_);
+        }
+        // conv2 (3x3, pad 1) -> the block buffer behind the existing channels.
+        {
+          const int inner = layer.conv1.m;
+          auto pack = [&](float* dst, int n0, int cols, int* idx) {
+            for (int j = 0; j < cols; ++j) {
+              const int y = (n0 + j) / bw, x = (n0 + j) % bw;
+              idx[j] = y * pw + x;
+            }
+            for (int c = 0; c < inner; ++c)
+              for (int ky = 0; ky < 3; ++ky)
+                for (int kx = 0; kx < 3; ++kx) {
+                  const float* s = bott + c * plane + ky * pw + kx;
+                  float* d = dst + static_cast<std::size_t>((c * 3 + ky) * 3 + kx) * nr;
+                  for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
+                  for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+                }
+          };
+          float* outp = feat + static_cast<std::size_t>(cin) * n;
+          auto store = [&](int m, int n0, int cols, const float* v) {
+            std::copy_n(v, cols, outp + static_cast<std::size_t>(m) * n + n0);
+          };
+          detail::gemm(kernel_, layer.conv2, n, pack, store, *pool_, scratch_);
+        }
+      }
+      if (b + 1 < blocks_.size()) {
+        // transition: relu(norm) -> avgpool 2x2 -> conv 1x1 (pool first: linear, 4x cheaper).
+        const int oh = block_h_[b + 1], ow = block_w_[b + 1], on = oh * ow;
+        const Affine& a = blk.transition_norm;
+        auto pack = [&](float* dst, int n0, int cols, int* idx) {
+          for (int j = 0; j < cols; ++j) {
+            const int y = (n0 + j) / ow, x = (n0 + j) % ow;
+            idx[j] = 2 * y * bw + 2 * x;
+          }
+          for (int c = 0; c < blk.c_out; ++c) {
+            const float* s = feat + static_cast<std::size_t>(c) * n;
+            float* d = dst + static_cast<std::size_t>(c) * nr;
+            const float sc = a.scale[static_cast<std::size_t>(c)];
+            const float sh = a.shift[static_cast<std::size_t>(c)];
+            for (int j = 0; j < cols; ++j) {
+              const float* p = s + idx[j];
+              const float v0 = std::max(p[0] * sc + sh, 0.0f), v1 = std::max(p[1] * sc + sh, 0.0f);
+              const float v2 = std::max(p[bw] * sc + sh, 0.0f);
+              const float v3 = std::max(p[bw + 1] * sc + sh, 0.0f);
+              d[j] = ((v0 + v1) + (v2 + v3)) * 0.25f;
+            }
+            for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+          }
+        };
+        float* next = block_buf_[b + 1].data();
+        auto store = [&](int m, int n0, int cols, const float* v) {
+          std::copy_n(v, cols, next + static_cast<std::size_t>(m) * on + n0);
+        };
+        detail::gemm(kernel_, blk.transition, on, pack, store, *pool_, scratch_);
+      }
+    }
+    // norm5, relu, global average pool, classifier (in double: tiny, and keeps logits exact).
+    const Block& last = blocks_.back();
+    const int n = block_h_.back() * block_w_.back();
+    const float* feat = block_buf_.back().data();
+    for (int c = 0; c < last.c_out; ++c) {
+      const float* s = feat + static_cast<std::size_t>(c) * n;
+      const float sc = norm5_.scale[static_cast<std::size_t>(c)];
+      const float sh = norm5_.shift[static_cast<std::size_t>(c)];
+      double sum = 0;
+      for (int j = 0; j < n; ++j) sum += std::max(s[j] * sc + sh, 0.0f);
+      pooled_[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
+    }
+    for (int o = 0; o < arch_.num_classes; ++o) {
+      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * last.c_out;
+      double acc = classifier_b_[static_cast<std::size_t>(o)];
+      for (int c = 0; c < last.c_out; ++c)
+        acc += double(wr[c]) * pooled_[static_cast<std::size_t>(c)];
+      out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
+    }
+  }
+
+  void check_self_test(const ModelSelfTest& st) {
+    const auto got = logits(st.input);
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      const double ref = st.logits[i];
+      const double diff = std::abs(double(got[i]) - ref);
+      if (!(diff <= double(st.tolerance) * std::max(1.0, std::abs(ref))))
+        throw ModelFileError("model self-test failed: logit " + std::to_string(i) + " is " +
+                             std::to_string(got[i]) + ", expected " + std::to_string(ref) + " (+-" +
+                             std::to_string(st.tolerance) +
+                             " x max(1, |logit|)); the conversion or this build is broken");
+    }
+  }
+
+  Config config_;
+  DenseNetArchitecture arch_;
+  std::vector<std::string> class_names_;
+  PreprocessParams preprocess_;
+  detail::MicroKernel kernel_{};
+  std::unique_ptr<detail::ThreadPool> pool_;
+  std::vector<detail::GemmScratch> scratch_;
+  detail::PackedMatrix conv0_;
+  std::vector<float> bias0_;
+  std::vector<Block> blocks_;
+  Affine norm5_;
+  std::vector<float> classifier_w_, classifier_b_;
+  int max_k_ = 0;
+  // Buffers sized for the current input size.
+  int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
+  std::vector<float> padded_input_, conv0_out_, pooled_, logits_;
+  std::vector<int> block_h_, block_w_;
+  std::vector<std::vector<float>> block_buf_, bottleneck_;
+};
+
+SHADOWSENSE_NAMESPACE_END

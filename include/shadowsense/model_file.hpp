@@ -1,0 +1,616 @@
+// The flat, little-endian binary model file of a DenseNet classifier: architecture,
+// preprocessing parameters, class names, the weights in torchvision's state_dict order and an
+// optional self-test (input + torchvision logits), closed by a CRC-32 checksum.
+// The byte layout is documented in docs/model_format.md; tools/densenet_to_model.py writes it.
+// Loading validates everything (magic, version, every size against the architecture, shapes,
+// NaN/Inf, checksum, truncation) and throws ModelFileError naming what was wrong and what was
+// expected, so a bad file is rejected before it reaches the forward pass.
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/version.hpp>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+static_assert(std::endian::native == std::endian::little || std::endian::native == std::endian::big,
+              "shadowsense model files need a little- or big-endian host");
+static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559,
+              "shadowsense model files store IEEE-754 binary32 floats");
+
+// The 8 bytes every model file starts with.
+inline constexpr std::array<char, 8> model_file_magic = {'S', 'S', 'D', 'N', 'M', 'O', 'D', '\n'};
+// The format version this library reads and writes.
+inline constexpr std::uint32_t model_file_version = 1;
+
+// The DenseNet hyper-parameters (torchvision.models.DenseNet's constructor arguments).
+struct DenseNetArchitecture {
+  int growth_rate = 32;
+  std::vector<int> block_config = {6, 12, 24, 16};
+  int init_features = 64;
+  int bn_size = 4;
+  int num_classes = 1000;
+  float bn_eps = 1e-5f;
+
+  static DenseNetArchitecture densenet121(int classes = 1000) {
+    return {32, {6, 12, 24, 16}, 64, 4, classes, 1e-5f};
+  }
+  static DenseNetArchitecture densenet161(int classes = 1000) {
+    return {48, {6, 12, 36, 24}, 96, 4, classes, 1e-5f};
+  }
+  static DenseNetArchitecture densenet169(int classes = 1000) {
+    return {32, {6, 12, 32, 32}, 64, 4, classes, 1e-5f};
+  }
+  static DenseNetArchitecture densenet201(int classes = 1000) {
+    return {32, {6, 12, 48, 32}, 64, 4, classes, 1e-5f};
+  }
+
+  // Channels entering the classifier (norm5's width).
+  int final_features() const {
+    long long c = init_features;
+    for (std::size_t b = 0; b < block_config.size(); ++b) {
+      c += static_cast<long long>(block_config[b]) * growth_rate;
+      if (b + 1 < block_config.size()) c /= 2;
+    }
+    return static_cast<int>(c);
+  }
+
+  // Throws ModelFileError unless every value is in the range this library supports.
+  void validate() const {
+    auto in = [](long long v, long long lo, long long hi) { return v >= lo && v <= hi; };
+    detail::require<ModelFileError>(in(growth_rate, 1, 4096),
+                                    "model architecture: growth_rate is " +
+                                        std::to_string(growth_rate) + ", expected 1..4096");
+    detail::require<ModelFileError>(in(static_cast<long long>(block_config.size()), 1, 16),
+                                    "model architecture: " + std::to_string(block_config.size()) +
+                                        " dense blocks, expected 1..16");
+    for (int layers : block_config)
+      detail::require<ModelFileError>(in(layers, 1, 1024),
+                                      "model architecture: a dense block has " +
+                                          std::to_string(layers) + " layers, expected 1..1024");
+    detail::require<ModelFileError>(in(init_features, 1, 65536),
+                                    "model architecture: init_features is " +
+                                        std::to_string(init_features) + ", expected 1..65536");
+    detail::require<ModelFileError>(in(bn_size, 1, 64), "model architecture: bn_size is " +
+                                                            std::to_string(bn_size) +
+                                                            ", expected 1..64");
+    detail::require<ModelFileError>(num_classes != 0,
+                                    "model architecture: zero classes, expected at least 1");
+    detail::require<ModelFileError>(in(num_classes, 1, 1 << 20),
+                                    "model architecture: num_classes is " +
+                                        std::to_string(num_classes) + ", expected 1..1048576");
+    detail::require<ModelFileError>(std::isfinite(bn_eps) && bn_eps > 0.0f && bn_eps < 1.0f,
+                                    "model architecture: bn_eps is " + std::to_string(bn_eps) +
+                                        ", expected a finite value in (0, 1)");
+    long long c = init_features;
+    for (std::size_t b = 0; b < block_config.size(); ++b) {
+      c += static_cast<long long>(block_config[b]) * growth_rate;
+      detail::require<ModelFileError>(
+          c <= (1 << 20), "model architecture: " + std::to_string(c) + " channels in dense block " +
+                              std::to_string(b + 1) + ", expected at most 1048576");
+      if (b + 1 < block_config.size()) c /= 2;
+    }
+  }
+
+  // The tensors (name and shape) a model file must hold, in file order: torchvision's
+  // state_dict order without the num_batches_tracked counters.
+  struct TensorSpec {
+    std::string name;
+    std::vector<int> shape;
+  };
+  std::vector<TensorSpec> expected_tensors() const {
+    std::vector<TensorSpec> out;
+    auto bn = [&](const std::string& prefix, int c) {
+      for (const char* p : {"weight", "bias", "running_mean", "running_var"})
+        out.push_back({prefix + "." + p, {c}});
+    };
+    out.push_back({"features.conv0.weight", {init_features, 3, 7, 7}});
+    bn("features.norm0", init_features);
+    int c = init_features;
+    const int inner = bn_size * growth_rate;
+    for (std::size_t b = 0; b < block_config.size(); ++b) {
+      const std::string block = "features.denseblock" + std::to_string(b + 1);
+      for (int l = 0; l < block_config[b]; ++l) {
+        const std::string layer = block + ".denselayer" + std::to_string(l + 1);
+        const int cin = c + l * growth_rate;
+        bn(layer + ".norm1", cin);
+        out.push_back({layer + ".conv1.weight", {inner, cin, 1, 1}});
+        bn(layer + ".norm2", inner);
+        out.push_back({layer + ".conv2.weight", {growth_rate, inner, 3, 3}});
+      }
+      c += block_config[b] * growth_rate;
+      if (b + 1 < block_config.size()) {
+        const std::string t = "features.transition" + std::to_string(b + 1);
+        bn(t + ".norm", c);
+        out.push_back({t + ".conv.weight", {c / 2, c, 1, 1}});
+        c /= 2;
+      }
+    }
+    bn("features.norm5", c);
+    out.push_back({"classifier.weight", {num_classes, c}});
+    out.push_back({"classifier.bias", {num_classes}});
+    return out;
+  }
+};
+
+// Channel order of an image (the network's own order is RGB for torchvision models).
+enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
+
+// Preprocessing the network was trained with (paper 5.1.2). A zero resize or crop size means
+// "skip that step". The brightness factor is applied only to images flagged dark.
+struct PreprocessParams {
+  int resize_width = 318;
+  int resize_height = 235;
+  int crop_width = 220;
+  int crop_height = 150;
+  float contrast_factor = 3.0f;
+  float dark_brightness_factor = 2.0f;
+  std::array<float, 3> mean = {0.485f, 0.456f, 0.406f};
+  std::array<float, 3> std = {0.229f, 0.224f, 0.225f};
+  ChannelOrder network_channel_order = ChannelOrder::rgb;
+
+  void validate() const {
+    auto sz = [](int v) { return v >= 0 && v <= 65536; };
+    detail::require<ModelFileError>(
+        sz(resize_width) && sz(resize_height) && (resize_width == 0) == (resize_height == 0),
+        "preprocessing: resize " + std::to_string(resize_width) + "x" +
+            std::to_string(resize_height) + ", expected both 0 (no resize) or both in 1..65536");
+    detail::require<ModelFileError>(
+        sz(crop_width) && sz(crop_height) && (crop_width == 0) == (crop_height == 0),
+        "preprocessing: crop " + std::to_string(crop_width) + "x" + std::to_string(crop_height) +
+            ", expected both 0 (no crop) or both in 1..65536");
+    detail::require<ModelFileError>(std::isfinite(contrast_factor) && contrast_factor >= 0.0f,
+                                    "preprocessing: contrast factor " +
+                                        std::to_string(contrast_factor) +
+                                        ", expected a finite value >= 0");
+    detail::require<ModelFileError>(
+        std::isfinite(dark_brightness_factor) && dark_brightness_factor >= 0.0f,
+        "preprocessing: brightness factor " + std::to_string(dark_brightness_factor) +
+            ", expected a finite value >= 0");
+    for (int i = 0; i < 3; ++i) {
+      detail::require<ModelFileError>(std::isfinite(mean[i]),
+                                      "preprocessing: mean is not finite, expected finite");
+      detail::require<ModelFileError>(std::isfinite(std[i]) && std[i] > 0.0f,
+                                      "preprocessing: std " + std::to_string(std[i]) +
+                                          ", expected a finite value > 0");
+    }
+    detail::require<ModelFileError>(
+        network_channel_order == ChannelOrder::rgb || network_channel_order == ChannelOrder::bgr,
+        "preprocessing: channel order code " +
+            std::to_string(static_cast<std::uint32_t>(network_channel_order)) +
+            ", expected 0 (RGB) or 1 (BGR)");
+  }
+};
+
+struct NamedTensor {
+  std::string name;
+  std::vector<int> shape;
+  std::vector<float> values;
+};
+
+// An input and the logits the reference framework computed for it; DenseNet runs it at load
+// time so a broken conversion is caught where the model is deployed.
+struct ModelSelfTest {
+  Tensor input;              // n x 3 x h x w, already preprocessed
+  std::vector<float> logits; // n x num_classes
+  float tolerance = 1e-4f;   // max |diff| allowed, scaled by max(1, |logit|)
+};
+
+struct ModelFile {
+  DenseNetArchitecture architecture;
+  PreprocessParams preprocess;
+  std::vector<std::string> class_names;
+  std::vector<NamedTensor> tensors; // in architecture.expected_tensors() order
+  std::optional<ModelSelfTest> self_test;
+
+  const NamedTensor& tensor(std::string_view name) const {
+    for (const auto& t : tensors)
+      if (t.name == name) return t;
+    throw ModelFileError("model file: no tensor named '" + std::string(name) + "'");
+  }
+  NamedTensor& tensor(std::string_view name) {
+    return const_cast<NamedTensor&>(std::as_const(*this).tensor(name));
+  }
+
+  // Checks the whole model for consistency; save() and load() call it.
+  void validate() const;
+
+  std::vector<std::uint8_t> to_bytes() const;
+  void save(const std::filesystem::path& path) const;
+  static ModelFile from_bytes(std::span<const std::uint8_t> bytes);
+  static ModelFile from_bytes(std::span<const std::byte> bytes) {
+    return from_bytes(std::span<const std::uint8_t>(
+        reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size()));
+  }
+  static ModelFile load(const std::filesystem::path& path);
+};
+
+namespace detail {
+
+// CRC-32 (IEEE 802.3, as zlib.crc32): detects truncation and bit flips (not tampering), and
+// Python's zlib computes it at C speed for the converter.
+inline std::uint32_t crc32(std::span<const std::uint8_t> bytes) {
+  static constexpr auto table = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t i = 0; i < 256; ++i) {
+      std::uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  std::uint32_t c = 0xFFFFFFFFu;
+  for (std::uint8_t b : bytes) c = table[(c ^ b) & 0xFFu] ^ (c >> 8);
+  return c ^ 0xFFFFFFFFu;
+}
+
+inline constexpr std::size_t model_max_name_bytes = 1024;
+
+class ModelWriter {
+public:
+  void u32(std::uint32_t v) {
+    for (int i = 0; i < 4; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
+  void u64(std::uint64_t v) {
+    for (int i = 0; i < 8; ++i) out.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+  }
+  void f32(float v) { u32(std::bit_cast<std::uint32_t>(v)); }
+  void floats(std::span<const float> v) {
+    out.reserve(out.size() + 4 * v.size());
+    for (float x : v) f32(x);
+  }
+  void str(const std::string& s) {
+    u32(static_cast<std::uint32_t>(s.size()));
+    out.insert(out.end(), s.begin(), s.end());
+  }
+  std::vector<std::uint8_t> out;
+};
+
+class ModelReader {
+public:
+  explicit ModelReader(std::span<const std::uint8_t> b) : bytes(b) {}
+
+  void need(std::size_t n, const char* what) const {
+    if (bytes.size() - pos < n)
+      throw ModelFileError("model file truncated in the " + std::string(section) +
+                           " section: " + what + " needs " + std::to_string(n) +
+                           " bytes at offset " + std::to_string(pos) + ", but the file has only " +
+                           std::to_string(bytes.size() - pos) + " left (" +
+                           std::to_string(bytes.size()) + " bytes in total)");
+  }
+  std::uint32_t u32(const char* what) {
+    need(4, what);
+    std::uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(bytes[pos + i]) << (8 * i);
+    pos += 4;
+    return v;
+  }
+  std::uint64_t u64(const char* what) {
+    need(8, what);
+    std::uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(bytes[pos + i]) << (8 * i);
+    pos += 8;
+    return v;
+  }
+  float f32(const char* what) { return std::bit_cast<float>(u32(what)); }
+  // A u32 that must lie in [lo, hi].
+  int count(const char* what, std::uint32_t lo, std::uint32_t hi) {
+    return count_value(u32(what), what, lo, hi);
+  }
+  int count_value(std::uint32_t v, const char* what, std::uint32_t lo, std::uint32_t hi) const {
+    if (v < lo || v > hi)
+      throw ModelFileError("model file " + std::string(section) + " section: " + what + " is " +
+                           std::to_string(v) + ", expected " + std::to_string(lo) + ".." +
+                           std::to_string(hi));
+    return static_cast<int>(v);
+  }
+  void floats(std::vector<float>& v, std::size_t n, const char* what) {
+    if (n > (bytes.size() - pos) / 4) need(n * 4, what); // throws, without allocating first
+    v.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      std::uint32_t u = 0;
+      for (int k = 0; k < 4; ++k) u |= static_cast<std::uint32_t>(bytes[pos + k]) << (8 * k);
+      v[i] = std::bit_cast<float>(u);
+      pos += 4;
+    }
+  }
+  std::string str(const char* what) {
+    const int n = count(what, 0, model_max_name_bytes);
+    need(static_cast<std::size_t>(n), what);
+    std::string s(reinterpret_cast<const char*>(bytes.data() + pos), static_cast<std::size_t>(n));
+    pos += static_cast<std::size_t>(n);
+    return s;
+  }
+
+  std::span<const std::uint8_t> bytes;
+  std::size_t pos = 0;
+  const char* section = "header";
+};
+
+inline std::string shape_to_string(const std::vector<int>& s) {
+  std::string r = "[";
+  for (std::size_t i = 0; i < s.size(); ++i) r += (i ? ", " : "") + std::to_string(s[i]);
+  return r + "]";
+}
+
+inline std::size_t shape_elements(const std::vector<int>& s) {
+  std::size_t n = 1;
+  for (int d : s) n *= static_cast<std::size_t>(d);
+  return n;
+}
+
+inline bool is_running_var(const std::string& name) {
+  constexpr std::string_view suffix = ".running_var";
+  return name.size() >= suffix.size() &&
+         std::string_view(name).substr(name.size() - suffix.size()) == suffix;
+}
+
+} // namespace detail
+
+inline void ModelFile::validate() const {
+  architecture.validate();
+  preprocess.validate();
+  const auto n_classes = static_cast<std::size_t>(architecture.num_classes);
+  detail::require<ModelFileError>(class_names.size() == n_classes,
+                                  "model file: " + std::to_string(class_names.size()) +
+                                      " class names, expected one per class (" +
+                                      std::to_string(n_classes) + ")");
+  for (const auto& name : class_names)
+    detail::require<ModelFileError>(name.size() <= detail::model_max_name_bytes,
+                                    "model file: a class name has " + std::to_string(name.size()) +
+                                        " bytes, expected at most 1024");
+  const auto expected = architecture.expected_tensors();
+  detail::require<ModelFileError>(tensors.size() == expected.size(),
+                                  "model file: " + std::to_string(tensors.size()) +
+                                      " tensors, expected " + std::to_string(expected.size()) +
+                                      " for this architecture");
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    const auto& t = tensors[i];
+    const auto& e = expected[i];
+    detail::require<ModelFileError>(t.name == e.name, "model file: tensor " + std::to_string(i) +
+                                                          " is named '" + t.name + "', expected '" +
+                                                          e.name + "'");
+    detail::require<ModelFileError>(t.shape == e.shape,
+                                    "model file: tensor '" + t.name + "' has shape " +
+                                        detail::shape_to_string(t.shape) + ", expected " +
+                                        detail::shape_to_string(e.shape));
+    detail::require<ModelFileError>(t.values.size() == detail::shape_elements(e.shape),
+                                    "model file: tensor '" + t.name + "' holds " +
+                                        std::to_string(t.values.size()) + " values, expected " +
+                                        std::to_string(detail::shape_elements(e.shape)));
+    const bool var = detail::is_running_var(t.name);
+    for (std::size_t k = 0; k < t.values.size(); ++k) {
+      const float v = t.values[k];
+      if (!std::isfinite(v))
+        throw ModelFileError("model file: tensor '" + t.name + "' value " + std::to_string(k) +
+                             " is " + std::to_string(v) + ", expected a finite number");
+      if (var && v < 0.0f)
+        throw ModelFileError("model file: tensor '" + t.name + "' value " + std::to_string(k) +
+                             " is negative (" + std::to_string(v) + "), expected a variance >= 0");
+    }
+  }
+  if (self_test) {
+    const auto& st = *self_test;
+    detail::require<ModelFileError>(!st.input.empty() && st.input.c() == 3,
+                                    "model file self-test: input " + st.input.shape_string() +
+                                        ", expected n x 3 x h x w");
+    detail::require<ModelFileError>(st.input.all_finite(),
+                                    "model file self-test: input holds NaN/Inf, expected finite");
+    detail::require<ModelFileError>(
+        st.logits.size() == static_cast<std::size_t>(st.input.n()) * n_classes,
+        "model file self-test: " + std::to_string(st.logits.size()) +
+            " logits, expected n x num_classes = " + std::to_string(st.input.n() * n_classes));
+    for (float v : st.logits)
+      detail::require<ModelFileError>(std::isfinite(v),
+                                      "model file self-test: logits hold NaN/Inf, expected finite");
+    detail::require<ModelFileError>(std::isfinite(st.tolerance) && st.tolerance > 0.0f,
+                                    "model file self-test: tolerance " +
+                                        std::to_string(st.tolerance) +
+                                        ", expected a finite value > 0");
+  }
+}
+
+inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
+  validate();
+  detail::ModelWriter w;
+  // header
+  w.out.insert(w.out.end(), model_file_magic.begin(), model_file_magic.end());
+  w.u32(model_file_version);
+  // architecture
+  const auto& a = architecture;
+  w.u32(static_cast<std::uint32_t>(a.growth_rate));
+  w.u32(static_cast<std::uint32_t>(a.bn_size));
+  w.u32(static_cast<std::uint32_t>(a.init_features));
+  w.u32(static_cast<std::uint32_t>(a.num_classes));
+  w.f32(a.bn_eps);
+  w.u32(static_cast<std::uint32_t>(a.block_config.size()));
+  for (int l : a.block_config) w.u32(static_cast<std::uint32_t>(l));
+  // preprocessing
+  const auto& p = preprocess;
+  w.u32(static_cast<std::uint32_t>(p.resize_width));
+  w.u32(static_cast<std::uint32_t>(p.resize_height));
+  w.u32(static_cast<std::uint32_t>(p.crop_width));
+  w.u32(static_cast<std::uint32_t>(p.crop_height));
+  w.f32(p.contrast_factor);
+  w.f32(p.dark_brightness_factor);
+  w.floats(p.mean);
+  w.floats(p.std);
+  w.u32(static_cast<std::uint32_t>(p.network_channel_order));
+  // class names
+  w.u32(static_cast<std::uint32_t>(class_names.size()));
+  for (const auto& n : class_names) w.str(n);
+  // tensors
+  w.u32(static_cast<std::uint32_t>(tensors.size()));
+  for (const auto& t : tensors) {
+    w.str(t.name);
+    w.u32(static_cast<std::uint32_t>(t.shape.size()));
+    for (int d : t.shape) w.u32(static_cast<std::uint32_t>(d));
+    w.floats(t.values);
+  }
+  // self-test
+  w.u32(self_test ? 1u : 0u);
+  if (self_test) {
+    const auto& in = self_test->input;
+    for (int d : {in.n(), in.c(), in.h(), in.w()}) w.u32(static_cast<std::uint32_t>(d));
+    w.floats(in.values());
+    w.floats(self_test->logits);
+    w.f32(self_test->tolerance);
+  }
+  w.u32(detail::crc32(w.out));
+  return std::move(w.out);
+}
+
+inline void ModelFile::save(const std::filesystem::path& path) const {
+  const auto bytes = to_bytes();
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  if (!f) throw IoError("cannot open model file '" + path.string() + "' for writing");
+  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  if (!f) throw IoError("writing model file '" + path.string() + "' failed");
+}
+
+inline ModelFile ModelFile::load(const std::filesystem::path& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw IoError("cannot open model file '" + path.string() + "' for reading");
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)),
+                                  std::istreambuf_iterator<char>());
+  if (f.bad()) throw IoError("reading model file '" + path.string() + "' failed");
+  try {
+    return from_bytes(bytes);
+  } catch (const ModelFileError& e) {
+    throw ModelFileError(path.string() + ": " + e.what());
+  }
+}
+
+inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
+  detail::ModelReader r(bytes);
+  ModelFile m;
+  // header
+  r.section = "header";
+  r.need(model_file_magic.size(), "the magic number");
+  if (std::memcmp(bytes.data(), model_file_magic.data(), model_file_magic.size()) != 0)
+    throw ModelFileError("not a shadowsense model file: wrong magic number, expected the "
+                         "8 bytes \"SSDNMOD\\n\" at the start");
+  r.pos = model_file_magic.size();
+  const std::uint32_t version = r.u32("the format version");
+  if (version < model_file_version)
+    throw ModelFileError("model file format version " + std::to_string(version) +
+                         " is too old, this library reads version " +
+                         std::to_string(model_file_version) +
+                         ": regenerate it with tools/densenet_to_model.py");
+  if (version > model_file_version)
+    throw ModelFileError("model file format version " + std::to_string(version) +
+                         " is newer than this library (reads version " +
+                         std::to_string(model_file_version) + "): update shadowsense");
+  // architecture
+  r.section = "architecture";
+  auto& a = m.architecture;
+  a.growth_rate = r.count("growth_rate", 1, 4096);
+  a.bn_size = r.count("bn_size", 1, 64);
+  a.init_features = r.count("init_features", 1, 65536);
+  {
+    const std::uint32_t classes = r.u32("num_classes");
+    if (classes == 0)
+      throw ModelFileError("model architecture: zero classes, expected at least 1");
+    a.num_classes = r.count_value(classes, "num_classes", 1, 1 << 20);
+  }
+  a.bn_eps = r.f32("bn_eps");
+  const int blocks = r.count("the number of dense blocks", 1, 16);
+  a.block_config.resize(static_cast<std::size_t>(blocks));
+  for (auto& l : a.block_config) l = r.count("layers of a dense block", 1, 1024);
+  a.validate();
+  // preprocessing
+  r.section = "preprocessing";
+  auto& p = m.preprocess;
+  p.resize_width = r.count("resize width", 0, 65536);
+  p.resize_height = r.count("resize height", 0, 65536);
+  p.crop_width = r.count("crop width", 0, 65536);
+  p.crop_height = r.count("crop height", 0, 65536);
+  p.contrast_factor = r.f32("contrast factor");
+  p.dark_brightness_factor = r.f32("brightness factor");
+  for (auto& v : p.mean) v = r.f32("mean");
+  for (auto& v : p.std) v = r.f32("std");
+  p.network_channel_order = static_cast<ChannelOrder>(r.count("channel order", 0, 1));
+  p.validate();
+  // class names
+  r.section = "class names";
+  const auto n_classes = static_cast<std::uint32_t>(a.num_classes);
+  r.count("the number of class names (must equal num_classes)", n_classes, n_classes);
+  m.class_names.reserve(n_classes);
+  for (std::uint32_t i = 0; i < n_classes; ++i) m.class_names.push_back(r.str("a class name"));
+  // tensors: names and shapes are checked against the architecture as they are read.
+  r.section = "tensors";
+  const auto expected = a.expected_tensors();
+  const auto n_tensors = static_cast<std::uint32_t>(expected.size());
+  r.count("the number of tensors", n_tensors, n_tensors);
+  m.tensors.reserve(expected.size());
+  for (const auto& e : expected) {
+    NamedTensor t;
+    t.name = r.str("a tensor name");
+    if (t.name != e.name)
+      throw ModelFileError("model file tensors section: tensor " +
+                           std::to_string(m.tensors.size()) + " is named '" + t.name +
+                           "', expected '" + e.name + "'");
+    const int ndim = r.count("a tensor's number of dimensions", 1, 4);
+    for (int d = 0; d < ndim; ++d) t.shape.push_back(r.count("a tensor dimension", 1, 1u << 30));
+    if (t.shape != e.shape)
+      throw ModelFileError("model file tensors section: tensor '" + t.name + "' has shape " +
+                           detail::shape_to_string(t.shape) + ", expected " +
+                           detail::shape_to_string(e.shape) + " for this architecture");
+    r.floats(t.values, detail::shape_elements(t.shape), "tensor values");
+    m.tensors.push_back(std::move(t));
+  }
+  // self-test
+  r.section = "self-test";
+  if (r.count("the self-test flag", 0, 1) == 1) {
+    ModelSelfTest st;
+    const int n = r.count("self-test batch size", 1, 64);
+    const int c = r.count("self-test channels", 3, 3);
+    const int h = r.count("self-test height", 1, 4096);
+    const int w = r.count("self-test width", 1, 4096);
+    const std::size_t count = static_cast<std::size_t>(n) * c * h * w;
+    r.need(count * 4, "self-test input");
+    st.input.resize(n, c, h, w);
+    std::vector<float> tmp;
+    r.floats(tmp, count, "self-test input");
+    std::copy(tmp.begin(), tmp.end(), st.input.data());
+    r.floats(st.logits, static_cast<std::size_t>(n) * n_classes, "self-test logits");
+    st.tolerance = r.f32("self-test tolerance");
+    m.self_test = std::move(st);
+  }
+  // checksum
+  r.section = "checksum";
+  const std::size_t body = r.pos;
+  const std::uint32_t stored = r.u32("the CRC-32 checksum");
+  if (r.pos != bytes.size())
+    throw ModelFileError("model file has " + std::to_string(bytes.size() - r.pos) +
+                         " unexpected bytes after the checksum, expected the file to end at "
+                         "byte " +
+                         std::to_string(r.pos));
+  const std::uint32_t actual = detail::crc32(bytes.first(body));
+  if (stored != actual)
+    throw ModelFileError("model file checksum mismatch: stored " + std::to_string(stored) +
+                         ", computed " + std::to_string(actual) +
+                         " (the file is corrupted or was edited)");
+  m.validate(); // NaN/Inf, negative variances, self-test consistency
+  return m;
+}
+
+SHADOWSENSE_NAMESPACE_END

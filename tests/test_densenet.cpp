@@ -1,0 +1,167 @@
+// The DenseNet forward pass against torchvision: a committed compact fixture (always), its
+// extreme-BatchNorm twin, and DenseNet-121/-161 with random weights generated at test time by
+// tools/densenet_to_model.py when Debian's python3-torch is installed.
+#include <shadowsense/densenet.hpp>
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <string>
+
+using namespace shadowsense;
+
+namespace {
+
+std::size_t argmax(std::span<const float> v) {
+  return static_cast<std::size_t>(std::max_element(v.begin(), v.end()) - v.begin());
+}
+
+// Compares logits against the model's embedded torchvision logits: |diff| <= 1e-4 *
+// max(1, |logit|) for every value and the same argmax per image. Returns the max abs diff.
+double check_against_torchvision(DenseNet& net, const ModelSelfTest& st) {
+  const auto got = net.logits(st.input);
+  REQUIRE(got.size() == st.logits.size());
+  double max_diff = 0;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const double ref = st.logits[i], diff = std::abs(double(got[i]) - ref);
+    max_diff = std::max(max_diff, diff);
+    CAPTURE(i);
+    CHECK(diff <= 1e-4 * std::max(1.0, std::abs(ref)));
+  }
+  const auto classes = static_cast<std::size_t>(net.num_classes());
+  for (int i = 0; i < st.input.n(); ++i) {
+    const auto off = static_cast<std::size_t>(i) * classes;
+    CHECK(argmax(got.subspan(off, classes)) ==
+          argmax(std::span<const float>(st.logits).subspan(off, classes)));
+  }
+  return max_diff;
+}
+
+std::vector<GemmKernelKind> available_kernels() {
+  std::vector<GemmKernelKind> out;
+  for (auto k : {GemmKernelKind::avx512, GemmKernelKind::avx2, GemmKernelKind::portable})
+    if (detail::cpu_has(k)) out.push_back(k);
+  return out;
+}
+
+bool torch_available() {
+  static const bool ok =
+      std::system("/usr/bin/python3 -c 'import torch, torchvision' > /dev/null 2>&1") == 0;
+  return ok;
+}
+
+// Generates a random-weight torchvision DenseNet with an embedded self-test at the paper's
+// 3x150x220 input; returns the path (empty when torch is missing).
+std::filesystem::path generate(const std::string& arch) {
+  if (!torch_available()) return {};
+  std::filesystem::create_directories(SHADOWSENSE_TEST_TMP_DIR);
+  const auto path = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / (arch + "_random.ssdn");
+  const std::string cmd = "/usr/bin/python3 " SHADOWSENSE_SOURCE_DIR
+                          "/tools/densenet_to_model.py --random-init --arch " +
+                          arch + " --num-classes 5 --self-test 1 --seed 3 -o " + path.string() +
+                          " > /dev/null";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  return path;
+}
+
+} // namespace
+
+TEST_CASE("compact DenseNet fixture: logits equal torchvision's for every kernel and 1-2 threads") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  REQUIRE(m.self_test.has_value());
+  for (auto kernel : available_kernels())
+    for (int threads : {1, 2}) {
+      DenseNet net(m, {.threads = threads, .kernel = kernel});
+      const std::string kernel_name = net.kernel_name();
+      CAPTURE(kernel_name);
+      CAPTURE(threads);
+      const double diff = check_against_torchvision(net, *m.self_test);
+      MESSAGE("tiny fixture, ", net.kernel_name(), ", ", threads, " thread(s): max abs diff ",
+              diff);
+    }
+}
+
+TEST_CASE("BatchNorm running_var of 0, 1e-9 and x1e6 fold without losing accuracy") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny_extreme_bn.ssdn");
+  REQUIRE(m.self_test.has_value());
+  CHECK(m.tensor("features.norm5.running_var").values[0] == 0.0f);
+  DenseNet net(m);
+  check_against_torchvision(net, *m.self_test);
+}
+
+TEST_CASE("buffers are reused across input sizes without changing results") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  DenseNet net(m, {.run_self_test = false});
+  Tensor small(1, 3, 33, 40);
+  for (std::size_t i = 0; i < small.size(); ++i) small.data()[i] = std::sin(0.37f * i);
+  const std::vector<float> first(net.logits(small).begin(), net.logits(small).end());
+  check_against_torchvision(net, *m.self_test); // a different size in between
+  const auto again = net.logits(small);
+  DenseNet fresh(m, {.run_self_test = false});
+  const auto ref = fresh.logits(small);
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    CHECK(again[i] == first[i]);
+    CHECK(ref[i] == first[i]);
+  }
+}
+
+TEST_CASE("bad inputs: NaN/Inf pixels, wrong channels, too small, denormals") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  DenseNet net(m);
+  Tensor t(1, 3, 45, 61);
+  t(0, 1, 10, 10) = std::numeric_limits<float>::quiet_NaN();
+  CHECK_THROWS_WITH_AS(net.logits(t), doctest::Contains("NaN or Inf"), InvalidArgument);
+  t(0, 1, 10, 10) = std::numeric_limits<float>::infinity();
+  CHECK_THROWS_WITH_AS(net.logits(t), doctest::Contains("NaN or Inf"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(net.logits(Tensor(1, 1, 45, 61)), doctest::Contains("expected n x 3"),
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(net.logits(Tensor()), doctest::Contains("empty"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(net.logits(Tensor(1, 3, 8, 61)), doctest::Contains("too small"),
+                       InvalidArgument);
+  // The smallest accepted size runs (2 transitions: block 1 needs >= 4 pixels per side).
+  CHECK(net.accepts(13, 13));
+  CHECK_FALSE(net.accepts(12, 13));
+  CHECK(net.logits(Tensor(1, 3, 13, 13)).size() == 7);
+
+  // Denormal inputs behave like zeros (to float rounding) and stay finite.
+  Tensor zeros(1, 3, 45, 61), denormal(1, 3, 45, 61);
+  for (float& v : denormal.values()) v = std::numeric_limits<float>::denorm_min() * 7;
+  const std::vector<float> z(net.logits(zeros).begin(), net.logits(zeros).end());
+  const auto d = net.logits(denormal);
+  for (std::size_t i = 0; i < z.size(); ++i) {
+    CHECK(std::isfinite(d[i]));
+    CHECK(std::abs(d[i] - z[i]) <= 1e-6f);
+  }
+}
+
+TEST_CASE("a broken conversion is caught by the embedded self-test at load time") {
+  auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  m.self_test->logits[3] += 0.01f;
+  CHECK_THROWS_WITH_AS(DenseNet(m, {}), doctest::Contains("model self-test failed: logit 3"),
+                       ModelFileError);
+  CHECK_NOTHROW(DenseNet(m, {.run_self_test = false}));
+  CHECK_THROWS_WITH_AS(DenseNet(m, {.threads = 0}), doctest::Contains("expected 1..256"),
+                       InvalidArgument);
+}
+
+TEST_CASE("DenseNet-121 and DenseNet-161, random weights, 3x150x220: equal to torchvision") {
+  if (!torch_available()) {
+    MESSAGE("SKIPPED: /usr/bin/python3 cannot import torch and torchvision (install "
+            "python3-torch python3-torchvision to run the DenseNet-121/-161 comparison)");
+    return;
+  }
+  for (const std::string arch : {"densenet121", "densenet161"}) {
+    CAPTURE(arch);
+    const auto path = generate(arch);
+    const auto m = ModelFile::load(path);
+    REQUIRE(m.self_test.has_value());
+    DenseNet net(m, {.threads = 2, .run_self_test = false});
+    const double diff = check_against_torchvision(net, *m.self_test);
+    MESSAGE(arch, ": max abs diff of logits vs torchvision ", diff);
+    std::filesystem::remove(path);
+  }
+}

@@ -1,0 +1,275 @@
+#!/usr/bin/python3
+"""Convert a torchvision DenseNet into a shadowsense model file (docs/model_format.md).
+
+Sources (exactly one):
+  --torchvision NAME      densenet121/161/169/201 built by torchvision; add --pretrained to use
+                          torchvision's ImageNet weights (downloads them: needs internet)
+  --state-dict PATH       a state_dict or a checkpoint holding one (keys 'state_dict',
+                          'model_state_dict' or 'model'), e.g. saved by a training script
+  --random-init           random weights AND non-trivial BatchNorm running statistics
+                          (for tests); the architecture comes from --arch or the growth options
+
+Architecture: --arch densenet121|161|169|201, or --growth-rate/--block-config/
+--init-features/--bn-size; --num-classes (default: inferred from the classifier weights).
+--self-test N embeds N random inputs and torchvision's logits for them, which the C++ loader
+re-runs at load time.
+
+Run with Debian's python: /usr/bin/python3 tools/densenet_to_model.py ...
+"""
+import argparse
+import re
+import struct
+import sys
+import zlib
+
+import torch
+import torchvision
+
+MAGIC = b"SSDNMOD\n"
+VERSION = 1
+ARCHS = {
+    "densenet121": (32, (6, 12, 24, 16), 64),
+    "densenet161": (48, (6, 12, 36, 24), 96),
+    "densenet169": (32, (6, 12, 32, 32), 64),
+    "densenet201": (32, (6, 12, 48, 32), 64),
+}
+
+
+def expected_keys(growth, blocks, init, bn_size, classes):
+    keys = []
+
+    def bn(prefix, c):
+        for p in ("weight", "bias", "running_mean", "running_var"):
+            keys.append((f"{prefix}.{p}", (c,)))
+
+    keys.append(("features.conv0.weight", (init, 3, 7, 7)))
+    bn("features.norm0", init)
+    c = init
+    inner = bn_size * growth
+    for b, n in enumerate(blocks):
+        for l in range(n):
+            layer = f"features.denseblock{b + 1}.denselayer{l + 1}"
+            cin = c + l * growth
+            bn(layer + ".norm1", cin)
+            keys.append((layer + ".conv1.weight", (inner, cin, 1, 1)))
+            bn(layer + ".norm2", inner)
+            keys.append((layer + ".conv2.weight", (growth, inner, 3, 3)))
+        c += n * growth
+        if b + 1 < len(blocks):
+            bn(f"features.transition{b + 1}.norm", c)
+            keys.append((f"features.transition{b + 1}.conv.weight", (c // 2, c, 1, 1)))
+            c //= 2
+    bn("features.norm5", c)
+    keys.append(("classifier.weight", (classes, c)))
+    keys.append(("classifier.bias", (classes,)))
+    return keys
+
+
+def normalise_state_dict(sd):
+    """Accept checkpoints, DataParallel 'module.' prefixes and the old torchvision key style
+    ('norm.1' instead of 'norm1')."""
+    for k in ("state_dict", "model_state_dict", "model"):
+        if isinstance(sd, dict) and k in sd and isinstance(sd[k], dict):
+            sd = sd[k]
+    if isinstance(sd, torch.nn.Module):
+        sd = sd.state_dict()
+    old = re.compile(r"^(.*denselayer\d+\.(?:norm|relu|conv))\.((?:[12])\.(?:weight|bias|running_mean|running_var))$")
+    out = {}
+    for k, v in sd.items():
+        if k.startswith("module."):
+            k = k[len("module."):]
+        m = old.match(k)
+        if m:
+            k = m.group(1) + m.group(2)
+        out[k] = v
+    return out
+
+
+def randomise_bn(model, gen, h=64, w=64):
+    """Non-trivial BatchNorm statistics that keep activations well scaled: gamma/beta away
+    from (1, 0), then running statistics measured on random inputs (so every layer sees
+    roughly normalised data and the logits stay O(1)) and perturbed per channel, so a wrong
+    folding, a swapped tensor or a mean/var mix-up shows in the logits."""
+    with torch.no_grad():
+        for m in model.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                c = m.num_features
+                m.weight.copy_(1.0 + 0.25 * torch.randn(c, generator=gen))
+                m.bias.copy_(0.1 * torch.randn(c, generator=gen))
+                m.reset_running_stats()
+                m.momentum = None  # cumulative average over the calibration batch
+            elif isinstance(m, torch.nn.Linear):
+                m.bias.copy_(0.1 * torch.randn(m.bias.shape, generator=gen))
+        model.train()
+        model(torch.randn(4, 3, h, w, generator=gen))
+        model.eval()
+        for m in model.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                c = m.num_features
+                sd = m.running_var.sqrt()
+                m.running_mean.add_(0.1 * sd * torch.randn(c, generator=gen))
+                m.running_var.mul_(torch.exp(0.3 * torch.randn(c, generator=gen)))
+                m.momentum = 0.1
+
+
+def extreme_bn(model):
+    """Hard cases for the folding: in every BatchNorm, channel 0 gets running_var 0 (only eps
+    keeps the scale finite), channel 1 a variance of 1e-9 and channel 2 a variance 1e6 times
+    larger than measured; gamma is rescaled so activations keep their size (otherwise the
+    logits explode to 1e18 through the depth) while the arithmetic sees the extreme values."""
+    with torch.no_grad():
+        for m in model.modules():
+            if isinstance(m, torch.nn.BatchNorm2d) and m.num_features >= 3:
+                v = m.running_var
+                for c, new in ((0, 0.0), (1, 1e-9), (2, float(v[2]) * 1e6)):
+                    m.weight[c] *= ((new + m.eps) / (float(v[c]) + m.eps)) ** 0.5
+                    v[c] = new
+
+
+def build_model(args):
+    if args.arch:
+        growth, blocks, init = ARCHS[args.arch]
+    else:
+        growth, blocks, init = args.growth_rate, tuple(args.block_config), args.init_features
+    if args.torchvision:
+        growth, blocks, init = ARCHS[args.torchvision]
+        kwargs = {}
+        if args.pretrained:
+            kwargs["weights"] = "IMAGENET1K_V1"
+        model = getattr(torchvision.models, args.torchvision)(**kwargs)
+        if args.num_classes and args.num_classes != model.classifier.out_features:
+            model.classifier = torch.nn.Linear(model.classifier.in_features, args.num_classes)
+    elif args.state_dict:
+        sd = normalise_state_dict(torch.load(args.state_dict, map_location="cpu"))
+        classes = args.num_classes or sd["classifier.weight"].shape[0]
+        model = torchvision.models.DenseNet(growth, blocks, init, args.bn_size, 0, classes)
+        model.load_state_dict(sd)
+    else:
+        classes = args.num_classes or 1000
+        torch.manual_seed(args.seed)
+        model = torchvision.models.DenseNet(growth, blocks, init, args.bn_size, 0, classes)
+        gen = torch.Generator().manual_seed(args.seed)
+        randomise_bn(model, gen)
+        if args.extreme_bn:
+            extreme_bn(model)
+    model.eval()
+    return model, growth, blocks, init
+
+
+def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, self_test):
+    sd = model.state_dict()
+    classes = sd["classifier.weight"].shape[0]
+    eps = None
+    for m in model.modules():
+        if isinstance(m, torch.nn.BatchNorm2d):
+            eps = m.eps if eps is None else eps
+            if m.eps != eps:
+                raise SystemExit("all BatchNorm layers must share one eps")
+    out = bytearray()
+    u32 = lambda v: out.extend(struct.pack("<I", v))
+    f32 = lambda v: out.extend(struct.pack("<f", v))
+    out.extend(MAGIC)
+    u32(VERSION)
+    for v in (growth, bn_size, init, classes):
+        u32(v)
+    f32(eps)
+    u32(len(blocks))
+    for b in blocks:
+        u32(b)
+    for v in (pre["resize_width"], pre["resize_height"], pre["crop_width"], pre["crop_height"]):
+        u32(v)
+    f32(pre["contrast"])
+    f32(pre["brightness"])
+    for v in list(pre["mean"]) + list(pre["std"]):
+        f32(v)
+    u32(0)  # the network expects RGB
+    if len(class_names) != classes:
+        raise SystemExit(f"{len(class_names)} class names for {classes} classes")
+    u32(classes)
+    for n in class_names:
+        b = n.encode("utf-8")
+        u32(len(b))
+        out.extend(b)
+    keys = expected_keys(growth, blocks, init, bn_size, classes)
+    u32(len(keys))
+    for name, shape in keys:
+        t = sd[name].detach().to(torch.float32).contiguous()
+        if tuple(t.shape) != shape:
+            raise SystemExit(f"{name}: shape {tuple(t.shape)}, expected {shape}")
+        b = name.encode()
+        u32(len(b))
+        out.extend(b)
+        u32(len(shape))
+        for d in shape:
+            u32(d)
+        out.extend(t.numpy().astype("<f4").tobytes())
+    if self_test is None:
+        u32(0)
+    else:
+        x, logits, tol = self_test
+        u32(1)
+        for d in x.shape:
+            u32(d)
+        out.extend(x.contiguous().numpy().astype("<f4").tobytes())
+        out.extend(logits.contiguous().numpy().astype("<f4").tobytes())
+        f32(tol)
+    out.extend(struct.pack("<I", checksum(out)))
+    with open(path, "wb") as f:
+        f.write(out)
+
+
+def checksum(data):
+    """CRC-32 (zlib) of every byte before the checksum."""
+    return zlib.crc32(bytes(data)) & 0xFFFFFFFF
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    src = ap.add_mutually_exclusive_group(required=True)
+    src.add_argument("--torchvision", choices=sorted(ARCHS))
+    src.add_argument("--state-dict")
+    src.add_argument("--random-init", action="store_true")
+    ap.add_argument("--extreme-bn", action="store_true",
+                    help="with --random-init: running_var 0, 1e-9 and x1e6 in channels 0-2")
+    ap.add_argument("--pretrained", action="store_true", help="torchvision ImageNet weights")
+    ap.add_argument("--arch", choices=sorted(ARCHS))
+    ap.add_argument("--growth-rate", type=int, default=32)
+    ap.add_argument("--block-config", type=int, nargs="+", default=[6, 12, 24, 16])
+    ap.add_argument("--init-features", type=int, default=64)
+    ap.add_argument("--bn-size", type=int, default=4)
+    ap.add_argument("--num-classes", type=int, default=0)
+    ap.add_argument("--class-names", nargs="*", help="default: class0, class1, ...")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--resize", type=int, nargs=2, default=[318, 235], metavar=("W", "H"))
+    ap.add_argument("--crop", type=int, nargs=2, default=[220, 150], metavar=("W", "H"))
+    ap.add_argument("--contrast", type=float, default=3.0)
+    ap.add_argument("--brightness", type=float, default=2.0, help="factor for dark images")
+    ap.add_argument("--mean", type=float, nargs=3, default=[0.485, 0.456, 0.406])
+    ap.add_argument("--std", type=float, nargs=3, default=[0.229, 0.224, 0.225])
+    ap.add_argument("--self-test", type=int, default=0, metavar="N",
+                    help="embed N random inputs (crop size) and torchvision's logits")
+    ap.add_argument("--self-test-tolerance", type=float, default=1e-4)
+    ap.add_argument("-o", "--output", required=True)
+    args = ap.parse_args(argv)
+
+    model, growth, blocks, init = build_model(args)
+    classes = model.classifier.out_features
+    names = args.class_names or [f"class{i}" for i in range(classes)]
+    pre = dict(resize_width=args.resize[0], resize_height=args.resize[1],
+               crop_width=args.crop[0], crop_height=args.crop[1], contrast=args.contrast,
+               brightness=args.brightness, mean=args.mean, std=args.std)
+    st = None
+    if args.self_test > 0:
+        gen = torch.Generator().manual_seed(args.seed + 1)
+        h, w = (args.crop[1], args.crop[0]) if args.crop[0] else (args.resize[1], args.resize[0])
+        x = torch.randn(args.self_test, 3, h, w, generator=gen)
+        with torch.no_grad():
+            logits = model(x)
+        st = (x, logits, args.self_test_tolerance)
+    write_model(args.output, model, growth, blocks, init, args.bn_size, names, pre, st)
+    print(f"wrote {args.output}: growth {growth}, blocks {list(blocks)}, init {init}, "
+          f"bn_size {args.bn_size}, {classes} classes")
+
+
+if __name__ == "__main__":
+    main()
