@@ -11,3 +11,4 @@
 #include <shadowsense/tensor.hpp>
 #include <shadowsense/model_file.hpp>
 #include <shadowsense/densenet.hpp>
+#include <shadowsense/sim/sim.hpp>

@@ -1,0 +1,377 @@
+// The scene renderer: turns a Scene (layered body silhouettes with heights) into the frame
+// the camera under the skin sees, plus exact ground truth derived from the same buffers
+// that produce the pixels (so ground truth and pixels cannot disagree).
+//
+// Per frame: each part's shadow is shifted along the light direction by height x
+// tan(zenith) (per vertex, so rising arms stretch), projected through the fisheye, filled,
+// and blurred with a penumbra that grows with height, at an opacity that falls with height.
+// Parts at height 0 are in contact: sharp, opacity 1, skin-tinted. The fabric (weave,
+// wrinkles), vignetting, light colour, ambient light and sensor noise are then composed.
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/sim/body.hpp>
+#include <shadowsense/sim/lighting.hpp>
+#include <shadowsense/sim/rig.hpp>
+#include <shadowsense/sim/rng.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace sim {
+
+// Ground truth of one frame, in image pixels after the fisheye projection.
+struct GroundTruth {
+  // Minimum enclosing rectangle (inclusive coverage: w = max_x - min_x + 1) of the pixels
+  // where the combined shadow of all body parts has opacity >= 0.5, on the visible skin.
+  std::optional<cv::Rect> shadow_box;
+  // Minimum enclosing rectangle of the pixels of parts in contact (height 0).
+  std::optional<cv::Rect> contact_box;
+  // Centroid of the contact pixels.
+  std::optional<cv::Point2f> contact_point;
+  cv::Mat shadow_mask;    // CV_8UC1, 255 where shadow opacity >= 0.5
+  cv::Mat contact_mask;   // CV_8UC1, 255 where a part touches
+  cv::Mat shadow_opacity; // CV_32FC1 in [0, 1], body parts only (no distractors)
+  double px_per_cm = 0;
+};
+
+struct Frame {
+  cv::Mat image; // CV_8UC3, BGR
+  GroundTruth gt;
+};
+
+struct RenderConfig {
+  std::uint64_t fabric_seed = 0x5EED5EEDull; // the weave's fibre noise and the wrinkle fields
+  double weave_amplitude = 0.035;            // relative brightness variation of the weave
+  bool sensor_noise = true;                  // off: exact, noise-free frames (tests)
+  double max_opacity = 0.97;                 // of a part just above the skin
+  double opacity_half_height_cm = 25.0;      // opacity = max / (1 + (h / this)^2)
+  double penumbra_base_cm = 0.12;            // penumbra sigma = base + per_cm * height
+  double penumbra_per_cm = 0.11;
+  double edge_step_cm = 1.5; // polygon edges are subdivided so the fisheye can bend them
+  // Light transmitted through skin pressed on the fabric, per BGR channel, relative to lit
+  // fabric: warm (R > G > B) and darker than any shadow.
+  cv::Vec3f skin_transmission{0.09f, 0.16f, 0.33f};
+  double interior = 0.07; // brightness of what is not skin (robot interior, box walls)
+
+  void validate() const {
+    detail::require(weave_amplitude >= 0 && weave_amplitude <= 0.3,
+                    "RenderConfig: weave_amplitude must be in [0, 0.3]");
+    detail::require(max_opacity > 0.5 && max_opacity <= 1,
+                    "RenderConfig: max_opacity must be in (0.5, 1]");
+    detail::require(opacity_half_height_cm > 0, "RenderConfig: opacity_half_height_cm must be > 0");
+    detail::require(penumbra_base_cm >= 0 && penumbra_per_cm >= 0,
+                    "RenderConfig: penumbra parameters must be >= 0");
+    detail::require(edge_step_cm > 0.05, "RenderConfig: edge_step_cm must be > 0.05");
+    for (int c = 0; c < 3; ++c)
+      detail::require(skin_transmission[c] > 0 && skin_transmission[c] < 1,
+                      "RenderConfig: skin_transmission channels must be in (0, 1)");
+    detail::require(interior >= 0 && interior <= 1, "RenderConfig: interior must be in [0, 1]");
+  }
+};
+
+class Renderer {
+public:
+  static constexpr int wrinkle_fields = 4;
+
+  explicit Renderer(Rig rig, RenderConfig config = {}) : rig_(std::move(rig)), cfg_(config) {
+    rig_.validate();
+    cfg_.validate();
+    precompute();
+  }
+
+  const Rig& rig() const { return rig_; }
+  const RenderConfig& config() const { return cfg_; }
+  // 255 where the pixel shows the skin surface.
+  const cv::Mat& surface_mask() const { return surface_; }
+
+  // Opacity of a part's shadow at mean height h (cm), before blurring.
+  double opacity_at(double h) const {
+    const double q = h / cfg_.opacity_half_height_cm;
+    return cfg_.max_opacity / (1.0 + q * q);
+  }
+  double penumbra_cm(double h) const { return cfg_.penumbra_base_cm + cfg_.penumbra_per_cm * h; }
+
+  Frame render(const Scene& scene, const Light& light, std::uint64_t noise_seed) {
+    Frame f;
+    render(scene, light, noise_seed, f);
+    return f;
+  }
+
+  // Renders into `out`, reusing its buffers (no allocation after the first frame of a size).
+  void render(const Scene& scene, const Light& light, std::uint64_t noise_seed, Frame& out) {
+    scene.validate();
+    light.validate();
+    const cv::Size size = rig_.image_size;
+    GroundTruth& gt = out.gt;
+    gt.shadow_opacity.create(size, CV_32FC1);
+    gt.shadow_opacity.setTo(0);
+    gt.contact_mask.create(size, CV_8UC1);
+    gt.contact_mask.setTo(0);
+    distractor_.create(size, CV_32FC1);
+    distractor_.setTo(0);
+
+    const double tz = std::tan(light.zenith_deg * internal::deg);
+    const double az = light.shadow_azimuth_deg * internal::deg;
+    const cv::Point2d shift_per_cm{tz * std::cos(az), tz * std::sin(az)};
+
+    bool any_contact = false;
+    for (const BodyPart& part : scene.parts) {
+      if (part.in_contact()) {
+        project(part.outline_cm, &part.height_cm, {0, 0});
+        fill(gt.contact_mask, 1, 255.0);
+        any_contact = true;
+        continue;
+      }
+      const double h = part.mean_height();
+      const double alpha = opacity_at(h);
+      if (alpha < 1.0 / 512) continue;
+      const cv::Point2d c = project(part.outline_cm, &part.height_cm, shift_per_cm);
+      draw_soft(gt.shadow_opacity, alpha, penumbra_cm(h) * rig_.local_px_per_cm(c));
+    }
+    bool any_distractor = false;
+    for (const Distractor& d : scene.distractors) {
+      const cv::Point2d c = project(d.outline_cm, nullptr, {0, 0});
+      draw_soft(distractor_, d.opacity, d.blur_cm * rig_.local_px_per_cm(c));
+      any_distractor = true;
+    }
+    // Clip to the visible skin; contact parts are fully opaque.
+    gt.shadow_opacity.setTo(0, not_surface_);
+    if (any_contact) {
+      cv::bitwise_and(gt.contact_mask, surface_, gt.contact_mask);
+      gt.shadow_opacity.setTo(1.0, gt.contact_mask);
+    }
+    cv::compare(gt.shadow_opacity, 0.5, gt.shadow_mask, cv::CMP_GE);
+    gt.px_per_cm = rig_.px_per_cm();
+    gt.shadow_box.reset();
+    gt.contact_box.reset();
+    gt.contact_point.reset();
+    const cv::Rect sb = cv::boundingRect(gt.shadow_mask);
+    if (sb.area() > 0) gt.shadow_box = sb;
+    if (any_contact) {
+      const cv::Moments m = cv::moments(gt.contact_mask, true);
+      if (m.m00 > 0) {
+        gt.contact_box = cv::boundingRect(gt.contact_mask);
+        gt.contact_point =
+            cv::Point2f(static_cast<float>(m.m10 / m.m00), static_cast<float>(m.m01 / m.m00));
+      }
+    }
+    compose(scene, light, noise_seed, any_distractor, out.image, gt);
+  }
+
+private:
+  Rig rig_;
+  RenderConfig cfg_;
+  cv::Mat surface_, not_surface_;               // CV_8U
+  cv::Mat base_;                                // CV_32F: weave x vignetting
+  std::array<cv::Mat, wrinkle_fields> wrinkle_; // CV_32F in [-1, 1]
+  cv::Mat distractor_, scratch_, scratch_big_;
+  std::vector<cv::Point2d> plane_, px_;
+  std::vector<cv::Point> fixed_;
+
+  static constexpr int shift_bits = 4; // fillPoly sub-pixel precision: 1/16 px
+
+  void precompute() {
+    const cv::Size size = rig_.image_size;
+    surface_.create(size, CV_8UC1);
+    base_.create(size, CV_32FC1);
+    Rng rng(derive_seed(cfg_.fabric_seed, 1));
+    // Wrinkles: soft ridges along random lines on the skin plane (cm), 3 per field.
+    struct Ridge {
+      cv::Point2d p, n;
+      double width, sign;
+    };
+    std::array<std::array<Ridge, 3>, wrinkle_fields> ridges{};
+    const double ext = std::min(rig_.camera_distance_cm, 30.0);
+    for (auto& field : ridges)
+      for (auto& r : field) {
+        const double a = rng.uniform(0, 3.14159265358979323846);
+        r.p = {rng.uniform(-ext, ext), rng.uniform(-ext, ext) * 0.7};
+        r.n = {-std::sin(a), std::cos(a)};
+        r.width = rng.uniform(0.3, 1.4);
+        r.sign = rng.chance(0.5) ? 1.0 : -1.0;
+      }
+    for (auto& w : wrinkle_) w.create(size, CV_32FC1);
+    for (int y = 0; y < size.height; ++y) {
+      auto* s = surface_.ptr<std::uint8_t>(y);
+      auto* b = base_.ptr<float>(y);
+      for (int x = 0; x < size.width; ++x) {
+        const cv::Point2d px{static_cast<double>(x), static_cast<double>(y)};
+        s[x] = rig_.on_surface(px) ? 255 : 0;
+        const double c = std::cos(rig_.off_axis_rad(px));
+        const double vig = 1.0 - rig_.vignetting * (1.0 - c * c);
+        const double weave =
+            std::sin(6.283185307179586 * x / 3.1) * std::sin(6.283185307179586 * y / 2.9);
+        const double fibre = 0.4 * rng.normal();
+        b[x] = static_cast<float>(vig * (1.0 + cfg_.weave_amplitude * (weave + fibre)));
+        const cv::Point2d p = rig_.unproject(px);
+        for (int k = 0; k < wrinkle_fields; ++k) {
+          double v = 0;
+          for (const Ridge& r : ridges[static_cast<std::size_t>(k)]) {
+            const double d = (p - r.p).dot(r.n) / r.width;
+            v += r.sign * std::exp(-0.5 * d * d);
+          }
+          wrinkle_[static_cast<std::size_t>(k)].ptr<float>(y)[x] =
+              static_cast<float>(std::clamp(v, -1.0, 1.0));
+        }
+      }
+    }
+    cv::bitwise_not(surface_, not_surface_);
+  }
+
+  // Subdivides the outline, shifts each vertex by its height along the light, projects it
+  // into the image. Fills px_ and returns the projected (shifted) centroid in plane cm.
+  cv::Point2d project(const std::vector<cv::Point2d>& outline, const std::vector<double>* heights,
+                      cv::Point2d shift_per_cm) {
+    plane_.clear();
+    const std::size_t n = outline.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const cv::Point2d a = outline[i], b = outline[(i + 1) % n];
+      const double ha = heights ? (*heights)[i] : 0.0, hb = heights ? (*heights)[(i + 1) % n] : 0.0;
+      const int steps = std::max(
+          1, static_cast<int>(std::ceil(std::hypot(b.x - a.x, b.y - a.y) / cfg_.edge_step_cm)));
+      for (int s = 0; s < steps; ++s) {
+        const double t = static_cast<double>(s) / steps;
+        plane_.push_back(a + (b - a) * t + shift_per_cm * (ha + (hb - ha) * t));
+      }
+    }
+    px_.resize(plane_.size());
+    cv::Point2d c{0, 0};
+    for (std::size_t i = 0; i < plane_.size(); ++i) {
+      px_[i] = rig_.project(plane_[i]);
+      c += plane_[i];
+    }
+    return c * (1.0 / static_cast<double>(plane_.size()));
+  }
+
+  // Fills px_ (scaled by 1/scale, offset by -origin) into dst with value v.
+  void fill(cv::Mat& dst, double scale, double v, cv::Point2d origin = {0, 0}) {
+    fixed_.resize(px_.size());
+    constexpr double one = 1 << shift_bits;
+    for (std::size_t i = 0; i < px_.size(); ++i) {
+      const double x = (px_[i].x - origin.x + 0.5) / scale - 0.5;
+      const double y = (px_[i].y - origin.y + 0.5) / scale - 0.5;
+      fixed_[i] = {static_cast<int>(std::lround(std::clamp(x, -1e5, 1e5) * one)),
+                   static_cast<int>(std::lround(std::clamp(y, -1e5, 1e5) * one))};
+    }
+    const cv::Point* pts = fixed_.data();
+    const int npts = static_cast<int>(fixed_.size());
+    cv::fillPoly(dst, &pts, &npts, 1, cv::Scalar::all(v), cv::LINE_8, shift_bits);
+  }
+
+  // Draws px_ as a soft shadow of peak opacity alpha and penumbra sigma (px) into dst (max).
+  // Large blurs are computed at a reduced resolution and upsampled (same result, far faster).
+  void draw_soft(cv::Mat& dst, double alpha, double sigma_px) {
+    if (px_.empty()) return;
+    double x0 = px_[0].x, x1 = x0, y0 = px_[0].y, y1 = y0;
+    for (const auto& p : px_) {
+      x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+      y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    const int margin = static_cast<int>(std::ceil(3.0 * sigma_px)) + 2;
+    const cv::Size size = dst.size();
+    // Virtual region: the polygon's box plus the blur margin, limited to the image plus margin.
+    int rx0 = std::max(static_cast<int>(std::floor(x0)) - margin, -margin);
+    int ry0 = std::max(static_cast<int>(std::floor(y0)) - margin, -margin);
+    int rx1 = std::min(static_cast<int>(std::ceil(x1)) + margin, size.width + margin);
+    int ry1 = std::min(static_cast<int>(std::ceil(y1)) + margin, size.height + margin);
+    if (rx1 <= std::max(rx0, 0) || ry1 <= std::max(ry0, 0) || rx0 >= size.width ||
+        ry0 >= size.height)
+      return;
+    const int scale = sigma_px > 3.0 ? std::max(1, static_cast<int>(sigma_px / 2.0)) : 1;
+    const int sw = (rx1 - rx0 + scale - 1) / scale, sh = (ry1 - ry0 + scale - 1) / scale;
+    scratch_.create(sh, sw, CV_32FC1);
+    scratch_.setTo(0);
+    fill(scratch_, scale, alpha, {static_cast<double>(rx0), static_cast<double>(ry0)});
+    const double s = sigma_px / scale;
+    if (s > 0.2) {
+      const int k = 2 * static_cast<int>(std::ceil(3.0 * s)) + 1;
+      cv::GaussianBlur(scratch_, scratch_, cv::Size(k, k), s, s, cv::BORDER_CONSTANT);
+    }
+    const cv::Mat* big = &scratch_;
+    if (scale > 1) {
+      cv::resize(scratch_, scratch_big_, cv::Size(sw * scale, sh * scale), 0, 0, cv::INTER_LINEAR);
+      big = &scratch_big_;
+    }
+    const cv::Rect virt(rx0, ry0, big->cols, big->rows);
+    const cv::Rect img = virt & cv::Rect(0, 0, size.width, size.height);
+    if (img.area() <= 0) return;
+    cv::Mat d = dst(img);
+    cv::max(d, (*big)(img - virt.tl()), d);
+  }
+
+  void compose(const Scene& scene, const Light& light, std::uint64_t noise_seed,
+               bool any_distractor, cv::Mat& image, const GroundTruth& gt) {
+    const cv::Size size = rig_.image_size;
+    image.create(size, CV_8UC3);
+    const cv::Vec3f lc = colour_of_temperature(light.colour_temp_k);
+    const cv::Vec3f ac = colour_of_temperature(light.ambient_temp_k);
+    const float bright = static_cast<float>(light.brightness);
+    const float amb = static_cast<float>(light.ambient);
+    const cv::Vec3f ambient = ac * (bright * amb);
+    const cv::Vec3f direct = lc * (bright * (1.0f - amb));
+    const float tone = static_cast<float>(1.15 - 0.35 * scene.skin_tone);
+    cv::Vec3f contact;
+    for (int c = 0; c < 3; ++c) contact[c] = bright * lc[c] * cfg_.skin_transmission[c] * tone;
+    const cv::Vec3f interior = lc * static_cast<float>(bright * cfg_.interior);
+    const float sigma = cfg_.sensor_noise ? static_cast<float>(light.noise_sigma) : 0.0f;
+    // Irwin-Hall: a sum of 4 uniform bytes is close to normal (mean 510, sd 147.8).
+    const float noise_scale = sigma / 147.8f;
+    Rng rng(derive_seed(noise_seed, 0xC0FFEE));
+    const std::array<float, wrinkle_fields> w = scene.wrinkle;
+
+    for (int y = 0; y < size.height; ++y) {
+      const auto* s = surface_.ptr<std::uint8_t>(y);
+      const auto* b = base_.ptr<float>(y);
+      const auto* op = gt.shadow_opacity.ptr<float>(y);
+      const auto* dop = any_distractor ? distractor_.ptr<float>(y) : nullptr;
+      const auto* ct = gt.contact_mask.ptr<std::uint8_t>(y);
+      const float* wr[wrinkle_fields];
+      for (int k = 0; k < wrinkle_fields; ++k)
+        wr[k] = wrinkle_[static_cast<std::size_t>(k)].ptr<float>(y);
+      auto* out = image.ptr<std::uint8_t>(y);
+      std::uint64_t bits = 0;
+      int left = 0;
+      for (int x = 0; x < size.width; ++x) {
+        float t = b[x];
+        cv::Vec3f v;
+        if (!s[x]) {
+          v = interior * t;
+        } else {
+          t *= 1.0f + w[0] * wr[0][x] + w[1] * wr[1][x] + w[2] * wr[2][x] + w[3] * wr[3][x];
+          if (ct[x]) {
+            v = contact * t;
+          } else {
+            const float o = dop ? std::max(op[x], dop[x]) : op[x];
+            v = (ambient + direct * (1.0f - o)) * t;
+          }
+        }
+        for (int c = 0; c < 3; ++c) {
+          float n = 0.0f;
+          if (sigma > 0.0f) {
+            if (left == 0) bits = rng.next(), left = 2;
+            const std::uint32_t q = static_cast<std::uint32_t>(bits);
+            bits >>= 32;
+            --left;
+            n = static_cast<float>(static_cast<int>((q & 255u) + ((q >> 8) & 255u) +
+                                                    ((q >> 16) & 255u) + (q >> 24)) -
+                                   510) *
+                noise_scale;
+          }
+          out[3 * x + c] = cv::saturate_cast<std::uint8_t>(v[c] + n);
+        }
+      }
+    }
+  }
+};
+
+} // namespace sim
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,10 @@
+// The scene generator (core only: OpenCV core + imgproc). Dataset writers are in
+// <shadowsense/dataset.hpp> (needs imgcodecs).
+#pragma once
+
+#include <shadowsense/sim/body.hpp>
+#include <shadowsense/sim/lighting.hpp>
+#include <shadowsense/sim/renderer.hpp>
+#include <shadowsense/sim/rig.hpp>
+#include <shadowsense/sim/rng.hpp>
+#include <shadowsense/sim/tracking.hpp>
