@@ -263,6 +263,18 @@ TEST_CASE("calibration text round-trips exactly and malformed files are rejected
   c.contact_warmth = -0.0625f;
   c.reference_percentile = 0.85f;
   CHECK(calibration_from_string(calibration_to_string(c)) == c);
+  // Per-light thresholds: interpolated by the frame's reference luminance, clamped at the ends.
+  c.by_light = {{50.f, 0.25f, 0.5f, 0.0f}, {150.f, 0.35f, 0.4f, 0.1f}};
+  CHECK(c.thresholds_at(100.f).shadow_darkness == doctest::Approx(0.30));
+  CHECK(c.thresholds_at(100.f).contact_darkness == doctest::Approx(0.45));
+  CHECK(c.thresholds_at(125.f).contact_warmth == doctest::Approx(0.075));
+  CHECK(c.thresholds_at(10.f) == c.by_light[0]);
+  CHECK(c.thresholds_at(250.f) == c.by_light[1]);
+  CHECK(calibration_from_string(calibration_to_string(c)) == c);
+  CHECK_THROWS_WITH_AS(
+      calibration_from_string(calibration_to_string(c) + "light_thresholds 100 0.3 0.4 0.1\n"),
+      doctest::Contains("greater than the previous row"), ModelFileError);
+  c.by_light.clear();
   const std::string path = std::string(SHADOWSENSE_TEST_TMP_DIR) + "/calibration_roundtrip.txt";
   std::filesystem::create_directories(SHADOWSENSE_TEST_TMP_DIR);
   save_calibration(c, path);

@@ -7,14 +7,16 @@
 // Two ways to colour-classify a pixel (SegmenterCalibration::mode):
 //  * fixed_ranges - the paper's method: a pixel is in a class when its B, G and R values each lie
 //    in that class's inclusive range. Cheap, but breaks when the light changes.
-//  * relative     - the default: each pixel is divided by a reference colour of the lit, empty
-//    skin, giving per-channel ratios q = I / reference. darkness = 1 - mean(q); warmth =
-//    q_R - q_B. A hovering shadow darkens the fabric roughly neutrally; a part in contact is
+//  * relative     - the default: each pixel is divided by the lit, empty skin's colour there,
+//    giving per-channel ratios q = I / reference. darkness = 1 - mean(q); warmth = q_R - q_B.
+//    A hovering shadow darkens the fabric roughly neutrally (cool); a part in contact is
 //    darkest and skin-tinted (warm). shadow: darkness >= shadow_darkness; contact: darkness >=
-//    contact_darkness and warmth >= contact_warmth. The reference is either estimated from each
-//    frame (a high percentile of each channel; works on single, independent frames at any light
-//    level) or, with Config::adaptive, a per-pixel model of the empty skin that is updated slowly
-//    on pixels outside any shadow (for video: follows slow light changes and vignetting).
+//    contact_darkness and warmth >= contact_warmth (thresholds optionally per light level).
+//    reference = gain x empty-skin model: the model (set_empty_skin, from a few frames of the
+//    empty skin) holds vignetting and the visible-skin outline; the gain is a high percentile of
+//    each channel of the frame over the model, so every frame, at any light, is judged against
+//    its own light. With Config::adaptive the model is also updated slowly on pixels outside any
+//    shadow, so it follows slow changes in a video.
 //
 // Calibration (fit_calibration) fits the ranges and thresholds from frames of the empty skin and
 // a few labelled touch frames; save_calibration / load_calibration store them in a small text
@@ -53,6 +55,16 @@ struct ColourRange {
 
 enum class SegmentMode { fixed_ranges, relative };
 
+// Relative-mode thresholds for frames whose reference luminance (mean of the B, G, R reference,
+// 8-bit units) is `luminance`.
+struct LightThresholds {
+  float luminance = 0;
+  float shadow_darkness = 0.2f;
+  float contact_darkness = 0.45f;
+  float contact_warmth = 0.08f;
+  bool operator==(const LightThresholds&) const = default;
+};
+
 struct SegmenterCalibration {
   SegmentMode mode = SegmentMode::relative;
   // fixed_ranges mode.
@@ -63,6 +75,23 @@ struct SegmenterCalibration {
   float contact_darkness = 0.45f;
   float contact_warmth = 0.08f;
   float reference_percentile = 0.9f; // per-frame reference: this percentile of each channel
+  // Optional thresholds per light level, sorted by strictly increasing luminance: when present,
+  // each frame uses the thresholds interpolated linearly at its reference luminance (clamped to
+  // the first/last row), since the diffuse part of the light, and with it the darkness of the
+  // half-penumbra line, changes with the light level. Empty: the three thresholds above.
+  std::vector<LightThresholds> by_light{};
+  LightThresholds thresholds_at(float luminance) const {
+    if (by_light.empty()) return {luminance, shadow_darkness, contact_darkness, contact_warmth};
+    if (luminance <= by_light.front().luminance) return by_light.front();
+    if (luminance >= by_light.back().luminance) return by_light.back();
+    std::size_t i = 1;
+    while (by_light[i].luminance < luminance) ++i;
+    const LightThresholds &a = by_light[i - 1], &b = by_light[i];
+    const float t = (luminance - a.luminance) / (b.luminance - a.luminance);
+    auto mix = [t](float u, float v) { return u + (v - u) * t; };
+    return {luminance, mix(a.shadow_darkness, b.shadow_darkness),
+            mix(a.contact_darkness, b.contact_darkness), mix(a.contact_warmth, b.contact_warmth)};
+  }
   bool operator==(const SegmenterCalibration&) const = default;
 };
 
@@ -136,6 +165,10 @@ struct Segmentation {
 
 namespace detail {
 
+inline float luminance(const cv::Vec3f& bgr) {
+  return (bgr[0] + bgr[1] + bgr[2]) / 3.f;
+}
+
 inline void validate_calibration(const SegmenterCalibration& c, const std::string& where) {
   auto in01 = [](float v) { return std::isfinite(v) && v >= 0.f && v <= 1.f; };
   require(in01(c.shadow_darkness), where + ": shadow_darkness must be in [0, 1]");
@@ -145,6 +178,18 @@ inline void validate_calibration(const SegmenterCalibration& c, const std::strin
   require(std::isfinite(c.reference_percentile) && c.reference_percentile > 0.f &&
               c.reference_percentile <= 1.f,
           where + ": reference_percentile must be in (0, 1]");
+  for (std::size_t i = 0; i < c.by_light.size(); ++i) {
+    const LightThresholds& t = c.by_light[i];
+    const std::string row = where + ": by_light[" + std::to_string(i) + "]";
+    require(std::isfinite(t.luminance) && t.luminance >= 0 && t.luminance <= 255,
+            row + ".luminance must be in [0, 255]");
+    require(i == 0 || t.luminance > c.by_light[i - 1].luminance,
+            row + ".luminance must be greater than the previous row's (sorted, no repeats)");
+    require(in01(t.shadow_darkness) && in01(t.contact_darkness),
+            row + ": darkness thresholds must be in [0, 1]");
+    require(std::isfinite(t.contact_warmth) && t.contact_warmth >= -1.f && t.contact_warmth <= 1.f,
+            row + ".contact_warmth must be in [-1, 1]");
+  }
   for (int k = 0; k < 3; ++k) {
     require(c.shadow_range.lower[k] <= c.shadow_range.upper[k],
             where + ": shadow_range lower exceeds upper in channel " + std::to_string(k));
@@ -191,8 +236,9 @@ public:
     int shadow_merge_gap = 12; // contours whose boxes are this close (px) form one blob
     int contact_merge_gap = 4;
     std::optional<HoverHeightModel> hover_model{}; // sets Blob::hover_height_cm when present
-    bool adaptive = false;    // per-pixel empty-skin model updated over time (video)
-    float adapt_rate = 0.05f; // weight of a new frame in the empty-skin model
+    bool adaptive = false;          // per-pixel empty-skin model updated over time (video)
+    float adapt_rate = 0.05f;       // weight of a new frame in the empty-skin model
+    double profile_smoothing = 3.0; // Gaussian sigma (px) of the empty-skin model
   };
 
   Segmenter() : Segmenter(Config{}) {}
@@ -209,19 +255,92 @@ public:
                     "Segmenter: merge gaps must be >= 0");
     detail::require(std::isfinite(c.adapt_rate) && c.adapt_rate > 0 && c.adapt_rate <= 1,
                     "Segmenter: adapt_rate must be in (0, 1]");
+    detail::require(std::isfinite(c.profile_smoothing) && c.profile_smoothing >= 0 &&
+                        c.profile_smoothing <= 50,
+                    "Segmenter: profile_smoothing must be in [0, 50]");
   }
 
-  // Sets the empty-skin model of the adaptive mode from a frame of the empty skin.
-  void set_background(const cv::Mat& empty_frame) {
-    require_colour_image(empty_frame, "Segmenter::set_background: empty_frame");
-    smooth(empty_frame);
-    smoothed_.convertTo(background_, CV_32FC3);
+  // Sets the empty-skin model from frames of the empty skin (any light level each): per pixel
+  // and channel, the skin's brightness relative to the frame's reference, smoothed over
+  // Config::profile_smoothing px (so it keeps vignetting and the visible-skin outline, not the
+  // weave). Pixels darker than half the reference in the model are not skin (robot interior,
+  // box walls) and are never classified. Throws InvalidArgument for no frames, a frame that is
+  // not an 8-bit colour image, or frames of different sizes.
+  void set_empty_skin(const std::vector<cv::Mat>& empty_frames) {
+    detail::require(!empty_frames.empty(),
+                    "Segmenter::set_empty_skin: no frames; expected at least one empty-skin frame");
+    cv::Mat sum;
+    for (std::size_t i = 0; i < empty_frames.size(); ++i) {
+      const std::string name = "Segmenter::set_empty_skin: frame " + std::to_string(i);
+      require_colour_image(empty_frames[i], name.c_str());
+      detail::require(empty_frames[i].size() == empty_frames[0].size(),
+                      name + " has a different size from frame 0; expected all the same size");
+      smooth(empty_frames[i]);
+      const cv::Vec3f ref = global_reference();
+      cv::Mat f;
+      smoothed_.convertTo(f, CV_32FC3);
+      f = f.mul(cv::Scalar(1.0 / ref[0], 1.0 / ref[1], 1.0 / ref[2]));
+      if (sum.empty())
+        sum = f;
+      else
+        sum += f;
+    }
+    sum *= 1.0 / static_cast<double>(empty_frames.size());
+    set_empty_skin_profile(sum);
   }
-  bool has_background() const { return !background_.empty(); }
+
+  // Sets the empty-skin model directly (CV_32FC3, 1 = lit skin at the reference brightness, as
+  // returned by empty_skin_profile()).
+  void set_empty_skin_profile(const cv::Mat& profile) {
+    detail::require(!profile.empty() && profile.type() == CV_32FC3,
+                    "Segmenter::set_empty_skin_profile: expected a non-empty CV_32FC3 profile");
+    cv::Mat lum;
+    cv::transform(profile, lum, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+    valid_ = lum >= 0.5f;
+    // Normalised convolution: smooth inside the skin only, so the outline stays sharp.
+    const double sg = config_.profile_smoothing;
+    cv::Mat w, num, den;
+    valid_.convertTo(w, CV_32F, 1.0 / 255);
+    cv::Mat masked = profile.clone();
+    masked.setTo(cv::Scalar::all(0), ~valid_);
+    if (sg > 0) {
+      cv::GaussianBlur(masked, num, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
+      cv::GaussianBlur(w, den, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
+    } else {
+      num = masked;
+      den = w;
+    }
+    profile_.create(profile.size(), CV_32FC3);
+    inv_profile_.create(profile.size(), CV_32FC3);
+    for (int y = 0; y < profile.rows; ++y) {
+      const cv::Vec3f* n = num.ptr<cv::Vec3f>(y);
+      const float* d = den.ptr<float>(y);
+      const uchar* v = valid_.ptr<uchar>(y);
+      cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
+      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < profile.cols; ++x)
+        for (int k = 0; k < 3; ++k) {
+          p[x][k] = v[x] && d[x] > 1e-6f ? std::max(n[x][k] / d[x], 0.05f) : 0.f;
+          ip[x][k] = p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
+        }
+    }
+  }
+  void set_background(const cv::Mat& empty_frame) { set_empty_skin({empty_frame}); }
+  bool has_empty_skin() const { return !profile_.empty(); }
+  const cv::Mat& empty_skin_profile() const { return profile_; }
+  // 255 where the empty-skin model shows skin (empty without a model).
+  const cv::Mat& skin_area() const { return valid_; }
 
   // Segments one BGR frame into `out` (buffers reused across calls).
   void segment(const cv::Mat& bgr, Segmentation& out) {
     require_colour_image(bgr, "Segmenter::segment: image");
+    if (!profile_.empty())
+      detail::require(bgr.size() == profile_.size(),
+                      "Segmenter::segment: image is " + std::to_string(bgr.cols) + "x" +
+                          std::to_string(bgr.rows) + " but the empty-skin model is " +
+                          std::to_string(profile_.cols) + "x" + std::to_string(profile_.rows) +
+                          "; expected the same size");
+    if (config_.adaptive && profile_.empty()) set_empty_skin({bgr}); // first frame = empty skin
     smooth(bgr);
     classify(out);
     finish_mask(out.shadow_mask);
@@ -240,15 +359,10 @@ public:
   // Per-pixel darkness and warmth (relative mode features) of the last segmented frame, CV_32F.
   const cv::Mat& darkness() const { return darkness_; }
   const cv::Mat& warmth() const { return warmth_; }
+  // Reference colour (BGR) of the last segmented frame (relative mode).
+  cv::Vec3f last_reference() const { return gain_; }
 
   const Config& config() const { return config_; }
-
-  // Per-frame reference colour (BGR) the relative mode would use for `bgr` without adaptation.
-  cv::Vec3f frame_reference(const cv::Mat& bgr) {
-    require_colour_image(bgr, "Segmenter::frame_reference: image");
-    smooth(bgr);
-    return percentile_reference();
-  }
 
 private:
   void smooth(const cv::Mat& bgr) {
@@ -259,25 +373,36 @@ private:
       bgr.copyTo(smoothed_);
   }
 
-  // Value at the configured percentile of each channel (histograms over every second pixel).
-  cv::Vec3f percentile_reference() const {
-    std::array<std::array<int, 256>, 3> hist{};
+  // The configured percentile of each channel of smoothed_ / profile over the skin (every second
+  // pixel of every second row), in 8-bit units.
+  cv::Vec3f global_reference() const {
+    constexpr int bins = 1024; // quarter-unit bins up to 256
+    std::array<std::vector<int>, 3>& hist = hist_;
+    for (auto& h : hist) h.assign(bins, 0);
+    const bool prof = !inv_profile_.empty() && inv_profile_.size() == smoothed_.size();
     int n = 0;
     for (int y = 0; y < smoothed_.rows; y += 2) {
       const cv::Vec3b* row = smoothed_.ptr<cv::Vec3b>(y);
-      for (int x = 0; x < smoothed_.cols; x += 2, ++n)
-        for (int k = 0; k < 3; ++k) ++hist[k][row[x][k]];
+      const cv::Vec3f* ip = prof ? inv_profile_.ptr<cv::Vec3f>(y) : nullptr;
+      for (int x = 0; x < smoothed_.cols; x += 2) {
+        if (ip && ip[x][0] == 0.f) continue;
+        ++n;
+        for (int k = 0; k < 3; ++k) {
+          const float v = ip ? row[x][k] * ip[x][k] : static_cast<float>(row[x][k]);
+          ++hist[k][static_cast<std::size_t>(std::clamp(static_cast<int>(v * 4.f), 0, bins - 1))];
+        }
+      }
     }
     const int target =
         std::max(1, static_cast<int>(std::ceil(config_.calibration.reference_percentile * n)));
     cv::Vec3f ref;
     for (int k = 0; k < 3; ++k) {
       int acc = 0, v = 0;
-      for (; v < 255; ++v) {
-        acc += hist[k][v];
+      for (; v < bins - 1; ++v) {
+        acc += hist[k][static_cast<std::size_t>(v)];
         if (acc >= target) break;
       }
-      ref[k] = std::max(1.0f, static_cast<float>(v));
+      ref[k] = std::max(1.0f, (static_cast<float>(v) + 0.5f) * 0.25f);
     }
     return ref;
   }
@@ -287,53 +412,56 @@ private:
     out.shadow_mask.create(size, CV_8UC1);
     out.contact_mask.create(size, CV_8UC1);
     const SegmenterCalibration& cal = config_.calibration;
+    const bool prof = !inv_profile_.empty();
     if (cal.mode == SegmentMode::fixed_ranges) {
       darkness_.release();
       warmth_.release();
       for (int y = 0; y < size.height; ++y) {
         const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+        const uchar* v = prof ? valid_.ptr<uchar>(y) : nullptr;
         uchar* s = out.shadow_mask.ptr<uchar>(y);
         uchar* c = out.contact_mask.ptr<uchar>(y);
         for (int x = 0; x < size.width; ++x) {
-          const bool contact = cal.contact_range.contains(in[x]);
+          const bool skin = !v || v[x];
+          const bool contact = skin && cal.contact_range.contains(in[x]);
           c[x] = contact ? 255 : 0;
-          s[x] = (contact || cal.shadow_range.contains(in[x])) ? 255 : 0;
+          s[x] = (contact || (skin && cal.shadow_range.contains(in[x]))) ? 255 : 0;
         }
       }
       return;
     }
     darkness_.create(size, CV_32F);
     warmth_.create(size, CV_32F);
-    const bool per_pixel = config_.adaptive && !background_.empty() && background_.size() == size;
-    if (config_.adaptive && !per_pixel) smoothed_.convertTo(background_, CV_32FC3); // first frame
-    const cv::Vec3f ref = percentile_reference();
-    const std::array<float, 3> inv{1.f / ref[0], 1.f / ref[1], 1.f / ref[2]};
-    const float ts = cal.shadow_darkness, tc = cal.contact_darkness, tw = cal.contact_warmth;
+    gain_ = global_reference();
+    const std::array<float, 3> inv{1.f / gain_[0], 1.f / gain_[1], 1.f / gain_[2]};
+    const LightThresholds th = cal.thresholds_at(detail::luminance(gain_));
+    const float ts = th.shadow_darkness, tc = th.contact_darkness, tw = th.contact_warmth;
     for (int y = 0; y < size.height; ++y) {
       const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
-      const cv::Vec3f* bg = per_pixel ? background_.ptr<cv::Vec3f>(y) : nullptr;
+      const cv::Vec3f* ip = prof ? inv_profile_.ptr<cv::Vec3f>(y) : nullptr;
       float* dk = darkness_.ptr<float>(y);
       float* wm = warmth_.ptr<float>(y);
       uchar* s = out.shadow_mask.ptr<uchar>(y);
       uchar* c = out.contact_mask.ptr<uchar>(y);
       for (int x = 0; x < size.width; ++x) {
-        float qb, qg, qr;
-        if (bg) {
-          qb = in[x][0] / std::max(bg[x][0], 1.f);
-          qg = in[x][1] / std::max(bg[x][1], 1.f);
-          qr = in[x][2] / std::max(bg[x][2], 1.f);
-        } else {
-          qb = in[x][0] * inv[0];
-          qg = in[x][1] * inv[1];
-          qr = in[x][2] * inv[2];
+        float qb = in[x][0] * inv[0], qg = in[x][1] * inv[1], qr = in[x][2] * inv[2];
+        if (ip) {
+          if (ip[x][0] == 0.f) { // not skin
+            dk[x] = wm[x] = 0.f;
+            s[x] = c[x] = 0;
+            continue;
+          }
+          qb *= ip[x][0];
+          qg *= ip[x][1];
+          qr *= ip[x][2];
         }
         const float d = 1.f - (qb + qg + qr) * (1.f / 3.f);
         const float w = qr - qb;
         dk[x] = d;
         wm[x] = w;
-        s[x] = d >= ts ? 255 : 0;
-        c[x] = (d >= tc && w >= tw) ? 255 : 0;
-        if (c[x]) s[x] = 255;
+        const bool contact = d >= tc && w >= tw;
+        c[x] = contact ? 255 : 0;
+        s[x] = (contact || d >= ts) ? 255 : 0;
       }
     }
   }
@@ -421,17 +549,24 @@ private:
       out.contact_point = cv::Point2f(static_cast<float>(sx / sa), static_cast<float>(sy / sa));
   }
 
-  // Slow update of the empty-skin model on pixels well outside any shadow.
+  // Slow update of the empty-skin model on skin pixels well outside any shadow.
   void adapt(const Segmentation& out) {
+    if (config_.calibration.mode != SegmentMode::relative) return;
     cv::dilate(out.shadow_mask, dilated_, cv::Mat(), cv::Point(-1, -1), 3);
     const float a = config_.adapt_rate;
+    const std::array<float, 3> inv{1.f / gain_[0], 1.f / gain_[1], 1.f / gain_[2]};
     for (int y = 0; y < smoothed_.rows; ++y) {
       const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
       const uchar* m = dilated_.ptr<uchar>(y);
-      cv::Vec3f* bg = background_.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < smoothed_.cols; ++x)
-        if (!m[x])
-          for (int k = 0; k < 3; ++k) bg[x][k] += a * (static_cast<float>(in[x][k]) - bg[x][k]);
+      cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
+      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < smoothed_.cols; ++x) {
+        if (m[x] || ip[x][0] == 0.f) continue;
+        for (int k = 0; k < 3; ++k) {
+          p[x][k] = std::max(p[x][k] + a * (in[x][k] * inv[k] - p[x][k]), 0.05f);
+          ip[x][k] = 1.f / p[x][k];
+        }
+      }
     }
   }
 
@@ -466,7 +601,10 @@ private:
     std::size_t contour;
   };
   Config config_;
-  cv::Mat smoothed_, blurred_, darkness_, warmth_, background_, dilated_;
+  cv::Mat smoothed_, blurred_, darkness_, warmth_, dilated_;
+  cv::Mat profile_, inv_profile_, valid_; // empty-skin model
+  cv::Vec3f gain_{1, 1, 1};
+  mutable std::array<std::vector<int>, 3> hist_;
   std::vector<std::vector<cv::Point>> contours_;
   std::vector<Kept> kept_;
   detail::DisjointSets sets_;
@@ -529,6 +667,74 @@ inline cv::Vec3b channel_percentile(const std::array<std::array<double, 256>, 3>
 
 } // namespace detail
 
+namespace detail {
+
+// Histograms of darkness (shadow vs not) and of (darkness, warmth) (contact vs not), and the
+// thresholds minimising misclassified pixels.
+class ThresholdFit {
+public:
+  static constexpr float lo = -0.5f, step = 0.005f;
+  static constexpr int nb = 300; // bins over [-0.5, 1.0)
+
+  ThresholdFit() : s_pos_(nb), s_neg_(nb), c_pos_(nb * nb), c_neg_(nb * nb) {}
+
+  void add(const cv::Mat& darkness, const cv::Mat& warmth, const cv::Mat* shadow_mask,
+           const cv::Mat* contact_mask) {
+    for (int y = 0; y < darkness.rows; ++y) {
+      const float* d = darkness.ptr<float>(y);
+      const float* w = warmth.ptr<float>(y);
+      const uchar* sm = shadow_mask ? shadow_mask->ptr<uchar>(y) : nullptr;
+      const uchar* cm = contact_mask ? contact_mask->ptr<uchar>(y) : nullptr;
+      for (int x = 0; x < darkness.cols; ++x) {
+        const bool c = cm && cm[x];
+        const bool s = c || (sm && sm[x]);
+        (s ? s_pos_ : s_neg_)[static_cast<std::size_t>(bin(d[x]))] += 1;
+        (c ? c_pos_ : c_neg_)[static_cast<std::size_t>(bin(d[x]) * nb + bin(w[x]))] += 1;
+      }
+    }
+  }
+
+  LightThresholds fit(float luminance) const {
+    LightThresholds t;
+    t.luminance = luminance;
+    t.shadow_darkness = std::clamp(best_threshold(s_pos_, s_neg_, lo, step), 0.f, 1.f);
+    // Contact: darkness >= td and warmth >= tw. 2-D suffix sums over the histograms.
+    std::vector<double> sp((nb + 1) * (nb + 1)), sn((nb + 1) * (nb + 1));
+    auto at = [&](std::vector<double>& v, int i, int j) -> double& {
+      return v[static_cast<std::size_t>(i * (nb + 1) + j)];
+    };
+    for (int i = nb - 1; i >= 0; --i)
+      for (int j = nb - 1; j >= 0; --j) {
+        const std::size_t k = static_cast<std::size_t>(i * nb + j);
+        at(sp, i, j) = c_pos_[k] + at(sp, i + 1, j) + at(sp, i, j + 1) - at(sp, i + 1, j + 1);
+        at(sn, i, j) = c_neg_[k] + at(sn, i + 1, j) + at(sn, i, j + 1) - at(sn, i + 1, j + 1);
+      }
+    const double total_pos = at(sp, 0, 0);
+    double best = -1;
+    int bi = nb, bj = nb;
+    for (int i = bin(0.f); i <= nb; ++i) // contact darkness threshold at least 0
+      for (int j = 0; j <= nb; ++j) {
+        const double err = (total_pos - at(sp, i, j)) + at(sn, i, j);
+        if (best < 0 || err < best) {
+          best = err;
+          bi = i;
+          bj = j;
+        }
+      }
+    t.contact_darkness = std::clamp(lo + step * static_cast<float>(bi), 0.f, 1.f);
+    t.contact_warmth = std::clamp(lo + step * static_cast<float>(bj), -1.f, 1.f);
+    return t;
+  }
+
+private:
+  static int bin(float v) {
+    return std::clamp(static_cast<int>(std::floor((v - lo) / step)), 0, nb - 1);
+  }
+  std::vector<double> s_pos_, s_neg_, c_pos_, c_neg_;
+};
+
+} // namespace detail
+
 // Fits the relative-mode thresholds (shadow_darkness; contact_darkness and contact_warmth jointly)
 // by minimising misclassified pixels over all given frames, and the fixed-mode colour ranges
 // (contact: the 0.5..99.5 percentiles of contact pixels per channel; shadow: from the 0.1
@@ -538,7 +744,8 @@ inline cv::Vec3b channel_percentile(const std::array<std::array<double, 256>, 3>
 // frame is not an 8-bit colour image, or a mask does not match its image.
 inline SegmenterCalibration fit_calibration(const std::vector<cv::Mat>& empty_frames,
                                             const std::vector<LabelledFrame>& touch_frames,
-                                            const Segmenter::Config& base = {}) {
+                                            const Segmenter::Config& base = {},
+                                            int light_groups = 0) {
   detail::require(!touch_frames.empty(),
                   "fit_calibration: no labelled touch frames; expected at least one");
   for (std::size_t i = 0; i < empty_frames.size(); ++i)
@@ -555,71 +762,80 @@ inline SegmenterCalibration fit_calibration(const std::vector<cv::Mat>& empty_fr
   // Features with the relative mode on each frame's own reference.
   Segmenter::Config cfg = base;
   cfg.calibration.mode = SegmentMode::relative;
+  cfg.calibration.by_light.clear();
   cfg.adaptive = false;
   cfg.mask_blur = 0;
   Segmenter seg(cfg);
-  constexpr float lo = -0.5f, step = 0.005f;
-  constexpr int nb = 300; // darkness/warmth bins over [-0.5, 1.0)
-  auto bin = [&](float v) {
-    return std::clamp(static_cast<int>(std::floor((v - lo) / step)), 0, nb - 1);
-  };
-  std::vector<double> s_pos(nb), s_neg(nb);
-  std::vector<double> c_pos(nb * nb), c_neg(nb * nb); // [darkness bin][warmth bin]
-  std::array<std::array<double, 256>, 3> h_contact{}, h_shadow{}, h_empty{};
+  if (!empty_frames.empty()) seg.set_empty_skin(empty_frames);
   Segmentation scratch;
-  auto accumulate = [&](const cv::Mat& img, const cv::Mat* sm, const cv::Mat* cm) {
-    seg.segment(img, scratch);
+  // Pass 1: each frame's reference luminance, to group frames by light level.
+  std::vector<const cv::Mat*> images;
+  for (const cv::Mat& e : empty_frames) images.push_back(&e);
+  for (const LabelledFrame& f : touch_frames) images.push_back(&f.image);
+  std::vector<float> lum(images.size());
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    seg.segment(*images[i], scratch);
+    lum[i] = detail::luminance(seg.last_reference());
+  }
+  // Groups: equal-count quantiles of the labelled frames' luminance.
+  int groups = light_groups;
+  if (groups == 0) groups = std::clamp(static_cast<int>(touch_frames.size()) / 8, 1, 6);
+  detail::require(groups >= 1, "fit_calibration: light_groups must be >= 0");
+  std::vector<float> sorted(lum.begin() + static_cast<std::ptrdiff_t>(empty_frames.size()),
+                            lum.end());
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<float> upper_edge; // group g holds luminance <= upper_edge[g]
+  for (int g = 1; g < groups; ++g)
+    upper_edge.push_back(
+        sorted[static_cast<std::size_t>(g) * sorted.size() / static_cast<std::size_t>(groups)]);
+  auto group_of = [&](float l) {
+    return static_cast<int>(std::upper_bound(upper_edge.begin(), upper_edge.end(), l) -
+                            upper_edge.begin());
+  };
+  std::vector<detail::ThresholdFit> fits(static_cast<std::size_t>(groups) + 1); // last = all
+  std::vector<std::vector<float>> group_lum(static_cast<std::size_t>(groups));
+  std::array<std::array<double, 256>, 3> h_contact{}, h_shadow{}, h_empty{};
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const bool labelled = i >= empty_frames.size();
+    const LabelledFrame* lf = labelled ? &touch_frames[i - empty_frames.size()] : nullptr;
+    seg.segment(*images[i], scratch);
+    const int g = group_of(lum[i]);
+    if (labelled) group_lum[static_cast<std::size_t>(g)].push_back(lum[i]);
+    const cv::Mat* sm = lf ? &lf->shadow_mask : nullptr;
+    const cv::Mat* cm = lf ? &lf->contact_mask : nullptr;
+    fits[static_cast<std::size_t>(g)].add(seg.darkness(), seg.warmth(), sm, cm);
+    fits.back().add(seg.darkness(), seg.warmth(), sm, cm);
     cv::Mat smooth;
     if (cfg.pre_blur > 1)
-      cv::blur(img, smooth, cv::Size(cfg.pre_blur, cfg.pre_blur), cv::Point(-1, -1),
+      cv::blur(*images[i], smooth, cv::Size(cfg.pre_blur, cfg.pre_blur), cv::Point(-1, -1),
                cv::BORDER_REPLICATE);
     else
-      smooth = img;
-    for (int y = 0; y < img.rows; ++y) {
-      const float* d = seg.darkness().ptr<float>(y);
-      const float* w = seg.warmth().ptr<float>(y);
+      smooth = *images[i];
+    for (int y = 0; y < smooth.rows; ++y) {
       const cv::Vec3b* px = smooth.ptr<cv::Vec3b>(y);
-      for (int x = 0; x < img.cols; ++x) {
+      for (int x = 0; x < smooth.cols; ++x) {
         const bool c = cm && cm->at<uchar>(y, x);
         const bool s = c || (sm && sm->at<uchar>(y, x));
-        (s ? s_pos : s_neg)[static_cast<std::size_t>(bin(d[x]))] += 1;
-        (c ? c_pos : c_neg)[static_cast<std::size_t>(bin(d[x]) * nb + bin(w[x]))] += 1;
         auto& h = c ? h_contact : (s ? h_shadow : h_empty);
         for (int k = 0; k < 3; ++k) h[k][px[x][k]] += 1;
       }
     }
-  };
-  for (const cv::Mat& e : empty_frames) accumulate(e, nullptr, nullptr);
-  for (const LabelledFrame& f : touch_frames) accumulate(f.image, &f.shadow_mask, &f.contact_mask);
-
+  }
   SegmenterCalibration cal = base.calibration;
-  cal.shadow_darkness = std::clamp(detail::best_threshold(s_pos, s_neg, lo, step), 0.f, 1.f);
-  // Contact: pixels with darkness >= td and warmth >= tw. 2-D suffix sums over the histograms.
-  std::vector<double> sp((nb + 1) * (nb + 1)), sn((nb + 1) * (nb + 1));
-  auto at = [&](std::vector<double>& v, int i, int j) -> double& {
-    return v[static_cast<std::size_t>(i * (nb + 1) + j)];
-  };
-  for (int i = nb - 1; i >= 0; --i)
-    for (int j = nb - 1; j >= 0; --j) {
-      const std::size_t k = static_cast<std::size_t>(i * nb + j);
-      at(sp, i, j) = c_pos[k] + at(sp, i + 1, j) + at(sp, i, j + 1) - at(sp, i + 1, j + 1);
-      at(sn, i, j) = c_neg[k] + at(sn, i + 1, j) + at(sn, i, j + 1) - at(sn, i + 1, j + 1);
+  const LightThresholds all = fits.back().fit(0);
+  cal.shadow_darkness = all.shadow_darkness;
+  cal.contact_darkness = all.contact_darkness;
+  cal.contact_warmth = all.contact_warmth;
+  cal.by_light.clear();
+  if (groups > 1)
+    for (int g = 0; g < groups; ++g) {
+      auto& gl = group_lum[static_cast<std::size_t>(g)];
+      if (gl.empty()) continue;
+      std::sort(gl.begin(), gl.end());
+      const float median = gl[gl.size() / 2];
+      if (!cal.by_light.empty() && median <= cal.by_light.back().luminance) continue;
+      cal.by_light.push_back(fits[static_cast<std::size_t>(g)].fit(median));
     }
-  const double total_pos = at(sp, 0, 0);
-  double best = -1;
-  int bi = nb, bj = nb;
-  const int i0 = bin(0.f); // contact darkness threshold at least 0
-  for (int i = i0; i <= nb; ++i)
-    for (int j = 0; j <= nb; ++j) {
-      const double err = (total_pos - at(sp, i, j)) + at(sn, i, j);
-      if (best < 0 || err < best) {
-        best = err;
-        bi = i;
-        bj = j;
-      }
-    }
-  cal.contact_darkness = std::clamp(lo + step * static_cast<float>(bi), 0.f, 1.f);
-  cal.contact_warmth = std::clamp(lo + step * static_cast<float>(bj), -1.f, 1.f);
 
   // Fixed ranges (the paper's mode), for comparison and for rigs with constant light.
   if (std::accumulate(h_contact[0].begin(), h_contact[0].end(), 0.0) > 0)
@@ -650,6 +866,8 @@ inline SegmenterCalibration fit_calibration(const std::vector<cv::Mat>& empty_fr
 //   shadow_range  B_lo G_lo R_lo B_hi G_hi R_hi      (integers 0..255)
 //   contact_range B_lo G_lo R_lo B_hi G_hi R_hi
 //   shadow_darkness F  contact_darkness F  contact_warmth F  reference_percentile F
+// plus zero or more rows, in increasing luminance (SegmenterCalibration::by_light):
+//   light_thresholds LUMINANCE SHADOW_DARKNESS CONTACT_DARKNESS CONTACT_WARMTH
 
 inline std::string calibration_to_string(const SegmenterCalibration& c) {
   detail::validate_calibration(c, "calibration_to_string");
@@ -670,6 +888,9 @@ inline std::string calibration_to_string(const SegmenterCalibration& c) {
   o << "contact_darkness " << c.contact_darkness << '\n';
   o << "contact_warmth " << c.contact_warmth << '\n';
   o << "reference_percentile " << c.reference_percentile << '\n';
+  for (const LightThresholds& t : c.by_light)
+    o << "light_thresholds " << t.luminance << ' ' << t.shadow_darkness << ' ' << t.contact_darkness
+      << ' ' << t.contact_warmth << '\n';
   return o.str();
 }
 
@@ -700,7 +921,7 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
       header = true;
       continue;
     }
-    if (std::find(seen.begin(), seen.end(), key) != seen.end())
+    if (key != "light_thresholds" && std::find(seen.begin(), seen.end(), key) != seen.end())
       fail("key '" + key + "' appears twice");
     seen.push_back(key);
     auto read_float = [&](float& v) {
@@ -745,7 +966,14 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
       read_float(c.contact_warmth);
     else if (key == "reference_percentile")
       read_float(c.reference_percentile);
-    else
+    else if (key == "light_thresholds") {
+      LightThresholds t;
+      read_float(t.luminance);
+      read_float(t.shadow_darkness);
+      read_float(t.contact_darkness);
+      read_float(t.contact_warmth);
+      c.by_light.push_back(t);
+    } else
       fail("unknown key '" + key + "'");
     std::string extra;
     if (ls >> extra) fail("unexpected extra value '" + extra + "' after key '" + key + "'");
