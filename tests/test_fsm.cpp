@@ -272,3 +272,25 @@ TEST_CASE("invalid configurations are rejected") {
   CHECK(direction_from_string("front") == Direction::front);
   CHECK_THROWS_AS(direction_from_string("up"), InvalidArgument);
 }
+
+TEST_CASE("a slow slide: per-frame steps below the threshold, caught by differential_window_ms") {
+  std::vector<double> ts;
+  std::vector<TouchObservation> obs;
+  for (int i = 0; i < 30; ++i) {
+    ts.push_back(i * 20.0); // 50 fps, 1 px per frame
+    obs.push_back(contact(10.0f + i, 50));
+  }
+  CHECK(sequence_direction(ts, obs) == Direction::none); // the paper's per-frame differential
+  TouchStateMachine fsm({.differential_window_ms = 60});
+  std::vector<Rec> ev;
+  for (std::size_t i = 0; i < ts.size(); ++i)
+    for (const TouchEvent& e : fsm.update(ts[i], obs[i]))
+      ev.push_back({e.timestamp_ms, e.from, e.to, e.direction});
+  // 3 px over the 60 ms window first exceeds 2 px at t = 60.
+  REQUIRE(ev.size() == 3);
+  CHECK(ev[2].to == TouchState::move);
+  CHECK(ev[2].t == 60);
+  CHECK(fsm.voted_direction() == Direction::right);
+  CHECK(fsm.votes() == std::array<int, 4>{27, 0, 0, 0});
+  CHECK_THROWS_AS(TouchStateMachine({.differential_window_ms = -1}), InvalidArgument);
+}

@@ -12,7 +12,8 @@
 //                        -> appear and touch in the same frame when a contact is seen at once.
 //  * appear/lift -> touch when a contact is seen (no delay: appearing is never debounced).
 //  * touch  -> move      when the contact "differential" exceeds move_threshold_px: the distance
-//                        between this frame's contact and the previous frame's contact.
+//                        between this frame's contact and the previous frame's contact (or,
+//                        with differential_window_ms > 0, the oldest contact in that window).
 //  * move   -> touch     when the differential is <= move_threshold_px.
 //  * touch/move -> lift  when no contact has been seen for >= hysteresis_ms: the transition fires
 //                        at the first frame whose timestamp t satisfies t - t_loss >=
@@ -122,6 +123,10 @@ public:
     double hysteresis_ms = 150.0;       // before lift and disappear (paper: 150 ms)
     double move_threshold_px = 2.0;     // differential that means move (paper: 2 px)
     double direction_window_ms = 300.0; // averaging window for the direction (paper: 300 ms)
+    // The differential compared with move_threshold_px is the displacement over this window
+    // (at least since the previous contact frame). 0 = since the previous frame (the paper);
+    // a longer window also catches slow slides at high frame rates.
+    double differential_window_ms = 0.0;
     AxisMapping axes{};
     DiagonalTie diagonal_tie = DiagonalTie::horizontal;
   };
@@ -135,6 +140,8 @@ public:
                     "TouchStateMachine: move_threshold_px must be finite and >= 0");
     detail::require(std::isfinite(config.direction_window_ms) && config.direction_window_ms > 0,
                     "TouchStateMachine: direction_window_ms must be finite and > 0");
+    detail::require(finite_nonneg(config.differential_window_ms),
+                    "TouchStateMachine: differential_window_ms must be finite and >= 0");
     const std::array<Direction, 4> m{config.axes.positive_x, config.axes.negative_x,
                                      config.axes.negative_y, config.axes.positive_y};
     std::array<int, 5> seen{};
@@ -247,13 +254,12 @@ private:
   }
 
   void continue_touch(double t, cv::Point2f p) {
-    const cv::Point2f prev = history_.empty() ? p : history_.back().p;
     history_.push_back({t, p});
-    // The window always keeps the previous contact frame, so a step is never averaged away.
-    while (history_.size() > 2 && t - history_.front().t > config_.direction_window_ms)
-      history_.pop_front();
+    // Windows always keep the previous contact frame, so a step is never averaged away.
+    const double keep = std::max(config_.direction_window_ms, config_.differential_window_ms);
+    while (history_.size() > 2 && t - history_.front().t > keep) history_.pop_front();
     last_contact_ = p;
-    const cv::Point2f step = p - prev;
+    const cv::Point2f step = p - oldest_within(config_.differential_window_ms).p;
     const double differential = std::hypot(step.x, step.y);
     const bool moving = differential > config_.move_threshold_px;
     if (state_ == TouchState::touch && moving) {
@@ -272,11 +278,23 @@ private:
     }
   }
 
-  // Mean per-frame displacement over the window; the sum telescopes to last - first.
+  // The oldest sample within `window_ms` of the newest, but at least the one before the newest.
+  const Sample& oldest_within(double window_ms) const {
+    const double t = history_.back().t;
+    std::size_t i = history_.size() - 1;
+    if (i > 0) --i;
+    while (i > 0 && t - history_[i - 1].t <= window_ms) --i;
+    return history_[i];
+  }
+
+  // Mean per-frame displacement over the direction window; the sum telescopes to last - first.
   cv::Point2f window_displacement() const {
     if (history_.size() < 2) return {0, 0};
-    const cv::Point2f total = history_.back().p - history_.front().p;
-    return total * (1.0f / static_cast<float>(history_.size() - 1));
+    const Sample& first = oldest_within(config_.direction_window_ms);
+    const cv::Point2f total = history_.back().p - first.p;
+    std::size_t steps = 0;
+    for (std::size_t i = history_.size() - 1; i > 0 && &history_[i] != &first; --i) ++steps;
+    return total * (1.0f / static_cast<float>(std::max<std::size_t>(steps, 1)));
   }
 
   Direction classify(cv::Point2f d) const {
