@@ -12,3 +12,4 @@
 #include <shadowsense/model_file.hpp>
 #include <shadowsense/densenet.hpp>
 #include <shadowsense/sim/sim.hpp>
+#include <shadowsense/preprocess.hpp>

@@ -1,0 +1,206 @@
+// Paper 5.1.2 preprocessing: resize (paper 318x235, width x height), centre crop (220x150),
+// contrast factor 3, brightness factor 2 for images taken in the dark, then normalisation with
+// the ImageNet mean/std. The result is the network's input tensor.
+//
+// Defined as torchvision's TENSOR path, on purpose: ToTensor (x / 255), Resize (bilinear,
+// align_corners=False, antialias=False), CenterCrop (offsets round((size - crop) / 2), half to
+// even like Python), functional adjust_contrast (blend with the mean of the float grayscale
+// 0.2989 R + 0.587 G + 0.114 B, clamp to [0, 1]), adjust_brightness (scale, clamp to [0, 1]),
+// Normalize. Clamping follows each step, so contrast-then-brightness is the order. The PIL path
+// (integer grayscale, uint8 rounding after every step) differs by up to a few 1/255 steps; the
+// golden tests (tools/make_preprocess_fixture.py) come from the tensor path.
+// OpenCV images are BGR: the input channel order is a required, explicit choice.
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/model_file.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/version.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+class Preprocessor {
+public:
+  struct Config {
+    PreprocessParams params{};                    // paper values; usually taken from the model
+    ChannelOrder input_order = ChannelOrder::bgr; // cv::imread / cv::VideoCapture give BGR
+  };
+
+  Preprocessor() : Preprocessor(Config{}) {}
+  explicit Preprocessor(Config config) : config_(config) {
+    try {
+      config_.params.validate();
+    } catch (const ModelFileError& e) {
+      throw InvalidArgument(std::string("Preprocessor config: ") + e.what());
+    }
+    detail::require(config_.input_order == ChannelOrder::rgb ||
+                        config_.input_order == ChannelOrder::bgr,
+                    "Preprocessor config: input_order must be rgb or bgr");
+  }
+  // The model's parameters, optionally overridden field by field afterwards by the caller.
+  static Preprocessor for_model(const ModelFile& model, ChannelOrder input_order) {
+    return Preprocessor(Config{.params = model.preprocess, .input_order = input_order});
+  }
+
+  const Config& config() const { return config_; }
+
+  // Output size (height, width) for an input of rows x cols.
+  std::pair<int, int> output_size(int rows, int cols) const {
+    const auto& p = config_.params;
+    if (p.crop_width > 0) return {p.crop_height, p.crop_width};
+    if (p.resize_width > 0) return {p.resize_height, p.resize_width};
+    return {rows, cols};
+  }
+
+  // image: CV_8UC3 (0..255) or CV_32FC3 (0..1, finite) in config().input_order. dark applies
+  // the brightness factor (paper: images collected in a dark environment). Writes a
+  // 1 x 3 x h x w tensor in the network's channel order.
+  void run(const cv::Mat& image, bool dark, Tensor& out) {
+    const auto& p = config_.params;
+    detail::require(!image.empty(), "Preprocessor: image is empty, expected CV_8UC3 or CV_32FC3");
+    detail::require(image.dims == 2 && (image.type() == CV_8UC3 || image.type() == CV_32FC3),
+                    "Preprocessor: image type is " + cv::typeToString(image.type()) +
+                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)");
+    // ToTensor: x / 255 in float (division, as torchvision does).
+    if (image.type() == CV_8UC3) {
+      float_.create(image.rows, image.cols, CV_32FC3);
+      for (int y = 0; y < image.rows; ++y) {
+        const auto* s = image.ptr<unsigned char>(y);
+        auto* d = float_.ptr<float>(y);
+        for (int x = 0; x < image.cols * 3; ++x) d[x] = static_cast<float>(s[x]) / 255.0f;
+      }
+    } else {
+      detail::require(cv::checkRange(image),
+                      "Preprocessor: float image holds NaN or Inf, expected finite values in 0..1");
+      image.copyTo(float_);
+    }
+    // Resize: bilinear, half-pixel centres, no antialias, with torch's own arithmetic for
+    // source positions and weights (cv::resize differs by up to 5e-4 after normalisation on
+    // noisy images because it rounds positions differently).
+    const cv::Mat* cur = &float_;
+    if (p.resize_width > 0 && (p.resize_width != cur->cols || p.resize_height != cur->rows)) {
+      resize_bilinear(*cur, p.resize_width, p.resize_height);
+      cur = &resized_;
+    }
+    // Centre crop.
+    cv::Mat view = *cur;
+    if (p.crop_width > 0) {
+      detail::require(p.crop_width <= cur->cols && p.crop_height <= cur->rows,
+                      "Preprocessor: crop " + std::to_string(p.crop_width) + "x" +
+                          std::to_string(p.crop_height) + " is larger than the (resized) image " +
+                          std::to_string(cur->cols) + "x" + std::to_string(cur->rows) +
+                          ", expected a crop inside the image");
+      const int top = round_half_even((cur->rows - p.crop_height) / 2.0);
+      const int left = round_half_even((cur->cols - p.crop_width) / 2.0);
+      view = (*cur)(cv::Rect(left, top, p.crop_width, p.crop_height));
+    }
+    const int h = view.rows, w = view.cols;
+    out.resize(1, 3, h, w);
+    // Channel planes in RGB order (R, G, B pointers into the interleaved image).
+    const int ri = config_.input_order == ChannelOrder::bgr ? 2 : 0, bi = 2 - ri;
+    // adjust_contrast: mean of the float grayscale over the whole (cropped) image.
+    double gray_sum = 0;
+    for (int y = 0; y < h; ++y) {
+      const float* s = view.ptr<float>(y);
+      for (int x = 0; x < w; ++x)
+        gray_sum += 0.2989f * s[3 * x + ri] + 0.587f * s[3 * x + 1] + 0.114f * s[3 * x + bi];
+    }
+    const float mean_gray = static_cast<float>(gray_sum / (double(h) * w));
+    const float cf = p.contrast_factor;
+    const bool brighten = dark;
+    const float bf = p.dark_brightness_factor;
+    const bool rgb_out = p.network_channel_order == ChannelOrder::rgb;
+    for (int c = 0; c < 3; ++c) { // c: RGB channel index
+      const int src = c == 0 ? ri : (c == 2 ? bi : 1);
+      const int dst = rgb_out ? c : 2 - c;
+      const float m = p.mean[static_cast<std::size_t>(dst)];
+      const float sd = p.std[static_cast<std::size_t>(dst)];
+      for (int y = 0; y < h; ++y) {
+        const float* s = view.ptr<float>(y);
+        float* d = &out(0, dst, y, 0);
+        for (int x = 0; x < w; ++x) {
+          float v = std::clamp(cf * s[3 * x + src] + (1.0f - cf) * mean_gray, 0.0f, 1.0f);
+          if (brighten) v = std::clamp(bf * v, 0.0f, 1.0f);
+          d[x] = (v - m) / sd;
+        }
+      }
+    }
+  }
+
+  Tensor operator()(const cv::Mat& image, bool dark = false) {
+    Tensor t;
+    run(image, dark, t);
+    return t;
+  }
+
+private:
+  struct Taps {
+    std::vector<int> i0, i1;
+    std::vector<float> w0, w1;
+  };
+  // torch's compute_indices_weights_linear (align_corners=False, no explicit scale factor):
+  // the scale is a float, the source position and the weights are computed in double (CPU
+  // acc_type of float) and the weights stored as float.
+  static void taps(int in, int out, Taps& t) {
+    const double scale = static_cast<float>(in) / static_cast<float>(out);
+    t.i0.resize(static_cast<std::size_t>(out));
+    t.i1.resize(t.i0.size());
+    t.w0.resize(t.i0.size());
+    t.w1.resize(t.i0.size());
+    for (int o = 0; o < out; ++o) {
+      const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
+      const int i = std::min(static_cast<int>(real), in - 1);
+      const double l1 = std::clamp(real - i, 0.0, 1.0);
+      const auto k = static_cast<std::size_t>(o);
+      t.i0[k] = i;
+      t.i1[k] = i < in - 1 ? i + 1 : i;
+      t.w0[k] = static_cast<float>(1.0 - l1);
+      t.w1[k] = static_cast<float>(l1);
+    }
+  }
+  void resize_bilinear(const cv::Mat& src, int out_w, int out_h) {
+    taps(src.cols, out_w, xt_);
+    taps(src.rows, out_h, yt_);
+    resized_.create(out_h, out_w, CV_32FC3);
+    for (int y = 0; y < out_h; ++y) {
+      const auto ky = static_cast<std::size_t>(y);
+      const float* r0 = src.ptr<float>(yt_.i0[ky]);
+      const float* r1 = src.ptr<float>(yt_.i1[ky]);
+      const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
+      float* d = resized_.ptr<float>(y);
+      for (int x = 0; x < out_w; ++x) {
+        const auto kx = static_cast<std::size_t>(x);
+        const int a = 3 * xt_.i0[kx], b = 3 * xt_.i1[kx];
+        const float w0 = xt_.w0[kx], w1 = xt_.w1[kx];
+        for (int c = 0; c < 3; ++c) {
+          const float t0 = r0[a + c] * w0 + r0[b + c] * w1;
+          const float t1 = r1[a + c] * w0 + r1[b + c] * w1;
+          d[3 * x + c] = t0 * h0 + t1 * h1;
+        }
+      }
+    }
+  }
+
+  // Python's round() on k / 2 values: halves go to the even neighbour.
+  static int round_half_even(double v) {
+    const double f = std::floor(v);
+    if (v - f != 0.5) return static_cast<int>(std::floor(v + 0.5));
+    const auto i = static_cast<long long>(f);
+    return static_cast<int>(i % 2 == 0 ? i : i + 1);
+  }
+
+  Config config_;
+  cv::Mat float_, resized_;
+  Taps xt_, yt_;
+};
+
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,190 @@
+// Preprocessing against torchvision's tensor path (golden vectors from
+// tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
+#include <shadowsense/densenet.hpp>
+#include <shadowsense/preprocess.hpp>
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+
+using namespace shadowsense;
+
+namespace {
+
+struct GoldenCase {
+  int h = 0, w = 0;
+  bool dark = false;
+  PreprocessParams params;
+  cv::Mat bgr;
+  Tensor expected;
+};
+
+std::vector<GoldenCase> read_golden(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  REQUIRE(f.good());
+  std::vector<char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::size_t at = 0;
+  auto u32 = [&] {
+    std::uint32_t v;
+    REQUIRE(at + 4 <= b.size());
+    std::memcpy(&v, b.data() + at, 4);
+    at += 4;
+    return static_cast<int>(v);
+  };
+  auto f32 = [&] {
+    float v;
+    REQUIRE(at + 4 <= b.size());
+    std::memcpy(&v, b.data() + at, 4);
+    at += 4;
+    return v;
+  };
+  std::vector<GoldenCase> cases(static_cast<std::size_t>(u32()));
+  for (auto& c : cases) {
+    c.h = u32();
+    c.w = u32();
+    c.dark = u32() != 0;
+    c.params.resize_width = u32();
+    c.params.resize_height = u32();
+    c.params.crop_width = u32();
+    c.params.crop_height = u32();
+    c.params.contrast_factor = f32();
+    c.params.dark_brightness_factor = f32();
+    const std::size_t n = static_cast<std::size_t>(c.h) * c.w * 3;
+    REQUIRE(at + n <= b.size());
+    c.bgr = cv::Mat(c.h, c.w, CV_8UC3);
+    std::memcpy(c.bgr.data, b.data() + at, n);
+    at += n;
+    const int oh = u32(), ow = u32();
+    c.expected.resize(1, 3, oh, ow);
+    REQUIRE(at + c.expected.size() * 4 <= b.size());
+    std::memcpy(c.expected.data(), b.data() + at, c.expected.size() * 4);
+    at += c.expected.size() * 4;
+  }
+  CHECK(at == b.size());
+  return cases;
+}
+
+double max_abs_diff(const Tensor& a, const Tensor& b) {
+  REQUIRE(a.shape_string() == b.shape_string());
+  double d = 0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    d = std::max(d, std::abs(double(a.data()[i]) - double(b.data()[i])));
+  return d;
+}
+
+// Normalised units: 1/255 of input is ~0.017 after /std, x3 contrast, x2 brightness, so 1e-5
+// is float rounding (bilinear weights, mean summation order), far below one grey level.
+constexpr double tensor_bound = 1e-5;
+
+} // namespace
+
+TEST_CASE("preprocessing equals torchvision's tensor path on the golden images") {
+  const auto cases = read_golden(SHADOWSENSE_TEST_DATA_DIR "/preprocess_golden.bin");
+  REQUIRE(cases.size() == 7);
+  auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  DenseNet net(model, {.run_self_test = false});
+  double worst = 0, worst_logit = 0;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const auto& c = cases[i];
+    CAPTURE(i);
+    Preprocessor pre({.params = c.params, .input_order = ChannelOrder::bgr});
+    const Tensor got = pre(c.bgr, c.dark);
+    const double d = max_abs_diff(got, c.expected);
+    CHECK(d <= tensor_bound);
+    worst = std::max(worst, d);
+    // Effect on the logits of the compact DenseNet.
+    const std::vector<float> a(net.logits(got).begin(), net.logits(got).end());
+    const auto b = net.logits(c.expected);
+    for (std::size_t k = 0; k < a.size(); ++k)
+      worst_logit = std::max(worst_logit, std::abs(double(a[k]) - double(b[k])));
+  }
+  CHECK(worst_logit <= 1e-4);
+  MESSAGE("preprocessing vs torchvision: max abs tensor diff ", worst,
+          ", max abs logit diff it causes ", worst_logit);
+}
+
+TEST_CASE("channel order is explicit: an RGB image with input_order rgb gives the same tensor") {
+  const auto cases = read_golden(SHADOWSENSE_TEST_DATA_DIR "/preprocess_golden.bin");
+  const auto& c = cases[0];
+  cv::Mat rgb;
+  cv::cvtColor(c.bgr, rgb, cv::COLOR_BGR2RGB);
+  const Tensor a = Preprocessor({.params = c.params, .input_order = ChannelOrder::bgr})(c.bgr);
+  const Tensor b = Preprocessor({.params = c.params, .input_order = ChannelOrder::rgb})(rgb);
+  CHECK(max_abs_diff(a, b) == 0.0);
+  // Treating BGR as RGB swaps the planes: a smooth image then differs clearly.
+  const Tensor wrong = Preprocessor({.params = c.params, .input_order = ChannelOrder::rgb})(c.bgr);
+  CHECK(max_abs_diff(a, wrong) > 0.5);
+  // A float image in 0..1 gives the same result as the 8-bit one.
+  cv::Mat f;
+  c.bgr.convertTo(f, CV_32FC3, 1.0 / 255.0);
+  // (convertTo multiplies by 1/255 where ToTensor divides: 1 ulp, x13 after contrast and std)
+  CHECK(max_abs_diff(a, Preprocessor({.params = c.params})(f)) <= 5e-6);
+}
+
+TEST_CASE("the model's parameters are the default and fields can be overridden") {
+  const auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  auto pre = Preprocessor::for_model(model, ChannelOrder::bgr);
+  CHECK(pre.config().params.crop_width == 61);
+  CHECK(pre.config().params.crop_height == 45);
+  auto params = model.preprocess;
+  params.contrast_factor = 1.0f; // override
+  params.crop_width = params.crop_height = 0;
+  Preprocessor plain({.params = params});
+  cv::Mat img(60, 80, CV_8UC3, cv::Scalar(10, 128, 250));
+  const Tensor t = plain(img);
+  CHECK(t.h() == 60);
+  CHECK(t.w() == 80);
+  // Contrast 1 leaves values unchanged: R = 250/255 normalised with mean/std of R.
+  CHECK(t(0, 0, 5, 5) == doctest::Approx((250.0 / 255.0 - 0.485) / 0.229).epsilon(1e-6));
+  CHECK(t(0, 2, 5, 5) == doctest::Approx((10.0 / 255.0 - 0.406) / 0.225).epsilon(1e-6));
+}
+
+TEST_CASE("bad images and configs are rejected with clear messages") {
+  Preprocessor pre;
+  CHECK_THROWS_WITH_AS(pre(cv::Mat()), doctest::Contains("image is empty"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(pre(cv::Mat(300, 400, CV_8UC1)), doctest::Contains("expected CV_8UC3"),
+                       InvalidArgument);
+  cv::Mat f(300, 400, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5));
+  f.at<cv::Vec3f>(7, 9)[1] = std::numeric_limits<float>::quiet_NaN();
+  CHECK_THROWS_WITH_AS(pre(f), doctest::Contains("NaN or Inf"), InvalidArgument);
+  f.at<cv::Vec3f>(7, 9)[1] = std::numeric_limits<float>::infinity();
+  CHECK_THROWS_WITH_AS(pre(f), doctest::Contains("NaN or Inf"), InvalidArgument);
+  PreprocessParams p;
+  p.resize_width = p.resize_height = 0;
+  CHECK_THROWS_WITH_AS(Preprocessor({.params = p})(cv::Mat(100, 100, CV_8UC3)),
+                       doctest::Contains("larger than the (resized) image"), InvalidArgument);
+  p.std[1] = 0.0f;
+  CHECK_THROWS_WITH_AS(Preprocessor({.params = p}),
+                       doctest::Contains("expected a finite value > 0"), InvalidArgument);
+  // Paper geometry from the default config: 1 x 3 x 150 x 220 for a 400x300 frame.
+  const Tensor t = pre(cv::Mat(300, 400, CV_8UC3, cv::Scalar(0, 0, 0)), true);
+  CHECK(t.shape_string() == "1x3x150x220");
+  CHECK(t.all_finite());
+}
+
+TEST_CASE("paper geometry (400x300 -> 318x235 -> 220x150) against torchvision at test time") {
+  if (std::system("/usr/bin/python3 -c 'import torch, torchvision' > /dev/null 2>&1") != 0) {
+    MESSAGE("SKIPPED: /usr/bin/python3 cannot import torch/torchvision");
+    return;
+  }
+  std::filesystem::create_directories(SHADOWSENSE_TEST_TMP_DIR);
+  const std::string path = SHADOWSENSE_TEST_TMP_DIR "/preprocess_paper.bin";
+  const std::string cmd = "/usr/bin/python3 " SHADOWSENSE_SOURCE_DIR
+                          "/tools/make_preprocess_fixture.py --paper -o " +
+                          path + " > /dev/null";
+  REQUIRE(std::system(cmd.c_str()) == 0);
+  double worst = 0;
+  for (const auto& c : read_golden(path)) {
+    Preprocessor pre({.params = c.params});
+    const double d = max_abs_diff(pre(c.bgr, c.dark), c.expected);
+    CHECK(d <= tensor_bound);
+    worst = std::max(worst, d);
+  }
+  MESSAGE("paper geometry: max abs tensor diff vs torchvision ", worst);
+}
