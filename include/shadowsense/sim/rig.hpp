@@ -34,12 +34,12 @@ struct Rig {
   cv::Size2d ellipse_margin_px{8.0, 7.0}; // ellipse surface: gap to the frame edge
   double vignetting = 0.55;               // brightness lost at 90 deg off-axis (cos^2 law mix)
 
-  // The paper's inflatable robot: camera 25 cm under the top, ~170 deg fisheye, 635x350.
+  // The paper's inflatable robot: camera 32 cm under the top, ~170 deg fisheye, 635x350.
   static Rig robot() {
     Rig r;
     r.name = "robot";
     r.image_size = {635, 350};
-    r.camera_distance_cm = 25.0;
+    r.camera_distance_cm = 32.0;
     r.focal_px_per_rad = 242.5; // frame half-width = 75 deg off-axis
     r.surface = Surface::ellipse;
     r.vignetting = 0.6;

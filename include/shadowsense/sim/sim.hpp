@@ -3,6 +3,7 @@
 #pragma once
 
 #include <shadowsense/sim/body.hpp>
+#include <shadowsense/sim/gestures.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/rig.hpp>
