@@ -13,3 +13,4 @@
 #include <shadowsense/densenet.hpp>
 #include <shadowsense/sim/sim.hpp>
 #include <shadowsense/preprocess.hpp>
+#include <shadowsense/classify.hpp>
