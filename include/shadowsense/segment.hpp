@@ -269,23 +269,33 @@ public:
   void set_empty_skin(const std::vector<cv::Mat>& empty_frames) {
     detail::require(!empty_frames.empty(),
                     "Segmenter::set_empty_skin: no frames; expected at least one empty-skin frame");
-    cv::Mat sum;
+    // Per pixel and channel, the median over the frames (robust to a passing shadow in one).
     for (std::size_t i = 0; i < empty_frames.size(); ++i) {
       const std::string name = "Segmenter::set_empty_skin: frame " + std::to_string(i);
       require_colour_image(empty_frames[i], name.c_str());
       detail::require(empty_frames[i].size() == empty_frames[0].size(),
                       name + " has a different size from frame 0; expected all the same size");
+    }
+    std::vector<cv::Mat> normalised;
+    inv_profile_.release(); // each frame's reference over the whole frame
+    for (std::size_t i = 0; i < empty_frames.size(); ++i) {
       smooth(empty_frames[i]);
       const cv::Vec3f ref = global_reference();
       cv::Mat f;
       smoothed_.convertTo(f, CV_32FC3);
-      f = f.mul(cv::Scalar(1.0 / ref[0], 1.0 / ref[1], 1.0 / ref[2]));
-      if (sum.empty())
-        sum = f;
-      else
-        sum += f;
+      normalised.push_back(f.mul(cv::Scalar(1.0 / ref[0], 1.0 / ref[1], 1.0 / ref[2])));
     }
-    sum *= 1.0 / static_cast<double>(empty_frames.size());
+    cv::Mat sum(empty_frames[0].size(), CV_32FC3);
+    std::vector<float> v(normalised.size());
+    for (int y = 0; y < sum.rows; ++y)
+      for (int x = 0; x < sum.cols; ++x)
+        for (int k = 0; k < 3; ++k) {
+          for (std::size_t i = 0; i < normalised.size(); ++i)
+            v[i] = normalised[i].at<cv::Vec3f>(y, x)[k];
+          std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2),
+                           v.end());
+          sum.at<cv::Vec3f>(y, x)[k] = v[v.size() / 2];
+        }
     set_empty_skin_profile(sum);
   }
 
