@@ -2,3 +2,5 @@
 #pragma once
 
 #include <shadowsense/shadowsense.hpp>
+#include <shadowsense/dataset.hpp>
+#include <shadowsense/sim/dataset_writer.hpp>

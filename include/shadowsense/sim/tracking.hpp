@@ -258,11 +258,12 @@ inline bool category_visible(TrackCategory category, const GroundTruth& gt) {
 inline Frame render_random_tracking_frame(Renderer& renderer, TrackCategory category,
                                           std::uint64_t seed,
                                           const TrackingSampleConfig& config = {},
-                                          TrackingSample* sample_out = nullptr) {
+                                          TrackingSample* sample_out = nullptr,
+                                          const User* user = nullptr) {
   Frame f;
   TrackingSample s;
   for (std::uint64_t attempt = 0; attempt < 32; ++attempt) {
-    s = random_tracking_sample(category, derive_seed(seed, attempt), config);
+    s = random_tracking_sample(category, derive_seed(seed, attempt), config, user);
     renderer.render(s.scene, s.light, s.noise_seed, f);
     if (category_visible(category, f.gt)) break;
   }
@@ -308,8 +309,9 @@ struct SlidePlan {
   int num_frames() const { return static_cast<int>(poses.size()); }
 };
 
+// user: the performer (default: a random one drawn from the seed).
 inline SlidePlan plan_slide(std::uint64_t seed, SlideGesture gesture, Direction direction,
-                            const SlideConfig& config = {}) {
+                            const SlideConfig& config = {}, const User* user = nullptr) {
   config.validate();
   Rng rng(derive_seed(seed, 0x511DE));
   SlidePlan plan;
@@ -318,6 +320,7 @@ inline SlidePlan plan_slide(std::uint64_t seed, SlideGesture gesture, Direction 
   plan.seed = seed;
   plan.fps = config.fps;
   plan.user = User::random(static_cast<int>(seed % 1000), rng);
+  if (user) user->validate(), plan.user = *user;
   plan.light = config.variety.draw_light(rng);
   for (auto& w : plan.extras.wrinkle) w = static_cast<float>(rng.uniform(-0.06, 0.06));
   plan.extras.skin_tone = plan.user.skin_tone;

@@ -1,0 +1,417 @@
+// The on-disk dataset format (docs/dataset_format.md): ImageFolder-style folders of PNG
+// frames with one metadata.csv per dataset (per sequence for slides) and a sequences.csv
+// for slide datasets. A strict reader (malformed rows are rejected with a DatasetError naming
+// file, line and column) and a writer that never leaves a half-written csv looking complete.
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/sim/lighting.hpp>
+#include <shadowsense/sim/tracking.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// Columns of every metadata.csv, in order. Slide sequences append slide_columns.
+inline constexpr std::array<std::string_view, 19> metadata_columns{
+    "file_name", "class",       "user",         "lighting",  "lighting_level",
+    "session",   "frame_index", "timestamp_ms", "shadow_x",  "shadow_y",
+    "shadow_w",  "shadow_h",    "contact_x",    "contact_y", "contact_w",
+    "contact_h", "contact_cx",  "contact_cy",   "px_per_cm"};
+inline constexpr std::array<std::string_view, 2> slide_columns{"gesture", "direction"};
+inline constexpr std::array<std::string_view, 9> sequence_columns{
+    "sequence", "gesture", "direction", "num_frames",    "distance_cm",
+    "fps",      "user",    "lighting",  "lighting_level"};
+
+// One frame's row of a metadata.csv.
+struct MetadataRow {
+  std::string file_name; // relative to the csv's folder
+  std::string label;     // the "class" column
+  int user = 0;
+  sim::Lighting lighting = sim::Lighting::daylight;
+  double lighting_level = 1.0;
+  std::string session;
+  int frame_index = 0;
+  double timestamp_ms = 0;
+  std::optional<cv::Rect> shadow_box;
+  std::optional<cv::Rect> contact_box;
+  std::optional<cv::Point2f> contact_point;
+  double px_per_cm = 0;
+  // Slide sequences only.
+  std::optional<sim::SlideGesture> gesture;
+  std::optional<sim::Direction> direction;
+  int line = 0; // line in the csv (1 = header), for messages
+};
+
+struct Metadata {
+  std::filesystem::path csv_path;
+  bool slide_columns = false;
+  std::vector<MetadataRow> rows;
+
+  std::filesystem::path folder() const { return csv_path.parent_path(); }
+  std::filesystem::path image_path(const MetadataRow& row) const {
+    return folder() / row.file_name;
+  }
+};
+
+// One row of slides/sequences.csv.
+struct SequenceRow {
+  std::string sequence; // folder relative to sequences.csv, holding frames + metadata.csv
+  sim::SlideGesture gesture = sim::SlideGesture::palm;
+  sim::Direction direction = sim::Direction::right;
+  int num_frames = 0;
+  double distance_cm = 0;
+  double fps = 0;
+  int user = 0;
+  sim::Lighting lighting = sim::Lighting::daylight;
+  double lighting_level = 1.0;
+  int line = 0;
+};
+
+namespace detail {
+
+// Splits one csv line (no quoting: the format never needs it, and quotes are rejected).
+inline std::vector<std::string_view> split_csv(std::string_view line) {
+  std::vector<std::string_view> out;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t comma = line.find(',', start);
+    if (comma == std::string_view::npos) {
+      out.push_back(line.substr(start));
+      return out;
+    }
+    out.push_back(line.substr(start, comma - start));
+    start = comma + 1;
+  }
+}
+
+// Parses fields of one csv row, naming file, line and column on failure.
+class FieldParser {
+public:
+  FieldParser(const std::filesystem::path& file, int line,
+              const std::vector<std::string_view>& header,
+              const std::vector<std::string_view>& fields)
+      : file_(file), line_(line), header_(header), fields_(fields) {}
+
+  [[noreturn]] void fail(std::size_t col, const std::string& what) const {
+    throw DatasetError(file_.string() + ":" + std::to_string(line_) + ": column " +
+                       std::to_string(col + 1) + " '" + std::string(header_[col]) + "': " + what +
+                       "; got '" + std::string(fields_[col]) + "'");
+  }
+  std::string_view raw(std::size_t col) const { return fields_[col]; }
+  bool empty(std::size_t col) const { return fields_[col].empty(); }
+
+  std::string text(std::size_t col) const {
+    if (fields_[col].empty()) fail(col, "must not be empty");
+    return std::string(fields_[col]);
+  }
+  int integer(std::size_t col, int lo, int hi) const {
+    const std::string_view s = fields_[col];
+    int v = 0;
+    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (s.empty() || ec != std::errc() || p != s.data() + s.size())
+      fail(col, "expected an integer");
+    if (v < lo || v > hi)
+      fail(col, "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return v;
+  }
+  double real(std::size_t col, double lo, double hi) const {
+    const std::string_view s = fields_[col];
+    double v = 0;
+    const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+    if (s.empty() || ec != std::errc() || p != s.data() + s.size() || !std::isfinite(v))
+      fail(col, "expected a finite number");
+    if (v < lo || v > hi) {
+      std::ostringstream m;
+      m << "expected a number in [" << lo << ", " << hi << "]";
+      fail(col, m.str());
+    }
+    return v;
+  }
+  template <class F>
+  auto parse_enum(std::size_t col, F from_string) const {
+    try {
+      return from_string(fields_[col]);
+    } catch (const InvalidArgument& e) {
+      fail(col, e.what());
+    }
+  }
+  // Four columns x, y, w, h: all empty (absent) or all integers with w, h > 0.
+  std::optional<cv::Rect> box(std::size_t col) const {
+    int empties = 0;
+    for (std::size_t i = col; i < col + 4; ++i) empties += fields_[i].empty() ? 1 : 0;
+    if (empties == 4) return std::nullopt;
+    for (std::size_t i = col; i < col + 4; ++i)
+      if (fields_[i].empty()) fail(i, "a box needs all of x, y, w, h or none");
+    return cv::Rect(integer(col, 0, 1 << 20), integer(col + 1, 0, 1 << 20),
+                    integer(col + 2, 1, 1 << 20), integer(col + 3, 1, 1 << 20));
+  }
+
+private:
+  const std::filesystem::path& file_;
+  int line_;
+  const std::vector<std::string_view>& header_;
+  const std::vector<std::string_view>& fields_;
+};
+
+// Reads a csv into lines, checking the header against `expected` (each alternative tried).
+inline std::vector<std::string> read_csv_lines(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DatasetError(path.string() + ": cannot open the csv file");
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(line);
+  }
+  while (!lines.empty() && lines.back().empty()) lines.pop_back();
+  if (lines.empty())
+    throw DatasetError(path.string() + ":1: the csv file is empty; expected a header row");
+  return lines;
+}
+
+template <class Columns>
+inline bool header_is(const std::vector<std::string_view>& header, const Columns& a,
+                      std::size_t extra_count = 0, const std::string_view* extra = nullptr) {
+  if (header.size() != a.size() + extra_count) return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (header[i] != a[i]) return false;
+  for (std::size_t i = 0; i < extra_count; ++i)
+    if (header[a.size() + i] != extra[i]) return false;
+  return true;
+}
+
+template <class Columns>
+inline std::string join(const Columns& c) {
+  std::string s;
+  for (const auto& x : c) {
+    if (!s.empty()) s += ',';
+    s.append(x.data(), x.size());
+  }
+  return s;
+}
+
+inline void check_row_width(const std::filesystem::path& path, int line, std::string_view text,
+                            const std::vector<std::string_view>& fields, std::size_t expected) {
+  if (text.find('"') != std::string_view::npos)
+    throw DatasetError(path.string() + ":" + std::to_string(line) +
+                       ": quoted fields are not supported");
+  if (fields.size() != expected)
+    throw DatasetError(path.string() + ":" + std::to_string(line) + ": row has " +
+                       std::to_string(fields.size()) + " columns; expected " +
+                       std::to_string(expected) + " (as in the header)");
+}
+
+inline void check_relative(const FieldParser& p, std::size_t col) {
+  const std::string s = p.text(col);
+  const std::filesystem::path fp(s);
+  if (fp.is_absolute() || s.find('\\') != std::string::npos)
+    p.fail(col, "expected a path relative to the csv's folder");
+  for (const auto& part : fp)
+    if (part == "..") p.fail(col, "the path must not leave the dataset folder ('..')");
+}
+
+inline void check_lighting_level(const FieldParser& p, std::size_t col, sim::Lighting l,
+                                 double level) {
+  if (l != sim::Lighting::custom && level != sim::lighting_level(l))
+    p.fail(col, "does not match the lighting preset '" + std::string(sim::to_string(l)) +
+                    "' (level " + std::to_string(sim::lighting_level(l)) + ")");
+}
+
+inline std::string format_number(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// Writes text to path via a temporary file and a rename, so a reader never sees a partial
+// csv: the file either does not exist yet or is complete.
+inline void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw IoError(tmp.string() + ": cannot create the file");
+    out << text;
+    out.flush();
+    if (!out) throw IoError(tmp.string() + ": writing failed");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec)
+    throw IoError(path.string() + ": cannot rename the temporary file into place: " + ec.message());
+}
+
+} // namespace detail
+
+// Reads and validates a metadata.csv (gestures, tracking, or one slide sequence).
+inline Metadata read_metadata(const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+  Metadata md;
+  md.csv_path = csv_path;
+  const std::vector<std::string_view> header = detail::split_csv(lines[0]);
+  if (detail::header_is(header, metadata_columns)) {
+    md.slide_columns = false;
+  } else if (detail::header_is(header, metadata_columns, slide_columns.size(),
+                               slide_columns.data())) {
+    md.slide_columns = true;
+  } else {
+    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
+                       detail::join(metadata_columns) + "' (slide sequences add '," +
+                       detail::join(slide_columns) + "')");
+  }
+  for (std::size_t li = 1; li < lines.size(); ++li) {
+    const int line = static_cast<int>(li) + 1;
+    const std::vector<std::string_view> f = detail::split_csv(lines[li]);
+    detail::check_row_width(csv_path, line, lines[li], f, header.size());
+    const detail::FieldParser p(csv_path, line, header, f);
+    MetadataRow r;
+    r.line = line;
+    detail::check_relative(p, 0);
+    r.file_name = p.text(0);
+    r.label = p.text(1);
+    r.user = p.integer(2, 0, 1000000);
+    r.lighting = p.parse_enum(3, sim::lighting_from_string);
+    r.lighting_level = p.real(4, 0.0, 1.0);
+    detail::check_lighting_level(p, 4, r.lighting, r.lighting_level);
+    r.session = p.text(5);
+    r.frame_index = p.integer(6, 0, 1 << 30);
+    r.timestamp_ms = p.real(7, 0.0, 1e15);
+    r.shadow_box = p.box(8);
+    r.contact_box = p.box(12);
+    if (p.empty(16) != p.empty(17))
+      p.fail(p.empty(16) ? 16 : 17, "contact_cx and contact_cy must both be set or both empty");
+    if (!p.empty(16))
+      r.contact_point = cv::Point2f(static_cast<float>(p.real(16, -1.0, 1 << 20)),
+                                    static_cast<float>(p.real(17, -1.0, 1 << 20)));
+    if (r.contact_point.has_value() != r.contact_box.has_value())
+      p.fail(16, "the contact point must be present exactly when the contact box is");
+    if (r.contact_box && !r.shadow_box)
+      p.fail(8, "a frame with a contact box must have a shadow box");
+    r.px_per_cm = p.real(18, 1e-6, 1e6);
+    if (md.slide_columns) {
+      r.gesture = p.parse_enum(19, sim::slide_gesture_from_string);
+      r.direction = p.parse_enum(20, sim::direction_from_string);
+    }
+    md.rows.push_back(std::move(r));
+  }
+  return md;
+}
+
+// Reads and validates slides/sequences.csv.
+inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+  const std::vector<std::string_view> header = detail::split_csv(lines[0]);
+  if (!detail::header_is(header, sequence_columns))
+    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
+                       detail::join(sequence_columns) + "'");
+  std::vector<SequenceRow> rows;
+  for (std::size_t li = 1; li < lines.size(); ++li) {
+    const int line = static_cast<int>(li) + 1;
+    const std::vector<std::string_view> f = detail::split_csv(lines[li]);
+    detail::check_row_width(csv_path, line, lines[li], f, header.size());
+    const detail::FieldParser p(csv_path, line, header, f);
+    SequenceRow r;
+    r.line = line;
+    detail::check_relative(p, 0);
+    r.sequence = p.text(0);
+    r.gesture = p.parse_enum(1, sim::slide_gesture_from_string);
+    r.direction = p.parse_enum(2, sim::direction_from_string);
+    r.num_frames = p.integer(3, 1, 1 << 24);
+    r.distance_cm = p.real(4, 0.0, 1e4);
+    r.fps = p.real(5, 1e-3, 1e4);
+    r.user = p.integer(6, 0, 1000000);
+    r.lighting = p.parse_enum(7, sim::lighting_from_string);
+    r.lighting_level = p.real(8, 0.0, 1.0);
+    detail::check_lighting_level(p, 8, r.lighting, r.lighting_level);
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+// The csv text of metadata rows (header included). Numbers use fixed decimals so the same
+// rows always give the same bytes.
+inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_slide_columns) {
+  std::string s = detail::join(metadata_columns);
+  if (with_slide_columns) s += "," + detail::join(slide_columns);
+  s += "\n";
+  auto box = [&](const std::optional<cv::Rect>& b) {
+    if (!b) return std::string(",,,");
+    return std::to_string(b->x) + "," + std::to_string(b->y) + "," + std::to_string(b->width) +
+           "," + std::to_string(b->height);
+  };
+  for (const MetadataRow& r : rows) {
+    detail::require(!r.file_name.empty() && !r.label.empty() && !r.session.empty(),
+                    "metadata_csv: file_name, class and session must not be empty");
+    for (const std::string* t : {&r.file_name, &r.label, &r.session})
+      detail::require(t->find_first_of(",\"\n\r") == std::string::npos,
+                      "metadata_csv: '" + *t + "' contains a comma, quote or line break");
+    detail::require(with_slide_columns == (r.gesture.has_value() && r.direction.has_value()),
+                    "metadata_csv: gesture and direction must be set exactly for slide rows");
+    s += r.file_name + "," + r.label + "," + std::to_string(r.user) + "," +
+         std::string(sim::to_string(r.lighting)) + "," +
+         detail::format_number(r.lighting_level, 4) + "," + r.session + "," +
+         std::to_string(r.frame_index) + "," + detail::format_number(r.timestamp_ms, 1) + "," +
+         box(r.shadow_box) + "," + box(r.contact_box) + ",";
+    if (r.contact_point)
+      s += detail::format_number(r.contact_point->x, 3) + "," +
+           detail::format_number(r.contact_point->y, 3);
+    else
+      s += ",";
+    s += "," + detail::format_number(r.px_per_cm, 5);
+    if (with_slide_columns)
+      s += "," + std::string(sim::to_string(*r.gesture)) + "," +
+           std::string(sim::to_string(*r.direction));
+    s += "\n";
+  }
+  return s;
+}
+
+inline std::string sequences_csv(const std::vector<SequenceRow>& rows) {
+  std::string s = detail::join(sequence_columns) + "\n";
+  for (const SequenceRow& r : rows) {
+    detail::require(!r.sequence.empty() && r.sequence.find_first_of(",\"\n\r") == std::string::npos,
+                    "sequences_csv: sequence folder must be non-empty without commas or quotes");
+    s += r.sequence + "," + std::string(sim::to_string(r.gesture)) + "," +
+         std::string(sim::to_string(r.direction)) + "," + std::to_string(r.num_frames) + "," +
+         detail::format_number(r.distance_cm, 3) + "," + detail::format_number(r.fps, 3) + "," +
+         std::to_string(r.user) + "," + std::string(sim::to_string(r.lighting)) + "," +
+         detail::format_number(r.lighting_level, 4) + "\n";
+  }
+  return s;
+}
+
+// Writes a metadata.csv atomically (temporary file + rename).
+inline void write_metadata(const std::filesystem::path& csv_path,
+                           const std::vector<MetadataRow>& rows, bool with_slide_columns) {
+  detail::write_file_atomically(csv_path, metadata_csv(rows, with_slide_columns));
+}
+inline void write_sequences(const std::filesystem::path& csv_path,
+                            const std::vector<SequenceRow>& rows) {
+  detail::write_file_atomically(csv_path, sequences_csv(rows));
+}
+
+// Loads a row's image as 8-bit BGR.
+inline cv::Mat read_image(const Metadata& md, const MetadataRow& row) {
+  const std::filesystem::path p = md.image_path(row);
+  cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
+  if (img.empty())
+    throw DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
+                       ": cannot read image '" + p.string() + "'");
+  return img;
+}
+
+SHADOWSENSE_NAMESPACE_END

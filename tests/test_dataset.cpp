@@ -1,0 +1,277 @@
+// The dataset format: writers (deterministic, validated, never half-written) and the strict
+// csv reader.
+#include <shadowsense/io.hpp>
+
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <string>
+
+using namespace shadowsense;
+namespace fs = std::filesystem;
+
+namespace {
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path p = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "dataset" / name;
+  fs::remove_all(p);
+  fs::create_directories(p.parent_path());
+  return p;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Every regular file under root, by relative path, with its bytes.
+std::map<std::string, std::string> tree(const fs::path& root) {
+  std::map<std::string, std::string> m;
+  for (const auto& e : fs::recursive_directory_iterator(root))
+    if (e.is_regular_file()) m[fs::relative(e.path(), root).generic_string()] = slurp(e.path());
+  return m;
+}
+
+sim::GestureDatasetConfig tiny_gestures() {
+  sim::GestureDatasetConfig c;
+  c.users = 1;
+  c.frames_per_gesture = 1;
+  c.lighting_levels = {1.0, 0.0};
+  return c;
+}
+sim::SlideDatasetConfig tiny_slides() {
+  sim::SlideDatasetConfig c;
+  c.slide.min_frames = 8;
+  c.slide.max_frames = 9;
+  return c;
+}
+
+// Writes a csv file with the given body under the metadata header.
+fs::path
+csv_with(const std::string& name, const std::string& body,
+         const std::string& header = "file_name,class,user,lighting,lighting_level,session,"
+                                     "frame_index,timestamp_ms,shadow_x,shadow_y,shadow_w,"
+                                     "shadow_h,contact_x,contact_y,contact_w,contact_h,"
+                                     "contact_cx,contact_cy,px_per_cm") {
+  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "dataset" / "csv";
+  fs::create_directories(dir);
+  const fs::path p = dir / name;
+  std::ofstream(p, std::ios::binary) << header << "\n" << body;
+  return p;
+}
+
+const std::string good_row =
+    "palm/a.png,palm,1,dusk,0.5,u1_dusk,3,300.0,10,20,30,40,12,22,5,6,14.5,24.5,7.5\n";
+
+} // namespace
+
+TEST_CASE("the same seed writes byte-identical datasets; another seed differs") {
+  const fs::path a = fresh_dir("det_a"), b = fresh_dir("det_b"), c = fresh_dir("det_c");
+  sim::TrackingDatasetConfig t;
+  t.frames_per_category = 2;
+  for (const fs::path& root : {a, b}) {
+    sim::write_gesture_dataset(root / "gestures", 5, tiny_gestures());
+    sim::write_tracking_dataset(root / "tracking", 5, t);
+    sim::write_slide_dataset(root / "slides", 5, tiny_slides());
+  }
+  sim::write_tracking_dataset(c / "tracking", 6, t);
+  const auto ta = tree(a), tb = tree(b);
+  CHECK(ta.size() == (12 + 1) + (10 + 1) + tree(a / "slides").size()); // images + csv
+  CHECK(ta == tb);
+  CHECK(tree(a / "tracking") != tree(c / "tracking"));
+  CHECK_FALSE(fs::exists(a / "gestures" / "metadata.csv.tmp"));
+}
+
+TEST_CASE("written datasets read back with consistent rows and images") {
+  const fs::path root = fresh_dir("readback");
+  const auto gs = sim::write_gesture_dataset(root / "gestures", 2, tiny_gestures());
+  CHECK(gs.images == 12);
+  const Metadata g = read_metadata(root / "gestures" / "metadata.csv");
+  REQUIRE(g.rows.size() == 12);
+  CHECK_FALSE(g.slide_columns);
+  for (const MetadataRow& r : g.rows) {
+    CAPTURE(r.file_name);
+    CHECK(r.file_name.rfind(r.label + "/", 0) == 0);
+    const cv::Mat img = read_image(g, r);
+    CHECK(img.size() == cv::Size(635, 350));
+    if (r.label == "nothing")
+      CHECK_FALSE(r.shadow_box);
+    else
+      CHECK(r.contact_box);
+    if (r.contact_box) {
+      CHECK((*r.contact_box & *r.shadow_box) == *r.contact_box);
+      CHECK(r.contact_box->contains(
+          cv::Point(cvRound(r.contact_point->x), cvRound(r.contact_point->y))));
+    }
+    CHECK(r.px_per_cm == doctest::Approx(sim::Rig::robot().px_per_cm()).epsilon(1e-5));
+  }
+  CHECK(g.rows[0].session == "u1_daylight");
+  CHECK(g.rows[6].session == "u1_night");
+  CHECK(g.rows[6].lighting == sim::Lighting::night);
+
+  sim::TrackingDatasetConfig t;
+  t.frames_per_category = 3;
+  sim::write_tracking_dataset(root / "tracking", 2, t);
+  const Metadata tr = read_metadata(root / "tracking" / "metadata.csv");
+  REQUIRE(tr.rows.size() == 15);
+  for (const MetadataRow& r : tr.rows) {
+    CAPTURE(r.file_name);
+    const auto category = sim::track_category_from_string(r.label);
+    CHECK(read_image(tr, r).size() == cv::Size(200, 205));
+    CHECK(r.shadow_box.has_value() == (category != sim::TrackCategory::nothing));
+    CHECK(r.contact_box.has_value() ==
+          (category != sim::TrackCategory::nothing && category != sim::TrackCategory::hover));
+  }
+
+  const auto ss = sim::write_slide_dataset(root / "slides", 2, tiny_slides());
+  CHECK(ss.sequences == 8);
+  const auto seqs = read_sequences(root / "slides" / "sequences.csv");
+  REQUIRE(seqs.size() == 8);
+  int frames = 0;
+  for (const SequenceRow& q : seqs) {
+    const Metadata m = read_metadata(root / "slides" / q.sequence / "metadata.csv");
+    CHECK(m.slide_columns);
+    CHECK(static_cast<int>(m.rows.size()) == q.num_frames);
+    CHECK(q.sequence.rfind(std::string(sim::to_string(q.direction)) + "/", 0) == 0);
+    CHECK(q.fps == doctest::Approx(13.0));
+    for (const MetadataRow& r : m.rows) {
+      CHECK(*r.direction == q.direction);
+      CHECK(*r.gesture == q.gesture);
+      CHECK(r.label == std::string(sim::to_string(q.direction)));
+    }
+    frames += q.num_frames;
+  }
+  CHECK(frames == ss.images);
+}
+
+TEST_CASE("bad configuration is rejected before anything is written") {
+  const fs::path root = fresh_dir("badcfg");
+  sim::GestureDatasetConfig g;
+  g.frames_per_gesture = -1;
+  CHECK_THROWS_WITH_AS(sim::write_gesture_dataset(root / "g", 1, g),
+                       doctest::Contains("frames_per_gesture"), InvalidArgument);
+  g = {};
+  g.users = 0;
+  CHECK_THROWS_AS(sim::write_gesture_dataset(root / "g", 1, g), InvalidArgument);
+  g = {};
+  g.lighting_levels = {1.4};
+  CHECK_THROWS_WITH_AS(sim::write_gesture_dataset(root / "g", 1, g),
+                       doctest::Contains("outside [0, 1]"), InvalidArgument);
+  sim::TrackingDatasetConfig t;
+  t.frames_per_category = -5;
+  CHECK_THROWS_AS(sim::write_tracking_dataset(root / "t", 1, t), InvalidArgument);
+  sim::SlideDatasetConfig s;
+  s.slide.min_distance_cm = -1;
+  CHECK_THROWS_AS(sim::write_slide_dataset(root / "s", 1, s), InvalidArgument);
+  CHECK_FALSE(fs::exists(root)); // nothing was created
+  CHECK_THROWS_WITH_AS(sim::write_tracking_dataset("", 1, {}),
+                       doctest::Contains("output folder path is empty"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(sim::gesture_from_string("tickle"),
+                       doctest::Contains("unknown gesture class"), InvalidArgument);
+}
+
+TEST_CASE(
+    "unwritable or occupied output folders fail clearly and leave no complete-looking dataset") {
+  const fs::path root = fresh_dir("unwritable");
+  fs::create_directories(root);
+  std::ofstream(root / "a_file") << "x";
+  sim::TrackingDatasetConfig t;
+  t.frames_per_category = 1;
+  // A folder below a regular file can never be created (even as root).
+  CHECK_THROWS_WITH_AS(sim::write_tracking_dataset(root / "a_file" / "tracking", 1, t),
+                       doctest::Contains("cannot create"), IoError);
+  // An existing, non-empty folder is not overwritten unless asked.
+  CHECK_THROWS_WITH_AS(sim::write_tracking_dataset(root, 1, t), doctest::Contains("not empty"),
+                       IoError);
+  // A write failing half-way (an image path taken by a folder) leaves no metadata.csv.
+  const fs::path half = root / "half";
+  fs::create_directories(half / "finger" / "finger_0000.png");
+  t.overwrite = true;
+  CHECK_THROWS_AS(sim::write_tracking_dataset(half, 1, t), IoError);
+  CHECK_FALSE(fs::exists(half / "metadata.csv"));
+  // Overwriting a complete dataset first removes its csv.
+  const fs::path done = root / "done";
+  sim::write_tracking_dataset(done, 1, t);
+  REQUIRE(fs::exists(done / "metadata.csv"));
+  fs::remove_all(done / "palm");
+  fs::create_directories(done / "palm" / "palm_0000.png");
+  CHECK_THROWS_AS(sim::write_tracking_dataset(done, 1, t), IoError);
+  CHECK_FALSE(fs::exists(done / "metadata.csv"));
+}
+
+TEST_CASE("the csv reader accepts well-formed rows") {
+  const Metadata m = read_metadata(csv_with(
+      "good.csv", good_row + "nothing/b.png,nothing,2,custom,0.3,s,0,0,,,,,,,,,,,7.5\r\n"));
+  REQUIRE(m.rows.size() == 2);
+  CHECK(m.rows[0].shadow_box == cv::Rect(10, 20, 30, 40));
+  CHECK(m.rows[0].contact_box == cv::Rect(12, 22, 5, 6));
+  CHECK(m.rows[0].contact_point->x == doctest::Approx(14.5));
+  CHECK(m.rows[0].lighting == sim::Lighting::dusk);
+  CHECK(m.rows[0].line == 2);
+  CHECK(m.rows[1].lighting_level == doctest::Approx(0.3));
+  CHECK_FALSE(m.rows[1].shadow_box);
+  CHECK(m.image_path(m.rows[0]) == m.folder() / "palm/a.png");
+  // Writing the rows and reading them back gives the same values.
+  const fs::path again = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "dataset" / "csv" / "again.csv";
+  write_metadata(again, m.rows, false);
+  const Metadata n = read_metadata(again);
+  REQUIRE(n.rows.size() == 2);
+  CHECK(n.rows[0].shadow_box == m.rows[0].shadow_box);
+  CHECK(n.rows[0].contact_point->y == doctest::Approx(24.5));
+  CHECK(n.rows[1].session == "s");
+}
+
+TEST_CASE("the csv reader rejects malformed rows naming file, line and column") {
+  struct Case {
+    const char* name;
+    std::string body;
+    std::string expected;
+  };
+  const Case cases[] = {
+      {"user.csv", good_row + "palm/a.png,palm,x1,dusk,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "user.csv:3: column 3 'user': expected an integer; got 'x1'"},
+      {"light.csv", "palm/a.png,palm,1,noon,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "light.csv:2: column 4 'lighting'"},
+      {"level.csv", "palm/a.png,palm,1,dusk,0.7,s,3,300,,,,,,,,,,,7.5\n",
+       "level.csv:2: column 5 'lighting_level': does not match the lighting preset 'dusk'"},
+      {"box.csv", "palm/a.png,palm,1,dusk,0.5,s,3,300,10,20,,40,,,,,,,7.5\n",
+       "box.csv:2: column 11 'shadow_w': a box needs all of x, y, w, h or none"},
+      {"width.csv", "palm/a.png,palm,1,dusk,0.5,s,3,300,10,20,0,40,,,,,,,7.5\n",
+       "width.csv:2: column 11 'shadow_w'"},
+      {"cols.csv", "palm/a.png,palm,1,dusk,0.5,s,3\n",
+       "cols.csv:2: row has 7 columns; expected 19"},
+      {"empty.csv", "palm/a.png,,1,dusk,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "empty.csv:2: column 2 'class': must not be empty"},
+      {"abs.csv", "/etc/a.png,palm,1,dusk,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "abs.csv:2: column 1 'file_name'"},
+      {"up.csv", "../a.png,palm,1,dusk,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "up.csv:2: column 1 'file_name'"},
+      {"point.csv", "palm/a.png,palm,1,dusk,0.5,s,3,300,10,20,30,40,12,22,5,6,,,7.5\n",
+       "point.csv:2: column 17 'contact_cx': the contact point must be present exactly when the "
+       "contact box is"},
+      {"scale.csv", "palm/a.png,palm,1,dusk,0.5,s,3,300,,,,,,,,,,,nan\n",
+       "scale.csv:2: column 19 'px_per_cm'"},
+      {"time.csv", "palm/a.png,palm,1,dusk,0.5,s,3,-4,,,,,,,,,,,7.5\n",
+       "time.csv:2: column 8 'timestamp_ms'"},
+      {"quote.csv", "\"palm/a.png\",palm,1,dusk,0.5,s,3,300,,,,,,,,,,,7.5\n",
+       "quote.csv:2: quoted fields"},
+  };
+  for (const Case& c : cases) {
+    CAPTURE(c.name);
+    const fs::path p = csv_with(c.name, c.body);
+    CHECK_THROWS_WITH_AS(read_metadata(p), doctest::Contains(c.expected.c_str()), DatasetError);
+  }
+  CHECK_THROWS_WITH_AS(read_metadata(csv_with("header.csv", good_row, "file_name,class")),
+                       doctest::Contains("header.csv:1: unexpected header"), DatasetError);
+  CHECK_THROWS_WITH_AS(
+      read_metadata(fs::path(SHADOWSENSE_TEST_TMP_DIR) / "dataset" / "missing.csv"),
+      doctest::Contains("cannot open"), DatasetError);
+  CHECK_THROWS_WITH_AS(
+      read_sequences(csv_with("seq.csv", "left/p,palm,up,10,12,13,1,dusk,0.5\n",
+                              "sequence,gesture,direction,num_frames,distance_cm,fps,user,"
+                              "lighting,lighting_level")),
+      doctest::Contains("seq.csv:2: column 3 'direction': unknown direction 'up'"), DatasetError);
+}
