@@ -14,3 +14,5 @@
 #include <shadowsense/sim/sim.hpp>
 #include <shadowsense/preprocess.hpp>
 #include <shadowsense/classify.hpp>
+#include <shadowsense/lighting_normalise.hpp>
+#include <shadowsense/head_trainer.hpp>

@@ -1,0 +1,351 @@
+// On-device transfer learning (paper 5.1.3 without Python): the DenseNet's feature extractor
+// stays frozen, its pooled features are computed once per image, and only the final linear
+// classifier is trained, with the paper's recipe: Adam (lr 1e-3, betas 0.9/0.999, eps 1e-8,
+// weight decay 0) on the negative log-likelihood of log-softmax, mini-batches of 16, the epoch
+// with the best validation accuracy kept. A robot re-calibrates to its own skin and lighting
+// from a few dozen labelled frames; the result is a new model file.
+//
+//   FeatureExtractor fx(model);                 // frozen backbone
+//   Eigen::MatrixXd X = ...;                    // one row of fx.extract(...) per image
+//   auto r = train_head(X, y, Xv, yv, classes); // HeadTrainer::Config for the recipe
+//   save_model_file(model_with_head(model, r.head, names), "robot.ssm");
+#pragma once
+
+#include <shadowsense/densenet.hpp>
+#include <shadowsense/error.hpp>
+#include <shadowsense/model_file.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/version.hpp>
+
+#include <Eigen/Core>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <span>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// The frozen feature extractor: the DenseNet up to norm5 -> ReLU -> global average pool.
+// DenseNet exposes only logits, so this runs it with an identity classifier (weight = I,
+// bias = 0): its logits are exactly the pooled features (the classifier runs in double and
+// rounds once to float). Costs c x c extra multiply-adds, c = final feature width.
+class FeatureExtractor {
+public:
+  explicit FeatureExtractor(const ModelFile& model, DenseNet::Config config = {})
+      : dim_(model.architecture.final_features()),
+        net_(identity_head(model), no_self_test(config)) {}
+
+  int dim() const { return dim_; }
+  DenseNet& network() { return net_; }
+
+  // n x dim features for an n x 3 x h x w preprocessed tensor (row per image); the span stays
+  // valid until the next call.
+  std::span<const float> extract(const Tensor& input) { return net_.logits(input); }
+
+private:
+  static ModelFile identity_head(const ModelFile& model) {
+    model.validate();
+    ModelFile m = model;
+    const int c = model.architecture.final_features();
+    m.architecture.num_classes = c;
+    m.class_names.clear();
+    for (int i = 0; i < c; ++i) m.class_names.push_back("feature" + std::to_string(i));
+    auto& w = m.tensor("classifier.weight");
+    w.shape = {c, c};
+    w.values.assign(static_cast<std::size_t>(c) * c, 0.0f);
+    for (int i = 0; i < c; ++i) w.values[static_cast<std::size_t>(i) * c + i] = 1.0f;
+    auto& b = m.tensor("classifier.bias");
+    b.shape = {c};
+    b.values.assign(static_cast<std::size_t>(c), 0.0f);
+    m.self_test.reset(); // its logits belong to the original classifier
+    return m;
+  }
+  static DenseNet::Config no_self_test(DenseNet::Config c) {
+    c.run_self_test = false;
+    return c;
+  }
+  int dim_;
+  DenseNet net_;
+};
+
+// A linear classifier on features: logits = weight * x + bias.
+struct LinearHead {
+  Eigen::MatrixXd weight; // classes x features
+  Eigen::VectorXd bias;   // classes
+
+  int classes() const { return static_cast<int>(weight.rows()); }
+  int features() const { return static_cast<int>(weight.cols()); }
+
+  // The classifier of a model file.
+  static LinearHead from_model(const ModelFile& model) {
+    const auto& w = model.tensor("classifier.weight");
+    const auto& b = model.tensor("classifier.bias");
+    detail::require(w.shape.size() == 2 && b.shape.size() == 1 && w.shape[0] == b.shape[0],
+                    "LinearHead::from_model: classifier tensors are not [classes, features] and "
+                    "[classes]");
+    LinearHead h;
+    h.weight.resize(w.shape[0], w.shape[1]);
+    for (int r = 0; r < w.shape[0]; ++r)
+      for (int c = 0; c < w.shape[1]; ++c)
+        h.weight(r, c) = w.values[static_cast<std::size_t>(r) * w.shape[1] + c];
+    h.bias.resize(b.shape[0]);
+    for (int r = 0; r < b.shape[0]; ++r) h.bias(r) = b.values[static_cast<std::size_t>(r)];
+    return h;
+  }
+
+  // PyTorch's nn.Linear initialisation: weight and bias uniform in +-1/sqrt(features).
+  static LinearHead random(int classes, int features, std::uint64_t seed) {
+    detail::require(classes >= 1 && features >= 1,
+                    "LinearHead::random: classes and features must be >= 1");
+    std::mt19937_64 rng(seed);
+    const double bound = 1.0 / std::sqrt(double(features));
+    auto u = [&] { return (double(rng() >> 11) * 0x1.0p-53 * 2.0 - 1.0) * bound; };
+    LinearHead h;
+    h.weight.resize(classes, features);
+    for (int r = 0; r < classes; ++r)
+      for (int c = 0; c < features; ++c) h.weight(r, c) = u();
+    h.bias.resize(classes);
+    for (int r = 0; r < classes; ++r) h.bias(r) = u();
+    return h;
+  }
+};
+
+namespace detail {
+inline void check_head_data(const LinearHead& head, const Eigen::MatrixXd& x,
+                            std::span<const int> labels, const char* what) {
+  require(x.rows() == static_cast<Eigen::Index>(labels.size()),
+          std::string(what) + ": " + std::to_string(x.rows()) + " feature rows but " +
+              std::to_string(labels.size()) + " labels, expected one label per row");
+  require(x.cols() == head.features(),
+          std::string(what) + ": features have " + std::to_string(x.cols()) +
+              " columns, expected " + std::to_string(head.features()) + " (the backbone's width)");
+  for (int l : labels)
+    require(l >= 0 && l < head.classes(), std::string(what) + ": label " + std::to_string(l) +
+                                              " outside [0, " + std::to_string(head.classes()) +
+                                              ")");
+  require(x.allFinite(), std::string(what) + ": features hold NaN or Inf, expected finite");
+}
+} // namespace detail
+
+// Mean negative log-likelihood of log-softmax(weight * x + bias) over the rows of x; when
+// gradient is given, also d loss / d (weight, bias) (same shapes as head). correct, if given,
+// receives the number of rows whose argmax equals the label.
+inline double head_loss(const LinearHead& head, const Eigen::MatrixXd& x,
+                        std::span<const int> labels, LinearHead* gradient = nullptr,
+                        int* correct = nullptr) {
+  detail::check_head_data(head, x, labels, "head_loss");
+  detail::require(x.rows() >= 1, "head_loss: no rows, expected at least one");
+  const Eigen::Index n = x.rows();
+  Eigen::MatrixXd z = x * head.weight.transpose(); // n x classes
+  z.rowwise() += head.bias.transpose();
+  double loss = 0;
+  int ok = 0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Eigen::Index arg = 0;
+    const double mx = z.row(i).maxCoeff(&arg);
+    const double lse = mx + std::log((z.row(i).array() - mx).exp().sum());
+    const int y = labels[static_cast<std::size_t>(i)];
+    loss -= z(i, y) - lse;
+    ok += arg == y;
+    if (gradient) { // d/dz = softmax - onehot, averaged over the batch
+      z.row(i) = (z.row(i).array() - lse).exp();
+      z(i, y) -= 1.0;
+    }
+  }
+  if (gradient) {
+    z /= double(n);
+    gradient->weight = z.transpose() * x;
+    gradient->bias = z.colwise().sum().transpose();
+  }
+  if (correct) *correct = ok;
+  return loss / double(n);
+}
+
+struct HeadEpoch {
+  int epoch = 0; // 1-based
+  double train_loss = 0, train_accuracy = 0;
+  double val_loss = 0, val_accuracy = 0; // NaN without validation data
+  bool best = false;                     // best so far (the kept head)
+};
+
+struct HeadTrainingResult {
+  LinearHead head; // of the best epoch
+  int best_epoch = 0;
+  std::vector<HeadEpoch> epochs;
+};
+
+class HeadTrainer {
+public:
+  struct Config {
+    int epochs = 20;
+    int batch_size = 16;
+    double learning_rate = 1e-3;
+    double beta1 = 0.9, beta2 = 0.999, epsilon = 1e-8;
+    double weight_decay = 0.0; // L2 added to the gradient, as torch.optim.Adam does
+    std::uint64_t seed = 0;    // initialisation and shuffling
+  };
+
+  HeadTrainer() : HeadTrainer(Config{}) {}
+  explicit HeadTrainer(Config config) : config_(config) {
+    detail::require(config.epochs >= 1 && config.epochs <= 100000,
+                    "HeadTrainer: epochs must be in [1, 100000]");
+    detail::require(config.batch_size >= 1, "HeadTrainer: batch_size must be >= 1");
+    detail::require(std::isfinite(config.learning_rate) && config.learning_rate > 0,
+                    "HeadTrainer: learning_rate must be > 0");
+    detail::require(config.beta1 >= 0 && config.beta1 < 1 && config.beta2 >= 0 && config.beta2 < 1,
+                    "HeadTrainer: betas must be in [0, 1)");
+    detail::require(config.epsilon > 0 && config.weight_decay >= 0,
+                    "HeadTrainer: epsilon must be > 0 and weight_decay >= 0");
+  }
+  const Config& config() const { return config_; }
+
+  // Trains from `init` (LinearHead::random for a new head, or the model's own classifier to
+  // fine-tune it). Validation may be empty: then the last epoch is kept. on_epoch is called
+  // after every epoch (progress output).
+  HeadTrainingResult train(LinearHead init, const Eigen::MatrixXd& x, std::span<const int> y,
+                           const Eigen::MatrixXd& xv, std::span<const int> yv,
+                           const std::function<void(const HeadEpoch&)>& on_epoch = {}) const {
+    detail::check_head_data(init, x, y, "HeadTrainer::train (training set)");
+    detail::require(x.rows() >= 1, "HeadTrainer::train: no training rows");
+    const bool has_val = xv.rows() > 0;
+    if (has_val)
+      detail::check_head_data(init, xv, yv, "HeadTrainer::train (validation set)");
+    else
+      detail::require(yv.empty(), "HeadTrainer::train: validation labels without features");
+
+    LinearHead p = std::move(init), g, m, v;
+    m.weight = Eigen::MatrixXd::Zero(p.weight.rows(), p.weight.cols());
+    m.bias = Eigen::VectorXd::Zero(p.bias.size());
+    v = m;
+    std::mt19937_64 rng(config_.seed ^ 0x9E3779B97F4A7C15ull);
+    std::vector<int> order(static_cast<std::size_t>(x.rows()));
+    Eigen::MatrixXd xb;
+    std::vector<int> yb;
+    long long step = 0;
+    HeadTrainingResult result;
+    double best_acc = -1, best_loss = std::numeric_limits<double>::infinity();
+    for (int epoch = 1; epoch <= config_.epochs; ++epoch) {
+      std::iota(order.begin(), order.end(), 0);
+      for (std::size_t i = order.size(); i > 1; --i) // Fisher-Yates, portable
+        std::swap(order[i - 1], order[static_cast<std::size_t>(rng() % i)]);
+      double loss_sum = 0;
+      long long correct_sum = 0;
+      for (std::size_t s = 0; s < order.size(); s += static_cast<std::size_t>(config_.batch_size)) {
+        const std::size_t e =
+            std::min(order.size(), s + static_cast<std::size_t>(config_.batch_size));
+        xb.resize(static_cast<Eigen::Index>(e - s), x.cols());
+        yb.resize(e - s);
+        for (std::size_t k = s; k < e; ++k) {
+          xb.row(static_cast<Eigen::Index>(k - s)) = x.row(order[k]);
+          yb[k - s] = y[static_cast<std::size_t>(order[k])];
+        }
+        int correct = 0;
+        loss_sum += head_loss(p, xb, yb, &g, &correct) * double(e - s);
+        correct_sum += correct;
+        adam_step(p, g, m, v, ++step);
+      }
+      HeadEpoch ep;
+      ep.epoch = epoch;
+      ep.train_loss = loss_sum / double(x.rows());
+      ep.train_accuracy = double(correct_sum) / double(x.rows());
+      if (has_val) {
+        int correct = 0;
+        ep.val_loss = head_loss(p, xv, yv, nullptr, &correct);
+        ep.val_accuracy = double(correct) / double(xv.rows());
+        ep.best =
+            ep.val_accuracy > best_acc || (ep.val_accuracy == best_acc && ep.val_loss < best_loss);
+      } else {
+        ep.val_loss = ep.val_accuracy = std::numeric_limits<double>::quiet_NaN();
+        ep.best = true;
+      }
+      if (ep.best) {
+        best_acc = ep.val_accuracy;
+        best_loss = ep.val_loss;
+        result.head = p;
+        result.best_epoch = epoch;
+      }
+      result.epochs.push_back(ep);
+      if (on_epoch) on_epoch(ep);
+    }
+    return result;
+  }
+
+private:
+  // torch.optim.Adam (amsgrad off): bias-corrected first and second moments.
+  void adam_step(LinearHead& p, LinearHead& g, LinearHead& m, LinearHead& v, long long t) const {
+    const double b1 = config_.beta1, b2 = config_.beta2;
+    if (config_.weight_decay > 0) {
+      g.weight += config_.weight_decay * p.weight;
+      g.bias += config_.weight_decay * p.bias;
+    }
+    const double c1 = 1.0 - std::pow(b1, double(t)), c2 = std::sqrt(1.0 - std::pow(b2, double(t)));
+    const double step = config_.learning_rate / c1;
+    auto update = [&](auto& pp, const auto& gg, auto& mm, auto& vv) {
+      mm = b1 * mm + (1 - b1) * gg;
+      vv.array() = b2 * vv.array() + (1 - b2) * gg.array().square();
+      pp.array() -= step * mm.array() / (vv.array().sqrt() / c2 + config_.epsilon);
+    };
+    update(p.weight, g.weight, m.weight, v.weight);
+    update(p.bias, g.bias, m.bias, v.bias);
+  }
+
+  Config config_;
+};
+
+// A copy of `base` whose classifier is `head` (rounded to float) with these class names.
+// The self-test is dropped: its logits belong to the old classifier.
+inline ModelFile model_with_head(const ModelFile& base, const LinearHead& head,
+                                 std::vector<std::string> class_names) {
+  base.validate();
+  detail::require(head.features() == base.architecture.final_features(),
+                  "model_with_head: head has " + std::to_string(head.features()) +
+                      " inputs, expected the backbone's " +
+                      std::to_string(base.architecture.final_features()));
+  detail::require(static_cast<int>(class_names.size()) == head.classes(),
+                  "model_with_head: " + std::to_string(class_names.size()) + " class names for " +
+                      std::to_string(head.classes()) + " classes");
+  detail::require(head.weight.allFinite() && head.bias.allFinite(),
+                  "model_with_head: head weights hold NaN or Inf");
+  ModelFile m = base;
+  m.architecture.num_classes = head.classes();
+  m.class_names = std::move(class_names);
+  auto& w = m.tensor("classifier.weight");
+  w.shape = {head.classes(), head.features()};
+  w.values.resize(static_cast<std::size_t>(head.classes()) * head.features());
+  for (int r = 0; r < head.classes(); ++r)
+    for (int c = 0; c < head.features(); ++c)
+      w.values[static_cast<std::size_t>(r) * head.features() + c] =
+          static_cast<float>(head.weight(r, c));
+  auto& b = m.tensor("classifier.bias");
+  b.shape = {head.classes()};
+  b.values.resize(static_cast<std::size_t>(head.classes()));
+  for (int r = 0; r < head.classes(); ++r)
+    b.values[static_cast<std::size_t>(r)] = static_cast<float>(head.bias(r));
+  m.self_test.reset();
+  m.validate();
+  return m;
+}
+
+// Writes the model next to `path` and renames it into place: an existing file is either
+// replaced completely or left untouched.
+inline void save_model_file(const ModelFile& model, const std::filesystem::path& path) {
+  std::filesystem::path tmp = path;
+  tmp += ".tmp";
+  try {
+    model.save(tmp);
+    std::filesystem::rename(tmp, path);
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw;
+  }
+}
+
+SHADOWSENSE_NAMESPACE_END

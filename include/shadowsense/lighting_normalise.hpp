@@ -1,0 +1,70 @@
+// Lighting normalisation: an optional stage before the Preprocessor that makes a classifier
+// robust to the light level and colour (the paper's models fail on a lighting condition they
+// were not trained on: Table 3, 53.79%; Table 4, down to 14.66%). Every channel is scaled so its
+// mean over the image becomes `target` (gray world + exposure), then clamped to [0, 1]. A
+// shadow's shape survives; the light's brightness and colour temperature do not.
+// tools/train.py --lighting-normalise applies the same arithmetic in PyTorch; a model trained
+// with it must be used with it (and without the dark-image brightness factor, which the
+// normalisation replaces).
+#pragma once
+
+#include <shadowsense/error.hpp>
+#include <shadowsense/version.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <string>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+struct LightingNormaliser {
+  struct Config {
+    float target = 0.35f;   // channel mean after normalisation (tools/train.py: NORMALISE_TARGET)
+    float min_mean = 1e-3f; // a black channel is scaled as if its mean were this
+  };
+
+  LightingNormaliser() : LightingNormaliser(Config{}) {}
+  explicit LightingNormaliser(Config config) : config_(config) {
+    detail::require(config.target > 0.0f && config.target <= 1.0f,
+                    "LightingNormaliser: target must be in (0, 1]");
+    detail::require(config.min_mean > 0.0f && config.min_mean < 1.0f,
+                    "LightingNormaliser: min_mean must be in (0, 1)");
+  }
+  const Config& config() const { return config_; }
+
+  // bgr: CV_8UC3 (0..255). out: CV_32FC3 in [0, 1], same channel order, ready for
+  // Preprocessor::run (call it with dark = false).
+  void run(const cv::Mat& image, cv::Mat& out) const {
+    detail::require(!image.empty() && image.type() == CV_8UC3,
+                    "LightingNormaliser: image is " +
+                        (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
+                        ", expected CV_8UC3");
+    out.create(image.rows, image.cols, CV_32FC3);
+    double sum[3] = {0, 0, 0};
+    for (int y = 0; y < image.rows; ++y) {
+      const auto* s = image.ptr<unsigned char>(y);
+      auto* d = out.ptr<float>(y);
+      for (int x = 0; x < image.cols; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float v = static_cast<float>(s[3 * x + c]) / 255.0f; // ToTensor
+          d[3 * x + c] = v;
+          sum[c] += v;
+        }
+    }
+    const double n = double(image.rows) * image.cols;
+    float gain[3];
+    for (int c = 0; c < 3; ++c)
+      gain[c] = config_.target / std::max(static_cast<float>(sum[c] / n), config_.min_mean);
+    for (int y = 0; y < image.rows; ++y) {
+      auto* d = out.ptr<float>(y);
+      for (int x = 0; x < image.cols; ++x)
+        for (int c = 0; c < 3; ++c) d[3 * x + c] = std::clamp(d[3 * x + c] * gain[c], 0.0f, 1.0f);
+    }
+  }
+
+private:
+  Config config_;
+};
+
+SHADOWSENSE_NAMESPACE_END

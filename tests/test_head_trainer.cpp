@@ -1,0 +1,162 @@
+// On-device transfer learning: the loss and its gradient (finite differences), Adam against
+// torch.optim.Adam, the frozen feature extractor against the DenseNet's own classifier, the
+// saved model reloading to the same predictions, and training on generated gesture frames.
+#include <shadowsense/head_trainer.hpp>
+#include <shadowsense/lighting_normalise.hpp>
+#include <shadowsense/preprocess.hpp>
+#include <shadowsense/sim/sim.hpp>
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+using namespace shadowsense;
+
+namespace {
+const std::filesystem::path tiny =
+    std::filesystem::path(SHADOWSENSE_TEST_DATA_DIR) / "densenet_tiny.ssdn";
+
+// The same fixed problem as the PyTorch reference in the Adam test.
+void fixed_problem(Eigen::MatrixXd& x, std::vector<int>& y, LinearHead& h) {
+  const int n = 8, d = 3, k = 4;
+  x.resize(n, d);
+  y.resize(n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < d; ++j) x(i, j) = ((i * 7 + j * 3) % 11) / 5.0 - 1.0;
+    y[static_cast<std::size_t>(i)] = (i * 5) % k;
+  }
+  h.weight.resize(k, d);
+  h.bias.resize(k);
+  for (int r = 0; r < k; ++r) {
+    for (int c = 0; c < d; ++c) h.weight(r, c) = ((r * 3 + c * 2) % 7) / 10.0 - 0.3;
+    h.bias(r) = 0.05 * r - 0.1;
+  }
+}
+} // namespace
+
+TEST_CASE("head_loss: value from PyTorch and gradient by central finite differences") {
+  Eigen::MatrixXd x;
+  std::vector<int> y;
+  LinearHead h;
+  fixed_problem(x, y, h);
+  LinearHead g;
+  const double loss = head_loss(h, x, y, &g);
+  CHECK(loss == doctest::Approx(1.3909910696566501).epsilon(1e-14));
+  const double step = 1e-6;
+  double worst = 0;
+  for (int r = 0; r < h.classes(); ++r) {
+    for (int c = 0; c <= h.features(); ++c) { // c == features: the bias
+      LinearHead p = h, m = h;
+      double& vp = c < h.features() ? p.weight(r, c) : p.bias(r);
+      double& vm = c < h.features() ? m.weight(r, c) : m.bias(r);
+      vp += step;
+      vm -= step;
+      const double numeric = (head_loss(p, x, y) - head_loss(m, x, y)) / (2 * step);
+      const double analytic = c < h.features() ? g.weight(r, c) : g.bias(r);
+      worst = std::max(worst, std::abs(numeric - analytic));
+    }
+  }
+  CHECK(worst < 1e-8);
+  // A wrong label changes the gradient: the check can fail.
+  std::vector<int> y2 = y;
+  y2[0] = (y2[0] + 1) % 4;
+  LinearHead g2;
+  head_loss(h, x, y2, &g2);
+  CHECK((g2.weight - g.weight).cwiseAbs().maxCoeff() > 1e-3);
+}
+
+TEST_CASE("HeadTrainer: Adam equals torch.optim.Adam (5 full-batch steps)") {
+  Eigen::MatrixXd x;
+  std::vector<int> y;
+  LinearHead h;
+  fixed_problem(x, y, h);
+  HeadTrainer trainer({.epochs = 5, .batch_size = 8});
+  const auto r = trainer.train(h, x, y, Eigen::MatrixXd(), {});
+  REQUIRE(r.best_epoch == 5);
+  const double w[] = {-0.30499979628866952,   -0.095001765237718069, 0.095000697247255197,
+                      -0.0049991600845872997, 0.20499975557326072,   -0.29500047700530441,
+                      0.29501443270036848,    -0.2049992625611593,   0.0049993780761054662,
+                      -0.095000727398698165,  0.095001054885917965,  0.29500048607291346};
+  const double b[] = {-0.095006881815180189, -0.054995640718565802, -0.0049887561122678951,
+                      0.045007176967342098};
+  for (int i = 0; i < 12; ++i)
+    CHECK(r.head.weight(i / 3, i % 3) == doctest::Approx(w[i]).epsilon(1e-12));
+  for (int i = 0; i < 4; ++i) CHECK(r.head.bias(i) == doctest::Approx(b[i]).epsilon(1e-12));
+}
+
+TEST_CASE("HeadTrainer: rejects mismatched data with clear errors") {
+  Eigen::MatrixXd x;
+  std::vector<int> y;
+  LinearHead h;
+  fixed_problem(x, y, h);
+  HeadTrainer trainer;
+  std::vector<int> short_y(y.begin(), y.end() - 1);
+  CHECK_THROWS_AS(trainer.train(h, x, short_y, Eigen::MatrixXd(), {}), InvalidArgument);
+  std::vector<int> bad = y;
+  bad[2] = 4;
+  CHECK_THROWS_WITH_AS(trainer.train(h, x, bad, Eigen::MatrixXd(), {}),
+                       doctest::Contains("label 4 outside [0, 4)"), InvalidArgument);
+  Eigen::MatrixXd wide(8, 5);
+  wide.setZero();
+  CHECK_THROWS_AS(trainer.train(h, wide, y, Eigen::MatrixXd(), {}), InvalidArgument);
+  x(1, 1) = std::nan("");
+  CHECK_THROWS_AS(trainer.train(h, x, y, Eigen::MatrixXd(), {}), InvalidArgument);
+  CHECK_THROWS_AS(HeadTrainer({.epochs = 0}), InvalidArgument);
+  CHECK_THROWS_AS(HeadTrainer({.learning_rate = -1}), InvalidArgument);
+}
+
+TEST_CASE("FeatureExtractor + the model's own head reproduce the DenseNet's logits") {
+  const auto model = ModelFile::load(tiny);
+  FeatureExtractor fx(model);
+  DenseNet net(model);
+  const LinearHead head = LinearHead::from_model(model);
+  REQUIRE(fx.dim() == model.architecture.final_features());
+  Tensor input(2, 3, 40, 48);
+  for (std::size_t i = 0; i < input.size(); ++i)
+    input.data()[i] = static_cast<float>(std::sin(0.37 * double(i)));
+  const auto f = fx.extract(input);
+  REQUIRE(f.size() == 2u * static_cast<std::size_t>(fx.dim()));
+  Eigen::MatrixXd feats(2, fx.dim());
+  for (int i = 0; i < 2; ++i)
+    for (int c = 0; c < fx.dim(); ++c) feats(i, c) = f[static_cast<std::size_t>(i * fx.dim() + c)];
+  const auto logits = net.logits(input);
+  for (int i = 0; i < 2; ++i)
+    for (int k = 0; k < head.classes(); ++k) {
+      const double mine = head.weight.row(k).dot(feats.row(i)) + head.bias(k);
+      const double ref = logits[static_cast<std::size_t>(i * head.classes() + k)];
+      CHECK(std::abs(mine - ref) <= 1e-5 * std::max(1.0, std::abs(ref)));
+    }
+}
+
+TEST_CASE("model_with_head: the saved model reloads and reproduces the head's predictions") {
+  const auto model = ModelFile::load(tiny);
+  FeatureExtractor fx(model);
+  Tensor input(3, 3, 40, 48);
+  for (std::size_t i = 0; i < input.size(); ++i)
+    input.data()[i] = static_cast<float>(std::cos(0.11 * double(i)));
+  const auto f = fx.extract(input);
+  Eigen::MatrixXd feats(3, fx.dim());
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < fx.dim(); ++c) feats(i, c) = f[static_cast<std::size_t>(i * fx.dim() + c)];
+  const LinearHead head = LinearHead::random(5, fx.dim(), 42);
+  std::filesystem::create_directories(SHADOWSENSE_TEST_TMP_DIR);
+  const auto out = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "head_trainer_saved.ssdn";
+  save_model_file(model_with_head(model, head, {"a", "b", "c", "d", "e"}), out);
+  const auto reloaded = ModelFile::load(out);
+  CHECK(reloaded.class_names == std::vector<std::string>{"a", "b", "c", "d", "e"});
+  CHECK(reloaded.architecture.num_classes == 5);
+  DenseNet net(reloaded);
+  const auto logits = net.logits(input);
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 5; ++k) {
+      const double mine = head.weight.row(k).dot(feats.row(i)) + head.bias(k);
+      const double ref = logits[static_cast<std::size_t>(i * 5 + k)];
+      CHECK(std::abs(mine - ref) <= 1e-5 * std::max(1.0, std::abs(ref)));
+    }
+  CHECK_THROWS_AS(model_with_head(model, head, {"only", "four", "names", "here"}), InvalidArgument);
+  CHECK_THROWS_AS(
+      model_with_head(model, LinearHead::random(5, fx.dim() + 1, 1), {"a", "b", "c", "d", "e"}),
+      InvalidArgument);
+}

@@ -1,0 +1,461 @@
+#!/usr/bin/python3
+"""Train a shadowsense gesture classifier with the paper's recipe (section 5.1.3) and write the
+library's model file (docs/model_format.md).
+
+Recipe: Adam (lr 1e-3, betas 0.9/0.999, eps 1e-8, weight decay 0), negative log-likelihood on
+log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is kept (ties:
+lower validation loss). Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
+bilinear resize without antialias, centre crop, adjust_contrast, adjust_brightness for dark
+images, Normalize), optionally preceded by the lighting normalisation of
+include/shadowsense/lighting.hpp (--lighting-normalise).
+
+Modes
+  --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
+                    trained from random initialisation
+  --mode transfer   the feature extractor of --backbone (a shadowsense model file or a
+                    torchvision state_dict/checkpoint) frozen (BatchNorm in eval mode), a new
+                    linear classifier trained on its pooled features (computed once)
+
+Data: a folder in the library's dataset format (root/<class>/*.png + root/metadata.csv with
+file_name, class, user, lighting, session, timestamp_ms, ...). Split selection by metadata:
+  --users / --exclude-users, --lightings / --exclude-lightings   which rows may be used at all
+  --holdout 0.3      drop the last 30% (by timestamp) of every session x class block: the
+                     test part of the paper's Table 1 split, never seen here
+  --val-fraction 0.3 validation = the last 30% (by timestamp) of every session x class block
+                     of what remains (the paper's 70/30 train/validation split)
+  --val-users / --val-lightings   validation = those rows instead (leave-out experiments)
+Dark images (brightness factor): lighting 'night', or a lighting_level below 0.25.
+
+  /usr/bin/python3 tools/train.py DATA -o model.ssm --mode scratch --resize 160 88 --crop 0 0
+  /usr/bin/python3 tools/train.py DATA -o model.ssm --mode transfer --backbone base.ssm
+"""
+import argparse
+import csv
+import os
+import random
+import struct
+import sys
+import time
+
+import torch
+import torch.nn.functional as F
+import torchvision
+import torchvision.transforms.functional as TF
+from torchvision.transforms import InterpolationMode
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import densenet_to_model as d2m  # noqa: E402
+
+MEAN = [0.485, 0.456, 0.406]
+STD = [0.229, 0.224, 0.225]
+DARK_LEVEL = 0.25
+# Lighting normalisation (include/shadowsense/lighting.hpp): every channel scaled so its mean
+# over the image becomes TARGET (gray world + exposure), then clamped to [0, 1].
+NORMALISE_TARGET = 0.35
+
+
+# ---------------------------------------------------------------------------------- model file
+def read_model_file(path):
+    """Parse a shadowsense model file: (architecture dict, preprocessing dict, class names,
+    state_dict). The checksum is verified."""
+    data = open(path, "rb").read()
+    if len(data) < 12 or data[:8] != d2m.MAGIC:
+        raise SystemExit(f"{path}: not a shadowsense model file (bad magic)")
+    if d2m.checksum(data[:-4]) != struct.unpack("<I", data[-4:])[0]:
+        raise SystemExit(f"{path}: checksum mismatch (corrupt or truncated)")
+    pos = 8
+
+    def u32():
+        nonlocal pos
+        v = struct.unpack_from("<I", data, pos)[0]
+        pos += 4
+        return v
+
+    def f32():
+        nonlocal pos
+        v = struct.unpack_from("<f", data, pos)[0]
+        pos += 4
+        return v
+
+    version = u32()
+    if version != d2m.VERSION:
+        raise SystemExit(f"{path}: format version {version}, expected {d2m.VERSION}")
+    growth, bn_size, init, classes = u32(), u32(), u32(), u32()
+    eps = f32()
+    blocks = tuple(u32() for _ in range(u32()))
+    rw, rh, cw, ch = u32(), u32(), u32(), u32()
+    contrast, brightness = f32(), f32()
+    mean = [f32() for _ in range(3)]
+    std = [f32() for _ in range(3)]
+    order = u32()
+    if order != 0:
+        raise SystemExit(f"{path}: network channel order BGR is not supported by train.py")
+    names = []
+    for _ in range(u32()):
+        n = u32()
+        names.append(data[pos:pos + n].decode("utf-8"))
+        pos += n
+    sd = {}
+    for _ in range(u32()):
+        n = u32()
+        name = data[pos:pos + n].decode()
+        pos += n
+        shape = tuple(u32() for _ in range(u32()))
+        count = 1
+        for d in shape:
+            count *= d
+        t = torch.frombuffer(bytearray(data[pos:pos + 4 * count]), dtype=torch.float32)
+        pos += 4 * count
+        sd[name] = t.reshape(shape).clone()
+    arch = dict(growth=growth, blocks=blocks, init=init, bn_size=bn_size, classes=classes, eps=eps)
+    pre = dict(resize_width=rw, resize_height=rh, crop_width=cw, crop_height=ch,
+               contrast=contrast, brightness=brightness, mean=mean, std=std)
+    return arch, pre, names, sd
+
+
+def load_backbone(path):
+    """A torchvision DenseNet from a model file or a state_dict/checkpoint; returns
+    (model, growth, blocks, init, bn_size, preprocessing dict or None)."""
+    with open(path, "rb") as f:
+        head = f.read(8)
+    if head == d2m.MAGIC:
+        arch, pre, _, sd = read_model_file(path)
+        model = torchvision.models.DenseNet(arch["growth"], arch["blocks"], arch["init"],
+                                            arch["bn_size"], 0, arch["classes"])
+        for k in list(model.state_dict()):
+            if k.endswith("num_batches_tracked"):
+                sd[k] = torch.tensor(0)
+        model.load_state_dict(sd)
+        return model, arch["growth"], arch["blocks"], arch["init"], arch["bn_size"], pre
+    sd = d2m.normalise_state_dict(torch.load(path, map_location="cpu"))
+    # Infer the architecture from the tensor shapes.
+    init = sd["features.conv0.weight"].shape[0]
+    growth = sd["features.denseblock1.denselayer1.conv2.weight"].shape[0]
+    bn_size = sd["features.denseblock1.denselayer1.conv1.weight"].shape[0] // growth
+    blocks = []
+    b = 1
+    while f"features.denseblock{b}.denselayer1.conv1.weight" in sd:
+        n = 1
+        while f"features.denseblock{b}.denselayer{n + 1}.conv1.weight" in sd:
+            n += 1
+        blocks.append(n)
+        b += 1
+    classes = sd["classifier.weight"].shape[0]
+    model = torchvision.models.DenseNet(growth, tuple(blocks), init, bn_size, 0, classes)
+    model.load_state_dict(sd, strict=False)
+    return model, growth, tuple(blocks), init, bn_size, None
+
+
+# -------------------------------------------------------------------------------- data + split
+def read_metadata(root):
+    path = os.path.join(root, "metadata.csv")
+    if not os.path.isfile(path):
+        raise SystemExit(f"{path}: missing (expected a dataset folder in the library's format)")
+    rows = []
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        need = {"file_name", "class", "user", "lighting", "session", "timestamp_ms"}
+        missing = need - set(reader.fieldnames or [])
+        if missing:
+            raise SystemExit(f"{path}: missing columns {sorted(missing)}")
+        for line, r in enumerate(reader, start=2):
+            try:
+                r["timestamp_ms"] = float(r["timestamp_ms"])
+                r["lighting_level"] = float(r.get("lighting_level") or "nan")
+            except ValueError as e:
+                raise SystemExit(f"{path}:{line}: {e}")
+            r["path"] = os.path.join(root, r["file_name"])
+            rows.append(r)
+    if not rows:
+        raise SystemExit(f"{path}: no rows")
+    return rows
+
+
+def is_dark(row):
+    if row["lighting"] == "night":
+        return True
+    lv = row.get("lighting_level")
+    return lv == lv and lv < DARK_LEVEL and row["lighting"] == "custom"
+
+
+def time_split(rows, fraction):
+    """Per session x class block, the last `fraction` of the frames by timestamp go to the
+    second list."""
+    blocks = {}
+    for r in rows:
+        blocks.setdefault((r["session"], r["class"]), []).append(r)
+    first, last = [], []
+    for key in sorted(blocks):
+        b = sorted(blocks[key], key=lambda r: r["timestamp_ms"])
+        cut = len(b) - int(round(fraction * len(b)))
+        first += b[:cut]
+        last += b[cut:]
+    return first, last
+
+
+def csv_list(s):
+    return [x for x in s.split(",") if x] if s else None
+
+
+def select(rows, args):
+    def keep(r, users, lightings, ex_users, ex_lightings):
+        return ((users is None or r["user"] in users) and
+                (lightings is None or r["lighting"] in lightings) and
+                (ex_users is None or r["user"] not in ex_users) and
+                (ex_lightings is None or r["lighting"] not in ex_lightings))
+
+    pool = [r for r in rows if keep(r, csv_list(args.users), csv_list(args.lightings),
+                                    csv_list(args.exclude_users),
+                                    csv_list(args.exclude_lightings))]
+    if args.holdout > 0:
+        pool, _ = time_split(pool, args.holdout)
+    if args.val_users or args.val_lightings:
+        vu, vl = csv_list(args.val_users), csv_list(args.val_lightings)
+        val = [r for r in pool if (vu and r["user"] in vu) or (vl and r["lighting"] in vl)]
+        train = [r for r in pool if r not in val]
+    else:
+        train, val = time_split(pool, args.val_fraction)
+    if not train:
+        raise SystemExit("the selection leaves no training rows")
+    if not val:
+        raise SystemExit("the selection leaves no validation rows")
+    return train, val
+
+
+# ----------------------------------------------------------------------------- preprocessing
+def load_image(path):
+    """RGB float tensor 3 x H x W in [0, 1] (ToTensor)."""
+    from PIL import Image
+    try:
+        with Image.open(path) as im:
+            im = im.convert("RGB")
+            x = torch.frombuffer(bytearray(im.tobytes()), dtype=torch.uint8)
+            x = x.reshape(im.height, im.width, 3).permute(2, 0, 1)
+    except Exception as e:  # PIL raises many types for corrupt files
+        raise SystemExit(f"{path}: cannot read image ({e})")
+    return x.float().div(255)
+
+
+def normalise_lighting(x):
+    m = x.mean(dim=(1, 2), keepdim=True).clamp_min(1e-3)
+    return (x * (NORMALISE_TARGET / m)).clamp(0, 1)
+
+
+def geometry(x, pre):
+    if pre["resize_width"] and (x.shape[2] != pre["resize_width"] or
+                                x.shape[1] != pre["resize_height"]):
+        x = TF.resize(x, [pre["resize_height"], pre["resize_width"]],
+                      interpolation=InterpolationMode.BILINEAR, antialias=False)
+    if pre["crop_width"]:
+        x = TF.center_crop(x, [pre["crop_height"], pre["crop_width"]])
+    return x
+
+
+def photometric(x, dark, pre, normalised):
+    """contrast -> brightness (dark images; not after lighting normalisation) -> Normalize,
+    on a batch N x 3 x h x w (adjust_contrast's mean is per image)."""
+    x = TF.adjust_contrast(x, pre["contrast"])
+    if not normalised and dark.any():
+        x = torch.where(dark.view(-1, 1, 1, 1), TF.adjust_brightness(x, pre["brightness"]), x)
+    return TF.normalize(x, pre["mean"], pre["std"])
+
+
+def augment(x, gen):
+    """Lighting augmentation on the cached geometry-stage tensors: per-image and per-channel
+    gain, a gamma, sensor noise."""
+    n = x.shape[0]
+    gain = torch.exp(torch.empty(n, 1, 1, 1).uniform_(-0.25, 0.25, generator=gen))
+    ch = torch.exp(torch.empty(n, 3, 1, 1).uniform_(-0.1, 0.1, generator=gen))
+    gamma = torch.exp(torch.empty(n, 1, 1, 1).uniform_(-0.2, 0.2, generator=gen))
+    x = (x * gain * ch).clamp(1e-6, 1).pow(gamma)
+    sigma = torch.empty(n, 1, 1, 1).uniform_(0, 0.03, generator=gen)
+    return (x + sigma * torch.randn(x.shape, generator=gen)).clamp(0, 1)
+
+
+def cache(rows, pre, normalised, classes, label):
+    xs, ys, dark = [], [], []
+    t0 = time.time()
+    for i, r in enumerate(rows):
+        x = load_image(r["path"])
+        if normalised:
+            x = normalise_lighting(x)
+        xs.append(geometry(x, pre))
+        if r["class"] not in classes:
+            raise SystemExit(f"{r['path']}: class '{r['class']}' is not among the model's "
+                             f"classes {classes}")
+        ys.append(classes.index(r["class"]))
+        dark.append(is_dark(r))
+        if (i + 1) % 500 == 0:
+            print(f"  {label}: loaded {i + 1}/{len(rows)} images ({time.time() - t0:.0f} s)",
+                  flush=True)
+    return torch.stack(xs), torch.tensor(ys), torch.tensor(dark)
+
+
+# ---------------------------------------------------------------------------------- training
+def evaluate(model, x, y, dark, pre, normalised, batch=64):
+    model.eval()
+    loss, correct = 0.0, 0
+    with torch.no_grad():
+        for i in range(0, len(y), batch):
+            out = F.log_softmax(model(photometric(x[i:i + batch], dark[i:i + batch], pre,
+                                                  normalised)), dim=1)
+            loss += F.nll_loss(out, y[i:i + batch], reduction="sum").item()
+            correct += (out.argmax(1) == y[i:i + batch]).sum().item()
+    return loss / len(y), correct / len(y)
+
+
+def train_loop(model, params, forward, n_train, val_fn, args, gen):
+    opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999), eps=1e-8, weight_decay=0)
+    best = None
+    for epoch in range(1, args.epochs + 1):
+        t0 = time.time()
+        perm = torch.randperm(n_train, generator=gen)
+        total, correct, seen = 0.0, 0, 0
+        for i in range(0, n_train, args.batch_size):
+            idx = perm[i:i + args.batch_size]
+            out, y = forward(idx)
+            out = F.log_softmax(out, dim=1)
+            loss = F.nll_loss(out, y)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            total += loss.item() * len(idx)
+            correct += (out.argmax(1) == y).sum().item()
+            seen += len(idx)
+        vloss, vacc = val_fn()
+        better = best is None or vacc > best[1] or (vacc == best[1] and vloss < best[2])
+        if better:
+            best = (epoch, vacc, vloss, {k: v.clone() for k, v in model.state_dict().items()})
+        print(f"epoch {epoch:2d}/{args.epochs}  train loss {total / seen:.4f}  train acc "
+              f"{correct / seen:.4f}  val loss {vloss:.4f}  val acc {vacc:.4f}  "
+              f"({time.time() - t0:.1f} s){'  best' if better else ''}", flush=True)
+    model.load_state_dict(best[3])
+    print(f"best epoch {best[0]}: val acc {best[1]:.4f}, val loss {best[2]:.4f}", flush=True)
+    return best
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("data", help="dataset folder (root/<class>/*.png + metadata.csv)")
+    ap.add_argument("-o", "--output", required=True, help="model file to write")
+    ap.add_argument("--mode", choices=["scratch", "transfer"], default="scratch")
+    ap.add_argument("--backbone", help="transfer: model file or state_dict of a DenseNet")
+    ap.add_argument("--growth-rate", type=int, default=12)
+    ap.add_argument("--block-config", type=int, nargs="+", default=[4, 4, 4])
+    ap.add_argument("--init-features", type=int, default=24)
+    ap.add_argument("--bn-size", type=int, default=4)
+    ap.add_argument("--resize", type=int, nargs=2, default=[160, 88], metavar=("W", "H"))
+    ap.add_argument("--crop", type=int, nargs=2, default=[0, 0], metavar=("W", "H"))
+    ap.add_argument("--contrast", type=float, default=3.0)
+    ap.add_argument("--brightness", type=float, default=2.0)
+    ap.add_argument("--lighting-normalise", action="store_true",
+                    help="normalise every image's channel means before preprocessing (and "
+                         "skip the dark-image brightness factor); the classifier must do the "
+                         "same at inference (ss_eval_classify --lighting-normalise)")
+    ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
+    ap.add_argument("--users"), ap.add_argument("--exclude-users")
+    ap.add_argument("--lightings"), ap.add_argument("--exclude-lightings")
+    ap.add_argument("--holdout", type=float, default=0.0)
+    ap.add_argument("--val-fraction", type=float, default=0.3)
+    ap.add_argument("--val-users"), ap.add_argument("--val-lightings")
+    ap.add_argument("--classes", help="comma-separated class order (default: sorted names)")
+    ap.add_argument("--epochs", type=int, default=20)
+    ap.add_argument("--batch-size", type=int, default=16)
+    ap.add_argument("--lr", type=float, default=1e-3)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
+    args = ap.parse_args(argv)
+    torch.set_num_threads(args.threads)
+    torch.manual_seed(args.seed)
+    random.seed(args.seed)
+    gen = torch.Generator().manual_seed(args.seed)
+
+    rows = read_metadata(args.data)
+    classes = csv_list(args.classes) or sorted({r["class"] for r in rows})
+    train_rows, val_rows = select(rows, args)
+    print(f"{len(train_rows)} training and {len(val_rows)} validation images, classes "
+          f"{classes}", flush=True)
+
+    pre = dict(resize_width=args.resize[0], resize_height=args.resize[1],
+               crop_width=args.crop[0], crop_height=args.crop[1], contrast=args.contrast,
+               brightness=args.brightness, mean=MEAN, std=STD)
+    if args.mode == "transfer":
+        if not args.backbone:
+            raise SystemExit("--mode transfer needs --backbone")
+        model, growth, blocks, init, bn_size, bpre = load_backbone(args.backbone)
+        if bpre is not None:  # keep the backbone's input geometry and photometrics
+            pre = bpre
+        model.classifier = torch.nn.Linear(model.classifier.in_features, len(classes))
+    else:
+        growth, blocks, init, bn_size = (args.growth_rate, tuple(args.block_config),
+                                         args.init_features, args.bn_size)
+        model = torchvision.models.DenseNet(growth, blocks, init, bn_size, 0, len(classes))
+    for r in train_rows + val_rows:
+        if r["class"] not in classes:
+            raise SystemExit(f"{r['path']}: class '{r['class']}' not in {classes}")
+    missing = [c for c in classes if c not in {r["class"] for r in train_rows}]
+    if missing:
+        raise SystemExit(f"no training images of class(es) {missing}")
+
+    xt, yt, dt = cache(train_rows, pre, args.lighting_normalise, classes, "train")
+    xv, yv, dv = cache(val_rows, pre, args.lighting_normalise, classes, "val")
+    print(f"input {tuple(xt.shape[1:])}, mode {args.mode}, growth {growth}, blocks "
+          f"{list(blocks)}, init {init}, bn_size {bn_size}", flush=True)
+
+    if args.mode == "transfer":
+        # Frozen features, computed once: norm5 -> relu -> global average pool.
+        model.eval()
+        for p in model.features.parameters():
+            p.requires_grad_(False)
+
+        def feats(x, d):
+            out = []
+            with torch.no_grad():
+                for i in range(0, len(x), 64):
+                    f = model.features(photometric(x[i:i + 64], d[i:i + 64], pre,
+                                                   args.lighting_normalise))
+                    out.append(F.adaptive_avg_pool2d(F.relu(f), 1).flatten(1))
+            return torch.cat(out)
+
+        ft, fv = feats(xt, dt), feats(xv, dv)
+        head = model.classifier
+
+        def forward(idx):
+            return head(ft[idx]), yt[idx]
+
+        def val_fn():
+            with torch.no_grad():
+                out = F.log_softmax(head(fv), dim=1)
+                return F.nll_loss(out, yv).item(), (out.argmax(1) == yv).float().mean().item()
+
+        train_loop(head, head.parameters(), forward, len(yt), val_fn, args, gen)
+    else:
+        def forward(idx):
+            model.train()
+            x = xt[idx]
+            if args.augment:
+                x = augment(x, gen)
+            return model(photometric(x, dt[idx], pre, args.lighting_normalise)), yt[idx]
+
+        def val_fn():
+            return evaluate(model, xv, yv, dv, pre, args.lighting_normalise)
+
+        train_loop(model, model.parameters(), forward, len(yt), val_fn, args, gen)
+
+    model.eval()
+    st_gen = torch.Generator().manual_seed(args.seed + 1)
+    x = torch.randn(1, 3, xt.shape[2], xt.shape[3], generator=st_gen)
+    with torch.no_grad():
+        logits = model(x)
+    tmp = args.output + ".tmp"
+    d2m.write_model(tmp, model, growth, blocks, init, bn_size, classes, pre, (x, logits, 1e-4))
+    os.replace(tmp, args.output)  # never leave a half-written model under the real name
+    if args.save_state_dict:
+        torch.save(model.state_dict(), args.save_state_dict)
+    print(f"wrote {args.output} ({os.path.getsize(args.output)} bytes)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
