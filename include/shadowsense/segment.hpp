@@ -229,7 +229,7 @@ class Segmenter {
 public:
   struct Config {
     SegmenterCalibration calibration{};
-    int pre_blur = 3;            // box blur of the colour image before classification (0/1 = off)
+    int pre_blur = 0;            // box blur of the colour image before classification (0/1 = off)
     int mask_blur = 5;           // Gaussian kernel for the binary masks (odd; 0/1 = off)
     double min_shadow_area = 30; // contours smaller than this (mask px) are dropped
     double min_contact_area = 6;
@@ -590,13 +590,18 @@ private:
     for (std::size_t j = 0; j < kept_.size(); ++j) {
       if (sets_.find(static_cast<int>(j)) != group) continue;
       for (const cv::Point& p : contours_[kept_[j].contour]) {
-        const int x0 = std::max(p.x - 1, 0), x1 = std::min(p.x + 1, w - 1);
-        const int y0 = std::max(p.y - 1, 0), y1 = std::min(p.y + 1, h - 1);
+        // Differences over +-2 px, averaged over the 3 rows/columns across: robust to noise.
+        const int x0 = std::max(p.x - 2, 0), x1 = std::min(p.x + 2, w - 1);
+        const int y0 = std::max(p.y - 2, 0), y1 = std::min(p.y + 2, h - 1);
         if (x0 == x1 || y0 == y1) continue;
-        const float gx =
-            (darkness_.at<float>(p.y, x1) - darkness_.at<float>(p.y, x0)) / float(x1 - x0);
-        const float gy =
-            (darkness_.at<float>(y1, p.x) - darkness_.at<float>(y0, p.x)) / float(y1 - y0);
+        float gx = 0, gy = 0;
+        for (int o = -1; o <= 1; ++o) {
+          const int yy = std::clamp(p.y + o, 0, h - 1), xx = std::clamp(p.x + o, 0, w - 1);
+          gx += (darkness_.at<float>(yy, x1) - darkness_.at<float>(yy, x0)) / float(x1 - x0);
+          gy += (darkness_.at<float>(y1, xx) - darkness_.at<float>(y0, xx)) / float(y1 - y0);
+        }
+        gx /= 3.f;
+        gy /= 3.f;
         sum += std::hypot(gx, gy);
         ++n;
       }
