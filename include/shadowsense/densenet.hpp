@@ -94,6 +94,26 @@ public:
     return logits_;
   }
 
+  // Bytes held for the packed weights, and for the activations and scratch of the current
+  // input size (the whole working memory of a forward pass: nothing else is allocated).
+  std::size_t weight_bytes() const {
+    std::size_t n = conv0_.data.size() + bias0_.size() + classifier_w_.size() +
+                    classifier_b_.size() + 2 * norm5_.scale.size();
+    for (const auto& b : blocks_) {
+      n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
+      for (const auto& l : b.layers)
+        n += l.conv1.data.size() + l.conv2.data.size() + l.bias1.size() + 2 * l.norm1.scale.size();
+    }
+    return n * sizeof(float);
+  }
+  std::size_t activation_bytes() const {
+    std::size_t n = padded_input_.size() + conv0_out_.size() + pooled_.size() + logits_.size();
+    for (const auto& b : block_buf_) n += b.size();
+    for (const auto& b : bottleneck_) n += b.size();
+    for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
+    return n * sizeof(float);
+  }
+
   // Multiply-adds of one forward pass at h x w (for GFLOP/s reports; 1 MAC = 2 FLOP).
   double macs(int h, int w) const {
     double total = 0;
