@@ -4,3 +4,4 @@
 #include <shadowsense/shadowsense.hpp>
 #include <shadowsense/dataset.hpp>
 #include <shadowsense/sim/dataset_writer.hpp>
+#include <shadowsense/gesture_samples.hpp>

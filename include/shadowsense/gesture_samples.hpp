@@ -1,0 +1,165 @@
+// Labelled gesture frames for training and evaluation: a dataset folder (docs/dataset_format.md)
+// read into frames with a class index, the paper's metadata splits (by user, lighting and
+// collection time), and the frame encoder every classifier entry point shares (optional
+// lighting normalisation, then the Preprocessor), so ss_train_head, ss_eval_classify, ss_demo
+// and tools/train.py see identical tensors.
+#pragma once
+
+#include <shadowsense/dataset.hpp>
+#include <shadowsense/error.hpp>
+#include <shadowsense/head_trainer.hpp>
+#include <shadowsense/lighting_normalise.hpp>
+#include <shadowsense/preprocess.hpp>
+#include <shadowsense/version.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <span>
+#include <string>
+#include <tuple>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+struct GestureSample {
+  std::filesystem::path path;
+  int label = -1; // index into GestureSamples::class_names
+  int user = 0;
+  sim::Lighting lighting = sim::Lighting::daylight;
+  double lighting_level = 1.0;
+  std::string session;
+  double timestamp_ms = 0;
+};
+
+struct GestureSamples {
+  std::vector<std::string> class_names;
+  std::vector<GestureSample> frames;
+};
+
+// Images taken in the dark get the brightness factor (paper 5.1.2): the night preset, or a
+// custom level below 0.25. tools/train.py uses the same rule.
+inline bool is_dark(const GestureSample& f) {
+  return f.lighting == sim::Lighting::night ||
+         (f.lighting == sim::Lighting::custom && f.lighting_level < 0.25);
+}
+
+// Reads folder/metadata.csv. Every class must be one of class_names (the model's order).
+inline GestureSamples load_gesture_samples(const std::filesystem::path& folder,
+                                           std::vector<std::string> class_names) {
+  const auto csv = folder / "metadata.csv";
+  detail::require<DatasetError>(std::filesystem::is_regular_file(csv),
+                                csv.string() + ": missing; expected a dataset folder with a "
+                                               "metadata.csv (docs/dataset_format.md)");
+  const Metadata md = read_metadata(csv);
+  detail::require<DatasetError>(!md.rows.empty(), csv.string() + ": no frames");
+  GestureSamples out;
+  out.class_names = std::move(class_names);
+  for (const auto& r : md.rows) {
+    const auto it = std::find(out.class_names.begin(), out.class_names.end(), r.label);
+    detail::require<DatasetError>(it != out.class_names.end(),
+                                  csv.string() + ":" + std::to_string(r.line) + ": class '" +
+                                      r.label + "' is not one of the model's classes");
+    out.frames.push_back({md.image_path(r), static_cast<int>(it - out.class_names.begin()), r.user,
+                          r.lighting, r.lighting_level, r.session, r.timestamp_ms});
+  }
+  return out;
+}
+
+// Indices of the frames passing `keep`.
+inline std::vector<std::size_t>
+select_samples(const GestureSamples& set, const std::function<bool(const GestureSample&)>& keep) {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < set.frames.size(); ++i)
+    if (keep(set.frames[i])) out.push_back(i);
+  return out;
+}
+
+// The paper's split by collection time: within every session x class block, the last
+// `fraction` of the frames (by timestamp) go to .second, the rest to .first.
+inline std::pair<std::vector<std::size_t>, std::vector<std::size_t>>
+time_split(const GestureSamples& set, std::span<const std::size_t> indices, double fraction) {
+  detail::require(fraction >= 0 && fraction <= 1, "time_split: fraction must be in [0, 1]");
+  std::map<std::pair<std::string, int>, std::vector<std::size_t>> blocks;
+  for (std::size_t i : indices) blocks[{set.frames[i].session, set.frames[i].label}].push_back(i);
+  std::pair<std::vector<std::size_t>, std::vector<std::size_t>> out;
+  for (auto& [key, b] : blocks) {
+    std::stable_sort(b.begin(), b.end(), [&](std::size_t a, std::size_t c) {
+      return set.frames[a].timestamp_ms < set.frames[c].timestamp_ms;
+    });
+    // Python's round(fraction * n) (tools/train.py): half to even.
+    const double want = fraction * double(b.size());
+    double r = std::round(want);
+    if (std::abs(want - std::floor(want) - 0.5) < 1e-12)
+      r = std::fmod(std::floor(want), 2.0) == 0 ? std::floor(want) : std::ceil(want);
+    const std::size_t cut = b.size() - static_cast<std::size_t>(r);
+    out.first.insert(out.first.end(), b.begin(), b.begin() + static_cast<std::ptrdiff_t>(cut));
+    out.second.insert(out.second.end(), b.begin() + static_cast<std::ptrdiff_t>(cut), b.end());
+  }
+  return out;
+}
+
+// Reads a colour image; a missing or corrupt file is an IoError naming it.
+inline cv::Mat read_colour_image(const std::filesystem::path& path) {
+  cv::Mat img = cv::imread(path.string(), cv::IMREAD_COLOR);
+  detail::require<IoError>(!img.empty(), path.string() +
+                                             ": cannot read the image (missing, corrupt or not "
+                                             "an image format OpenCV reads)");
+  return img;
+}
+
+// BGR frame -> network input: optional lighting normalisation (then no brightness factor),
+// then the Preprocessor with the model's parameters.
+class FrameEncoder {
+public:
+  FrameEncoder(const PreprocessParams& params, bool lighting_normalise)
+      : normalise_(lighting_normalise), pre_(Preprocessor::Config{params, ChannelOrder::bgr}) {}
+  bool lighting_normalise() const { return normalise_; }
+  const Preprocessor& preprocessor() const { return pre_; }
+
+  void run(const cv::Mat& bgr, bool dark, Tensor& out) {
+    if (normalise_) {
+      norm_.run(bgr, float_);
+      pre_.run(float_, false, out);
+    } else {
+      pre_.run(bgr, dark, out);
+    }
+  }
+
+private:
+  bool normalise_;
+  Preprocessor pre_;
+  LightingNormaliser norm_;
+  cv::Mat float_;
+};
+
+// Pooled features of the given frames (row per index, in order). progress(done, total) is
+// called every 100 frames.
+inline Eigen::MatrixXd
+extract_features(FeatureExtractor& fx, FrameEncoder& enc, const GestureSamples& set,
+                 std::span<const std::size_t> indices,
+                 const std::function<void(std::size_t, std::size_t)>& progress = {}) {
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(indices.size()), fx.dim());
+  Tensor t;
+  for (std::size_t k = 0; k < indices.size(); ++k) {
+    const auto& f = set.frames[indices[k]];
+    enc.run(read_colour_image(f.path), is_dark(f), t);
+    const auto v = fx.extract(t);
+    for (int c = 0; c < fx.dim(); ++c)
+      out(static_cast<Eigen::Index>(k), c) = v[static_cast<std::size_t>(c)];
+    if (progress && ((k + 1) % 100 == 0 || k + 1 == indices.size()))
+      progress(k + 1, indices.size());
+  }
+  return out;
+}
+
+inline std::vector<int> labels_of(const GestureSamples& set, std::span<const std::size_t> indices) {
+  std::vector<int> y;
+  for (std::size_t i : indices) y.push_back(set.frames[i].label);
+  return y;
+}
+
+SHADOWSENSE_NAMESPACE_END
