@@ -27,6 +27,7 @@
 #include <shadowsense/image_check.hpp>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -282,7 +283,7 @@ public:
       smooth(empty_frames[i]);
       const cv::Vec3f ref = global_reference();
       cv::Mat f;
-      smoothed_.convertTo(f, CV_32FC3);
+      src_->convertTo(f, CV_32FC3);
       normalised.push_back(f.mul(cv::Scalar(1.0 / ref[0], 1.0 / ref[1], 1.0 / ref[2])));
     }
     cv::Mat sum(empty_frames[0].size(), CV_32FC3);
@@ -334,6 +335,7 @@ public:
           ip[x][k] = p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
         }
     }
+    cv::split(inv_profile_, inv_planes_.data());
   }
   void set_background(const cv::Mat& empty_frame) { set_empty_skin({empty_frame}); }
   bool has_empty_skin() const { return !profile_.empty(); }
@@ -375,26 +377,29 @@ public:
   const Config& config() const { return config_; }
 
 private:
+  // Points src_ at the frame, or at its box-blurred copy (never writes into the caller's image).
   void smooth(const cv::Mat& bgr) {
-    if (config_.pre_blur > 1)
-      cv::blur(bgr, smoothed_, cv::Size(config_.pre_blur, config_.pre_blur), cv::Point(-1, -1),
+    if (config_.pre_blur > 1) {
+      cv::blur(bgr, colour_blur_, cv::Size(config_.pre_blur, config_.pre_blur), cv::Point(-1, -1),
                cv::BORDER_REPLICATE);
-    else
-      bgr.copyTo(smoothed_);
+      src_ = &colour_blur_;
+    } else {
+      src_ = &bgr;
+    }
   }
 
-  // The configured percentile of each channel of smoothed_ / profile over the skin (every second
-  // pixel of every second row), in 8-bit units.
+  // The configured percentile of each channel of the frame / profile over the skin (every third
+  // pixel of every third row), in 8-bit units.
   cv::Vec3f global_reference() const {
     constexpr int bins = 1024; // quarter-unit bins up to 256
     std::array<std::vector<int>, 3>& hist = hist_;
     for (auto& h : hist) h.assign(bins, 0);
-    const bool prof = !inv_profile_.empty() && inv_profile_.size() == smoothed_.size();
+    const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
     int n = 0;
-    for (int y = 0; y < smoothed_.rows; y += 2) {
-      const cv::Vec3b* row = smoothed_.ptr<cv::Vec3b>(y);
+    for (int y = 1; y < src_->rows; y += 3) {
+      const cv::Vec3b* row = src_->ptr<cv::Vec3b>(y);
       const cv::Vec3f* ip = prof ? inv_profile_.ptr<cv::Vec3f>(y) : nullptr;
-      for (int x = 0; x < smoothed_.cols; x += 2) {
+      for (int x = 1; x < src_->cols; x += 3) {
         if (ip && ip[x][0] == 0.f) continue;
         ++n;
         for (int k = 0; k < 3; ++k) {
@@ -418,7 +423,7 @@ private:
   }
 
   void classify(Segmentation& out) {
-    const cv::Size size = smoothed_.size();
+    const cv::Size size = src_->size();
     out.shadow_mask.create(size, CV_8UC1);
     out.contact_mask.create(size, CV_8UC1);
     const SegmenterCalibration& cal = config_.calibration;
@@ -427,7 +432,7 @@ private:
       darkness_.release();
       warmth_.release();
       for (int y = 0; y < size.height; ++y) {
-        const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+        const cv::Vec3b* in = src_->ptr<cv::Vec3b>(y);
         const uchar* v = prof ? valid_.ptr<uchar>(y) : nullptr;
         uchar* s = out.shadow_mask.ptr<uchar>(y);
         uchar* c = out.contact_mask.ptr<uchar>(y);
@@ -446,32 +451,90 @@ private:
     const std::array<float, 3> inv{1.f / gain_[0], 1.f / gain_[1], 1.f / gain_[2]};
     const LightThresholds th = cal.thresholds_at(detail::luminance(gain_));
     const float ts = th.shadow_darkness, tc = th.contact_darkness, tw = th.contact_warmth;
+    if (!prof && (uniform_valid_.size() != size)) { // no empty-skin model: all skin, flat
+      for (cv::Mat& p : uniform_planes_) {
+        p.create(size, CV_32F);
+        p.setTo(1.0);
+      }
+      uniform_valid_.create(size, CV_8UC1);
+      uniform_valid_.setTo(255);
+    }
+    const std::array<cv::Mat, 3>& planes = prof ? inv_planes_ : uniform_planes_;
+    const cv::Mat& valid_map = prof ? valid_ : uniform_valid_;
+    const float gb = inv[0], gg = inv[1], gr = inv[2];
     for (int y = 0; y < size.height; ++y) {
-      const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
-      const cv::Vec3f* ip = prof ? inv_profile_.ptr<cv::Vec3f>(y) : nullptr;
+      const uchar* in = src_->ptr<uchar>(y);
+      const float* ipb = planes[0].ptr<float>(y);
+      const float* ipg = planes[1].ptr<float>(y);
+      const float* ipr = planes[2].ptr<float>(y);
+      const uchar* v = valid_map.ptr<uchar>(y);
       float* dk = darkness_.ptr<float>(y);
       float* wm = warmth_.ptr<float>(y);
-      uchar* s = out.shadow_mask.ptr<uchar>(y);
-      uchar* c = out.contact_mask.ptr<uchar>(y);
-      for (int x = 0; x < size.width; ++x) {
-        float qb = in[x][0] * inv[0], qg = in[x][1] * inv[1], qr = in[x][2] * inv[2];
-        if (ip) {
-          if (ip[x][0] == 0.f) { // not skin
-            dk[x] = wm[x] = 0.f;
-            s[x] = c[x] = 0;
-            continue;
-          }
-          qb *= ip[x][0];
-          qg *= ip[x][1];
-          qr *= ip[x][2];
+      uchar* sm = out.shadow_mask.ptr<uchar>(y);
+      uchar* cm = out.contact_mask.ptr<uchar>(y);
+      int x = 0;
+#if CV_SIMD128
+      // 16 pixels at a time with OpenCV's universal intrinsics (same arithmetic as below).
+      const cv::v_float32x4 vgb = cv::v_setall_f32(gb), vgg = cv::v_setall_f32(gg),
+                            vgr = cv::v_setall_f32(gr), one = cv::v_setall_f32(1.f),
+                            third = cv::v_setall_f32(1.f / 3.f), vts = cv::v_setall_f32(ts),
+                            vtc = cv::v_setall_f32(tc), vtw = cv::v_setall_f32(tw);
+      auto to_f32 = [](const cv::v_uint8x16& a, cv::v_float32x4* o) {
+        cv::v_uint16x8 lo, hi;
+        cv::v_expand(a, lo, hi);
+        cv::v_uint32x4 a0, a1, a2, a3;
+        cv::v_expand(lo, a0, a1);
+        cv::v_expand(hi, a2, a3);
+        o[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a0));
+        o[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a1));
+        o[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a2));
+        o[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a3));
+      };
+      for (; x + 16 <= size.width; x += 16) {
+        cv::v_uint8x16 b8, g8, r8;
+        cv::v_load_deinterleave(in + 3 * x, b8, g8, r8);
+        cv::v_float32x4 fb[4], fg[4], fr[4];
+        to_f32(b8, fb);
+        to_f32(g8, fg);
+        to_f32(r8, fr);
+        cv::v_int32x4 cmask[4], smask[4];
+        for (int j = 0; j < 4; ++j) {
+          const int o = x + 4 * j;
+          const cv::v_float32x4 qb = fb[j] * cv::v_load(ipb + o) * vgb;
+          const cv::v_float32x4 qg = fg[j] * cv::v_load(ipg + o) * vgg;
+          const cv::v_float32x4 qr = fr[j] * cv::v_load(ipr + o) * vgr;
+          const cv::v_float32x4 d = one - (qb + qg + qr) * third;
+          const cv::v_float32x4 w = qr - qb;
+          cv::v_store(dk + o, d);
+          cv::v_store(wm + o, w);
+          cmask[j] = cv::v_reinterpret_as_s32((d >= vtc) & (w >= vtw));
+          smask[j] = cv::v_reinterpret_as_s32(d >= vts);
         }
+        const cv::v_uint8x16 skin = cv::v_load(v + x);
+        const cv::v_uint8x16 c =
+            cv::v_reinterpret_as_u8(
+                cv::v_pack(cv::v_pack(cmask[0], cmask[1]), cv::v_pack(cmask[2], cmask[3]))) &
+            skin;
+        const cv::v_uint8x16 sh =
+            (cv::v_reinterpret_as_u8(
+                 cv::v_pack(cv::v_pack(smask[0], smask[1]), cv::v_pack(smask[2], smask[3]))) &
+             skin) |
+            c;
+        cv::v_store(cm + x, c);
+        cv::v_store(sm + x, sh);
+      }
+#endif
+      for (; x < size.width; ++x) {
+        const float qb = static_cast<float>(in[3 * x]) * ipb[x] * gb;
+        const float qg = static_cast<float>(in[3 * x + 1]) * ipg[x] * gg;
+        const float qr = static_cast<float>(in[3 * x + 2]) * ipr[x] * gr;
         const float d = 1.f - (qb + qg + qr) * (1.f / 3.f);
         const float w = qr - qb;
         dk[x] = d;
         wm[x] = w;
-        const bool contact = d >= tc && w >= tw;
-        c[x] = contact ? 255 : 0;
-        s[x] = (contact || d >= ts) ? 255 : 0;
+        const uchar contact = (d >= tc && w >= tw) ? v[x] : uchar(0);
+        cm[x] = contact;
+        sm[x] = static_cast<uchar>((d >= ts ? v[x] : uchar(0)) | contact);
       }
     }
   }
@@ -565,16 +628,17 @@ private:
     cv::dilate(out.shadow_mask, dilated_, cv::Mat(), cv::Point(-1, -1), 3);
     const float a = config_.adapt_rate;
     const std::array<float, 3> inv{1.f / gain_[0], 1.f / gain_[1], 1.f / gain_[2]};
-    for (int y = 0; y < smoothed_.rows; ++y) {
-      const cv::Vec3b* in = smoothed_.ptr<cv::Vec3b>(y);
+    for (int y = 0; y < src_->rows; ++y) {
+      const cv::Vec3b* in = src_->ptr<cv::Vec3b>(y);
       const uchar* m = dilated_.ptr<uchar>(y);
       cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
       cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < smoothed_.cols; ++x) {
+      for (int x = 0; x < src_->cols; ++x) {
         if (m[x] || ip[x][0] == 0.f) continue;
         for (int k = 0; k < 3; ++k) {
           p[x][k] = std::max(p[x][k] + a * (in[x][k] * inv[k] - p[x][k]), 0.05f);
           ip[x][k] = 1.f / p[x][k];
+          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] = ip[x][k];
         }
       }
     }
@@ -616,8 +680,12 @@ private:
     std::size_t contour;
   };
   Config config_;
-  cv::Mat smoothed_, blurred_, darkness_, warmth_, dilated_;
+  cv::Mat colour_blur_, blurred_, darkness_, warmth_, dilated_;
+  const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat profile_, inv_profile_, valid_; // empty-skin model
+  std::array<cv::Mat, 3> inv_planes_;     // inverse model, one CV_32F plane per channel
+  std::array<cv::Mat, 3> uniform_planes_; // stand-ins without a model
+  cv::Mat uniform_valid_;
   cv::Vec3f gain_{1, 1, 1};
   mutable std::array<std::vector<int>, 3> hist_;
   std::vector<std::vector<cv::Point>> contours_;
