@@ -227,8 +227,15 @@ TEST_CASE("lighting presets differ measurably: daylight > dusk > night, night no
   CHECK(noise[2] > 1.5 * noise[1]);
   CHECK(noise[1] > 1.5 * noise[0]);
   // The continuous level interpolates between presets.
-  CHECK(light_from_level(0.75).brightness > preset(Lighting::dusk).brightness);
-  CHECK(light_from_level(0.75).brightness < preset(Lighting::daylight).brightness);
+  CHECK(light_from_level(0.75).brightness() > preset(Lighting::dusk).brightness());
+  CHECK(light_from_level(0.75).brightness() < preset(Lighting::daylight).brightness());
+  CHECK(preset(Lighting::night).exposure > preset(Lighting::daylight).exposure);
+  // Exposure scales what the camera records, noise included.
+  Light brighter = preset(Lighting::dusk);
+  brighter.exposure *= 1.5;
+  const Frame dim = r.render(scene, preset(Lighting::dusk), 1),
+              lifted = r.render(scene, brighter, 1);
+  CHECK(cv::mean(lifted.image)[1] > 1.3 * cv::mean(dim.image)[1]);
   CHECK(light_from_level(0.75).label == Lighting::custom);
 }
 

@@ -58,20 +58,24 @@ inline double lighting_level(Lighting l) {
 struct Light {
   Lighting label = Lighting::daylight;
   double level = 1.0;            // 0 night .. 0.5 dusk .. 1 daylight
-  double brightness = 215.0;     // lit fabric value (0..255) after exposure, on-axis
+  double intensity = 250.0;      // lit fabric value (0..255 scale) at exposure 1, on-axis
   double colour_temp_k = 6000.0; // of the light passing through the skin
   double ambient = 0.30;         // fraction of the light left in a full shadow (diffuse light)
   double ambient_temp_k = 7500.0;
   double zenith_deg = 30.0;      // 0 = light straight above; larger shifts/stretches shadows
   double shadow_azimuth_deg = 0; // direction (image axes, from +x towards +y) shadows shift to
-  double noise_sigma = 1.5;      // sensor noise, 8-bit units
-  double exposure = 0.86;        // camera gain (auto-exposure): raises brightness and noise
+  double noise_sigma = 1.74;     // sensor noise at exposure 1, 8-bit units
+  double exposure = 0.86;        // camera gain (auto-exposure): scales brightness and noise
+
+  // What the camera records: lit fabric value (clipped at 255) and noise after the gain.
+  double brightness() const { return std::min(intensity * exposure, 255.0); }
+  double noise() const { return noise_sigma * exposure; }
 
   void validate() const {
     detail::require(std::isfinite(level) && level >= 0 && level <= 1,
                     "Light: level must be in [0, 1]");
-    detail::require(std::isfinite(brightness) && brightness > 0 && brightness <= 255,
-                    "Light: brightness must be in (0, 255]");
+    detail::require(std::isfinite(intensity) && intensity > 0 && intensity <= 2550,
+                    "Light: intensity must be in (0, 2550]");
     detail::require(colour_temp_k >= 1000 && colour_temp_k <= 40000 && ambient_temp_k >= 1000 &&
                         ambient_temp_k <= 40000,
                     "Light: colour temperatures must be in [1000, 40000] K");
@@ -103,12 +107,13 @@ inline Light light_from_level(double level, double shadow_azimuth_deg = 0.0) {
             : level == 0.0 ? Lighting::night
                            : Lighting::custom;
   l.exposure = internal::by_level(level, 1.55, 1.2, 0.86);
-  l.brightness = internal::by_level(level, 70.0, 150.0, 215.0);
+  // Recorded brightness (intensity x exposure): 70 / 150 / 215; noise 6.5 / 3 / 1.5.
+  l.intensity = internal::by_level(level, 70.0 / 1.55, 150.0 / 1.2, 215.0 / 0.86);
   l.colour_temp_k = internal::by_level(level, 3200.0, 2700.0, 6000.0);
   l.ambient_temp_k = internal::by_level(level, 5000.0, 8000.0, 7500.0);
   l.ambient = internal::by_level(level, 0.45, 0.36, 0.30);
   l.zenith_deg = internal::by_level(level, 15.0, 50.0, 30.0);
-  l.noise_sigma = internal::by_level(level, 6.5, 3.0, 1.5);
+  l.noise_sigma = internal::by_level(level, 6.5 / 1.55, 3.0 / 1.2, 1.5 / 0.86);
   l.shadow_azimuth_deg = shadow_azimuth_deg;
   return l;
 }
@@ -118,7 +123,8 @@ inline Light preset(Lighting l, double shadow_azimuth_deg = 0.0) {
 
 // Small per-frame variation (flicker, auto-exposure hunting) around a session's light.
 inline Light jitter(Light l, Rng& rng, double amount = 1.0) {
-  l.brightness = std::clamp(l.brightness * (1.0 + 0.04 * amount * rng.normal()), 5.0, 255.0);
+  l.intensity = std::clamp(l.intensity * (1.0 + 0.04 * amount * rng.normal()), 1.0, 2550.0);
+  l.exposure = std::clamp(l.exposure * (1.0 + 0.02 * amount * rng.normal()), 0.05, 16.0);
   l.colour_temp_k =
       std::clamp(l.colour_temp_k * (1.0 + 0.03 * amount * rng.normal()), 1000.0, 40000.0);
   l.zenith_deg = std::clamp(l.zenith_deg + 2.0 * amount * rng.normal(), 0.0, 75.0);

@@ -323,7 +323,7 @@ private:
     const int width = size.width;
     const cv::Vec3f lc = colour_of_temperature(light.colour_temp_k);
     const cv::Vec3f ac = colour_of_temperature(light.ambient_temp_k);
-    const float bright = static_cast<float>(light.brightness);
+    const float bright = static_cast<float>(light.brightness());
     const float amb = static_cast<float>(light.ambient);
     const float tone = static_cast<float>(1.15 - 0.35 * scene.skin_tone);
     float ambient[3], direct[3], contact[3], interior[3];
@@ -333,7 +333,7 @@ private:
       contact[c] = bright * lc[c] * cfg_.skin_transmission[c] * tone;
       interior[c] = lc[c] * static_cast<float>(bright * cfg_.interior);
     }
-    const float sigma = cfg_.sensor_noise ? static_cast<float>(light.noise_sigma) : 0.0f;
+    const float sigma = cfg_.sensor_noise ? static_cast<float>(light.noise()) : 0.0f;
     Rng rng(derive_seed(noise_seed, 0xC0FFEE));
     const float w0 = scene.wrinkle[0], w1 = scene.wrinkle[1], w2 = scene.wrinkle[2],
                 w3 = scene.wrinkle[3];
