@@ -302,6 +302,10 @@ TEST_CASE("bad input is rejected with a message naming the problem") {
                        doctest::Contains("unknown tracking category"), InvalidArgument);
   CHECK_THROWS_AS(direction_from_string("up"), InvalidArgument);
   CHECK_THROWS_AS(lighting_from_string("noon"), InvalidArgument);
+  Light mislabelled = preset(Lighting::night);
+  mislabelled.level = 0.3;
+  CHECK_THROWS_WITH_AS(mislabelled.validate(),
+                       doctest::Contains("does not match the preset 'night'"), InvalidArgument);
   Renderer r(Rig::tracking_box());
   Scene s;
   BodyPart p;

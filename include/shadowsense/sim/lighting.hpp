@@ -74,6 +74,11 @@ struct Light {
   void validate() const {
     detail::require(std::isfinite(level) && level >= 0 && level <= 1,
                     "Light: level must be in [0, 1]");
+    detail::require(label == Lighting::custom || level == (label == Lighting::daylight ? 1.0
+                                                           : label == Lighting::dusk   ? 0.5
+                                                                                       : 0.0),
+                    "Light: level " + std::to_string(level) + " does not match the preset '" +
+                        std::string(to_string(label)) + "'; use Lighting::custom for other levels");
     detail::require(std::isfinite(intensity) && intensity > 0 && intensity <= 2550,
                     "Light: intensity must be in (0, 2550]");
     detail::require(colour_temp_k >= 1000 && colour_temp_k <= 40000 && ambient_temp_k >= 1000 &&
