@@ -80,7 +80,7 @@ TEST_CASE("compact DenseNet fixture: logits equal torchvision's for every kernel
       CAPTURE(kernel_name);
       CAPTURE(threads);
       const double diff = check_against_torchvision(net, *m.self_test);
-      MESSAGE("tiny fixture, ", net.kernel_name(), ", ", threads, " thread(s): max abs diff ",
+      MESSAGE("tiny fixture, ", kernel_name, ", ", threads, " thread(s): max abs diff ",
               diff);
     }
 }

@@ -251,8 +251,10 @@ private:
       block_buf_.emplace_back(static_cast<std::size_t>(blocks_[b].c_out) * H * W, 0.0f);
       // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
       // block so each border stays 0.
+      // (+ one row of slack: the padded-grid conv2 reads 2 floats past the last plane.)
       bottleneck_.emplace_back(
-          static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate) * (H + 2) * (W + 2), 0.0f);
+          static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate) * (H + 2) * (W + 2) + W + 2,
+          0.0f);
       H /= 2;
       W /= 2;
     }
@@ -351,28 +353,35 @@ private:
           };
           detail::gemm(kernel_, layer.conv1, n, pack, store, *pool_, scratch_);
         }
-        // conv2 (3x3, pad 1) -> the block buffer behind the existing channels.
+        // conv2 (3x3, pad 1) -> the block buffer behind the existing channels. Computed on the
+        // padded grid (bh x pw, the 2 extra columns per row are discarded): there, tap (ky, kx)
+        // of output q reads padded position q + ky * pw + kx, so every packed row is a
+        // contiguous copy instead of a gather.
         {
           const int inner = layer.conv1.m;
-          auto pack = [&](float* dst, int n0, int cols, int* idx) {
-            for (int j = 0; j < cols; ++j) {
-              const int y = (n0 + j) / bw, x = (n0 + j) % bw;
-              idx[j] = y * pw + x;
-            }
+          auto pack = [&](float* dst, int n0, int cols, int*) {
             for (int c = 0; c < inner; ++c)
               for (int ky = 0; ky < 3; ++ky)
                 for (int kx = 0; kx < 3; ++kx) {
-                  const float* s = bott + c * plane + ky * pw + kx;
+                  const float* s = bott + c * plane + ky * pw + kx + n0;
                   float* d = dst + static_cast<std::size_t>((c * 3 + ky) * 3 + kx) * nr;
-                  for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
-                  for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+                  std::copy_n(s, cols, d);
+                  std::fill(d + cols, d + nr, 0.0f);
                 }
           };
           float* outp = feat + static_cast<std::size_t>(cin) * n;
           auto store = [&](int m, int n0, int cols, const float* v) {
-            std::copy_n(v, cols, outp + static_cast<std::size_t>(m) * n + n0);
+            float* d = outp + static_cast<std::size_t>(m) * n;
+            int y = n0 / pw, x = n0 % pw;
+            for (int j = 0; j < cols; ++j) {
+              if (x < bw) d[y * bw + x] = v[j];
+              if (++x == pw) {
+                x = 0;
+                ++y;
+              }
+            }
           };
-          detail::gemm(kernel_, layer.conv2, n, pack, store, *pool_, scratch_);
+          detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
         }
       }
       if (b + 1 < blocks_.size()) {
