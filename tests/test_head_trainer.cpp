@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -159,4 +160,32 @@ TEST_CASE("model_with_head: the saved model reloads and reproduces the head's pr
   CHECK_THROWS_AS(
       model_with_head(model, LinearHead::random(5, fx.dim() + 1, 1), {"a", "b", "c", "d", "e"}),
       InvalidArgument);
+}
+
+TEST_CASE("LightingNormaliser equals tools/train.py's normalise_lighting (golden from PyTorch)") {
+  const unsigned char px[] = {0,  70,  140, 11, 81,  151, 22, 92,  162, 33,  103, 173,
+                              37, 107, 177, 48, 118, 188, 59, 129, 199, 70,  140, 210,
+                              74, 144, 214, 85, 155, 225, 96, 166, 236, 107, 177, 247};
+  const float want[] = {
+      0.f,          0.19838056f,  0.253229946f, 0.0719626099f, 0.229554638f, 0.273126602f,
+      0.14392522f,  0.260728717f, 0.293023229f, 0.21588783f,   0.29190281f,  0.312919885f,
+      0.242056057f, 0.303238839f, 0.320155025f, 0.314018667f,  0.334412932f, 0.340051651f,
+      0.385981262f, 0.365587026f, 0.359948277f, 0.457943887f,  0.396761119f, 0.379844934f,
+      0.484112114f, 0.408097148f, 0.387080073f, 0.556074739f,  0.439271212f, 0.4069767f,
+      0.628037333f, 0.470445305f, 0.426873356f, 0.699999928f,  0.501619399f, 0.446769983f};
+  cv::Mat img(3, 4, CV_8UC3);
+  std::memcpy(img.data, px, sizeof px);
+  cv::Mat out;
+  LightingNormaliser().run(img, out);
+  REQUIRE(out.type() == CV_32FC3);
+  for (int i = 0; i < 36; ++i) CHECK(out.ptr<float>()[i] == doctest::Approx(want[i]).epsilon(1e-6));
+  // Brightness and colour of the light are removed: a dimmer, tinted copy normalises the same.
+  cv::Mat dim = img.clone(), out2;
+  dim.forEach<cv::Vec3b>(
+      [](cv::Vec3b& p, const int*) { p = cv::Vec3b(p[0] / 2, p[1] / 2, p[2] / 2); });
+  LightingNormaliser().run(dim, out2);
+  CHECK(cv::norm(out, out2, cv::NORM_INF) < 0.02);
+  CHECK_THROWS_AS(LightingNormaliser().run(cv::Mat(), out), InvalidArgument);
+  CHECK_THROWS_AS(LightingNormaliser().run(cv::Mat(2, 2, CV_8UC1), out), InvalidArgument);
+  CHECK_THROWS_AS(LightingNormaliser({.target = 0}), InvalidArgument);
 }
