@@ -46,6 +46,7 @@ public:
         preprocess_(model.preprocess) {
     model.validate();
     kernel_ = detail::select_micro_kernel(config.kernel);
+    ops_ = detail::select_vector_ops(kernel_.kind);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -289,8 +290,7 @@ private:
       float* out0 = conv0_out_.data();
       auto store = [&](int m, int n0, int cols, const float* v) {
         float* d = out0 + static_cast<std::size_t>(m) * n + n0;
-        const float b = bias0_[static_cast<std::size_t>(m)];
-        for (int j = 0; j < cols; ++j) d[j] = std::max(v[j] + b, 0.0f);
+        ops_.bias_relu(v, d, cols, bias0_[static_cast<std::size_t>(m)]);
       };
       detail::gemm(kernel_, conv0_, n, pack, store, *pool_, scratch_);
     }
@@ -335,20 +335,20 @@ private:
               float* d = dst + static_cast<std::size_t>(c) * nr;
               const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
               const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
-              for (int j = 0; j < cols; ++j) d[j] = std::max(s[j] * sc + sh, 0.0f);
-              for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+              ops_.affine_relu(s, d, cols, sc, sh);
+              std::fill(d + cols, d + nr, 0.0f);
             }
           };
           auto store = [&](int m, int n0, int cols, const float* v) {
             float* d = bott + static_cast<std::size_t>(m) * plane;
             const float bias = layer.bias1[static_cast<std::size_t>(m)];
             int y = n0 / bw, x = n0 % bw;
-            for (int j = 0; j < cols; ++j) {
-              d[(y + 1) * pw + x + 1] = std::max(v[j] + bias, 0.0f);
-              if (++x == bw) {
-                x = 0;
-                ++y;
-              }
+            for (int j = 0; j < cols;) { // runs within one image row
+              const int run = std::min(cols - j, bw - x);
+              ops_.bias_relu(v + j, d + (y + 1) * pw + x + 1, run, bias);
+              j += run;
+              x = 0;
+              ++y;
             }
           };
           detail::gemm(kernel_, layer.conv1, n, pack, store, *pool_, scratch_);
@@ -373,12 +373,12 @@ private:
           auto store = [&](int m, int n0, int cols, const float* v) {
             float* d = outp + static_cast<std::size_t>(m) * n;
             int y = n0 / pw, x = n0 % pw;
-            for (int j = 0; j < cols; ++j) {
-              if (x < bw) d[y * bw + x] = v[j];
-              if (++x == pw) {
-                x = 0;
-                ++y;
-              }
+            for (int j = 0; j < cols;) { // runs within one padded row; columns >= bw dropped
+              const int run = std::min(cols - j, pw - x);
+              if (x < bw) std::copy_n(v + j, std::min(run, bw - x), d + y * bw + x);
+              j += run;
+              x = 0;
+              ++y;
             }
           };
           detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
@@ -388,24 +388,22 @@ private:
         // transition: relu(norm) -> avgpool 2x2 -> conv 1x1 (pool first: linear, 4x cheaper).
         const int oh = block_h_[b + 1], ow = block_w_[b + 1], on = oh * ow;
         const Affine& a = blk.transition_norm;
-        auto pack = [&](float* dst, int n0, int cols, int* idx) {
-          for (int j = 0; j < cols; ++j) {
-            const int y = (n0 + j) / ow, x = (n0 + j) % ow;
-            idx[j] = 2 * y * bw + 2 * x;
-          }
+        auto pack = [&](float* dst, int n0, int cols, int*) {
           for (int c = 0; c < blk.c_out; ++c) {
             const float* s = feat + static_cast<std::size_t>(c) * n;
             float* d = dst + static_cast<std::size_t>(c) * nr;
             const float sc = a.scale[static_cast<std::size_t>(c)];
             const float sh = a.shift[static_cast<std::size_t>(c)];
-            for (int j = 0; j < cols; ++j) {
-              const float* p = s + idx[j];
-              const float v0 = std::max(p[0] * sc + sh, 0.0f), v1 = std::max(p[1] * sc + sh, 0.0f);
-              const float v2 = std::max(p[bw] * sc + sh, 0.0f);
-              const float v3 = std::max(p[bw + 1] * sc + sh, 0.0f);
-              d[j] = ((v0 + v1) + (v2 + v3)) * 0.25f;
+            int y = n0 / ow, x = n0 % ow;
+            for (int j = 0; j < cols;) { // runs within one output row
+              const int run = std::min(cols - j, ow - x);
+              const float* r0 = s + 2 * y * bw + 2 * x;
+              ops_.pool_affine_relu(r0, r0 + bw, d + j, run, sc, sh);
+              j += run;
+              x = 0;
+              ++y;
             }
-            for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+            std::fill(d + cols, d + nr, 0.0f);
           }
         };
         float* next = block_buf_[b + 1].data();
@@ -454,6 +452,7 @@ private:
   std::vector<std::string> class_names_;
   PreprocessParams preprocess_;
   detail::MicroKernel kernel_{};
+  detail::VectorOps ops_{};
   std::unique_ptr<detail::ThreadPool> pool_;
   std::vector<detail::GemmScratch> scratch_;
   detail::PackedMatrix conv0_;

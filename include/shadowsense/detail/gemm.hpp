@@ -146,6 +146,62 @@ __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const f
 }
 #endif
 
+// Element-wise loops of the forward pass (BatchNorm+ReLU packing, bias+ReLU epilogues,
+// pooled packing), compiled once per instruction set like the micro-kernels: at AVX-512 GEMM
+// speed, SSE2 versions of these loops would cost as much as the convolutions.
+#define SHADOWSENSE_DEFINE_VECTOR_OPS(SUFFIX, ATTR)                                                \
+  ATTR inline void affine_relu_##SUFFIX(const float* s, float* d, int n, float sc, float sh) {     \
+    for (int i = 0; i < n; ++i) {                                                                  \
+      const float v = s[i] * sc + sh;                                                              \
+      d[i] = v > 0.0f ? v : 0.0f;                                                                  \
+    }                                                                                              \
+  }                                                                                                \
+  ATTR inline void bias_relu_##SUFFIX(const float* s, float* d, int n, float b) {                  \
+    for (int i = 0; i < n; ++i) {                                                                  \
+      const float v = s[i] + b;                                                                    \
+      d[i] = v > 0.0f ? v : 0.0f;                                                                  \
+    }                                                                                              \
+  }                                                                                                \
+  /* d[j] = mean of relu(affine) over the 2x2 window at columns 2j, 2j+1 of rows r0, r1 */         \
+  ATTR inline void pool_affine_relu_##SUFFIX(const float* r0, const float* r1, float* d, int n,    \
+                                             float sc, float sh) {                                 \
+    for (int j = 0; j < n; ++j) {                                                                  \
+      float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;                                  \
+      float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;                                  \
+      a = a > 0.0f ? a : 0.0f;                                                                     \
+      b = b > 0.0f ? b : 0.0f;                                                                     \
+      c = c > 0.0f ? c : 0.0f;                                                                     \
+      e = e > 0.0f ? e : 0.0f;                                                                     \
+      d[j] = ((a + b) + (c + e)) * 0.25f;                                                          \
+    }                                                                                              \
+  }
+
+SHADOWSENSE_DEFINE_VECTOR_OPS(portable, )
+#if SHADOWSENSE_X86_KERNELS
+SHADOWSENSE_DEFINE_VECTOR_OPS(avx512, __attribute__((target("avx512f"))))
+SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
+#endif
+#undef SHADOWSENSE_DEFINE_VECTOR_OPS
+
+struct VectorOps {
+  void (*affine_relu)(const float*, float*, int, float, float);
+  void (*bias_relu)(const float*, float*, int, float);
+  void (*pool_affine_relu)(const float*, const float*, float*, int, float, float);
+};
+
+inline VectorOps select_vector_ops(GemmKernelKind kind) {
+  switch (kind) {
+#if SHADOWSENSE_X86_KERNELS
+  case GemmKernelKind::avx512:
+    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512};
+  case GemmKernelKind::avx2:
+    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2};
+#endif
+  default:
+    return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable};
+  }
+}
+
 inline bool cpu_has(GemmKernelKind kind) {
   switch (kind) {
   case GemmKernelKind::portable:
