@@ -7,8 +7,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 using namespace shadowsense;
 using namespace shadowsense::sim;
@@ -330,4 +332,54 @@ TEST_CASE("bad input is rejected with a message naming the problem") {
   s2.distractors.push_back(d);
   CHECK_THROWS_WITH_AS(r.render(s2, preset(Lighting::dusk), 0), doctest::Contains("opacity"),
                        InvalidArgument);
+}
+
+TEST_CASE("rig geometry: the fisheye round-trips, scales and surfaces") {
+  for (const Rig& rig : {Rig::robot(), Rig::tracking_box()}) {
+    CAPTURE(rig.name);
+    for (const cv::Point2d p :
+         {cv::Point2d{0, 0}, cv::Point2d{5, -3}, cv::Point2d{-12, 12.5}, cv::Point2d{40, 10}}) {
+      const cv::Point2d q = rig.unproject(rig.project(p));
+      CHECK(q.x == doctest::Approx(p.x).epsilon(1e-9));
+      CHECK(q.y == doctest::Approx(p.y).epsilon(1e-9));
+    }
+    // On the axis, 1 cm on the skin is px_per_cm pixels; towards the edge the fisheye shrinks it.
+    const double on_axis = rig.project({1, 0}).x - rig.project({0, 0}).x;
+    CHECK(on_axis == doctest::Approx(rig.px_per_cm()).epsilon(0.01));
+    CHECK(rig.local_px_per_cm({20, 0}) < rig.local_px_per_cm({0, 0}));
+    Renderer r(rig);
+    const cv::Mat& s = r.surface_mask();
+    CHECK(s.at<std::uint8_t>(rig.image_size.height / 2, rig.image_size.width / 2) == 255);
+  }
+  // The tracking box: the 26 x 26.6 cm top fills the 200x205 frame (barrel corners aside).
+  const Rig box = Rig::tracking_box();
+  CHECK(box.project({13, 0}).x == doctest::Approx(199.5).epsilon(1e-3));
+  CHECK(box.px_per_cm() == doctest::Approx(7.90).epsilon(0.01));
+  Renderer rb(box);
+  CHECK(cv::countNonZero(rb.surface_mask()) > 0.97 * 200 * 205);
+  // The robot: an ellipse inside the frame, corners show the interior.
+  Renderer rr(Rig::robot());
+  CHECK(rr.surface_mask().at<std::uint8_t>(0, 0) == 0);
+  CHECK(rr.surface_mask().at<std::uint8_t>(349, 634) == 0);
+  const double ellipse = 3.14159265358979 * (317.5 - 8) * (175 - 7);
+  CHECK(cv::countNonZero(rr.surface_mask()) == doctest::Approx(ellipse).epsilon(0.01));
+}
+
+TEST_CASE("slides have contact in every frame and varied speeds") {
+  Renderer r(Rig::tracking_box(), RenderConfig{.sensor_noise = false});
+  std::vector<double> speeds;
+  for (int k = 0; k < 8; ++k) {
+    const SlidePlan plan = plan_slide(300 + static_cast<std::uint64_t>(k),
+                                      k % 2 ? SlideGesture::finger : SlideGesture::palm,
+                                      all_directions[static_cast<std::size_t>(k % 4)]);
+    speeds.push_back(plan.distance_cm * plan.fps / (plan.num_frames() - 1));
+    const std::vector<Frame> frames = render_slide(r, plan);
+    REQUIRE(static_cast<int>(frames.size()) == plan.num_frames());
+    int with_contact = 0;
+    for (const Frame& f : frames) with_contact += f.gt.contact_box ? 1 : 0;
+    CAPTURE(k);
+    CHECK(with_contact == plan.num_frames());
+  }
+  const auto [lo, hi] = std::minmax_element(speeds.begin(), speeds.end());
+  CHECK(*hi > 2.0 * *lo); // cm/s differ a lot between sequences
 }
