@@ -78,6 +78,9 @@ struct RenderConfig {
   }
 };
 
+// Holds the per-rig precomputed maps (surface, vignetting x weave, wrinkle fields, noise table)
+// and scratch buffers: construct once per rig, reuse for every frame. Not thread-safe; use one
+// Renderer per thread (frames do not depend on each other, so that parallelises trivially).
 class Renderer {
 public:
   static constexpr int wrinkle_fields = 4;
