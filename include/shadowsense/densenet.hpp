@@ -361,13 +361,8 @@ private:
           const int inner = layer.conv1.m;
           auto pack = [&](float* dst, int n0, int cols, int*) {
             for (int c = 0; c < inner; ++c)
-              for (int ky = 0; ky < 3; ++ky)
-                for (int kx = 0; kx < 3; ++kx) {
-                  const float* s = bott + c * plane + ky * pw + kx + n0;
-                  float* d = dst + static_cast<std::size_t>((c * 3 + ky) * 3 + kx) * nr;
-                  std::copy_n(s, cols, d);
-                  std::fill(d + cols, d + nr, 0.0f);
-                }
+              ops_.pack3x3(bott + c * plane + n0, dst + static_cast<std::size_t>(c) * 9 * nr, cols,
+                           nr, pw);
           };
           float* outp = feat + static_cast<std::size_t>(cin) * n;
           auto store = [&](int m, int n0, int cols, const float* v) {

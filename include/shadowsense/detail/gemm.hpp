@@ -162,6 +162,15 @@ __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const f
       d[i] = v > 0.0f ? v : 0.0f;                                                                  \
     }                                                                                              \
   }                                                                                                \
+  /* the 9 taps of a 3x3 convolution on the padded grid: row t = s[ky * pw + kx + j] */            \
+  ATTR inline void pack3x3_##SUFFIX(const float* s, float* d, int cols, int nr, int pw) {          \
+    for (int ky = 0; ky < 3; ++ky)                                                                 \
+      for (int kx = 0; kx < 3; ++kx, d += nr) {                                                    \
+        const float* r = s + ky * pw + kx;                                                         \
+        for (int j = 0; j < cols; ++j) d[j] = r[j];                                                \
+        for (int j = cols; j < nr; ++j) d[j] = 0.0f;                                               \
+      }                                                                                            \
+  }                                                                                                \
   /* d[j] = mean of relu(affine) over the 2x2 window at columns 2j, 2j+1 of rows r0, r1 */         \
   ATTR inline void pool_affine_relu_##SUFFIX(const float* r0, const float* r1, float* d, int n,    \
                                              float sc, float sh) {                                 \
@@ -187,18 +196,20 @@ struct VectorOps {
   void (*affine_relu)(const float*, float*, int, float, float);
   void (*bias_relu)(const float*, float*, int, float);
   void (*pool_affine_relu)(const float*, const float*, float*, int, float, float);
+  void (*pack3x3)(const float*, float*, int, int, int);
 };
 
 inline VectorOps select_vector_ops(GemmKernelKind kind) {
   switch (kind) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512};
+    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512};
   case GemmKernelKind::avx2:
-    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2};
+    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2};
 #endif
   default:
-    return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable};
+    return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable,
+            &pack3x3_portable};
   }
 }
 
