@@ -349,12 +349,12 @@ TEST_CASE("hover height from penumbra width and darkness: fit on some heights, p
     const Blob b = hover_blob(h, static_cast<unsigned>(h * 10));
     CHECK(b.edge_width > last_width); // monotone in height
     last_width = b.edge_width;
-    samples.push_back({b.edge_width, b.darkness, h});
+    samples.push_back({b.edge_width, b.opacity, h});
   }
   const HoverHeightModel model = fit_hover_height(samples);
   for (double h : {3.5, 9.5, 12.5}) {
     const Blob b = hover_blob(h, 500 + static_cast<unsigned>(h));
-    CHECK(model.estimate(b.edge_width, b.darkness) == doctest::Approx(h).epsilon(0.1));
+    CHECK(model.estimate(b.edge_width, b.opacity) == doctest::Approx(h).epsilon(0.1));
   }
   // With the model in the config, non-touching shadows carry the estimate.
   Segmenter::Config cfg = test_config();

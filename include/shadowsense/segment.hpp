@@ -103,26 +103,30 @@ struct Blob {
   double area = 0;        // mask pixels in the group
   float darkness = 0;     // mean darkness of its pixels (relative mode; 0 in fixed_ranges)
   float edge_width = 0;   // mean width of the darkness ramp at its edge, px (shadow blobs)
-  bool touching = false;  // shadow blobs: a contact blob lies inside
+  // Shadow blobs that touch nothing (relative mode): estimated opacity of the shadow's core, the
+  // 95th percentile of its darkness over the darkness of the half-opacity line (2 x the frame's
+  // shadow threshold); falls as the part rises.
+  float opacity = 0;
+  bool touching = false; // shadow blobs: a contact blob lies inside
   std::optional<float>
       hover_height_cm{}; // shadow blobs not touching, when a HoverHeightModel is set
 };
 
-// Hover height of a shadow that touches nothing, from its penumbra width and darkness (paper
-// 3.1: the shadow blurs and fades as the part rises): height = intercept + per_edge_px *
-// edge_width + per_darkness * darkness, clamped at 0. Fit it with fit_hover_height.
+// Hover height of a shadow that touches nothing, from its penumbra width and core opacity
+// (paper 3.1: the shadow blurs and fades as the part rises): height = intercept + per_edge_px *
+// edge_width + per_opacity * opacity, clamped at 0. Fit it with fit_hover_height.
 struct HoverHeightModel {
   double intercept = 0;
   double per_edge_px = 0;
-  double per_darkness = 0;
-  double estimate(float edge_width, float darkness) const {
-    return std::max(0.0, intercept + per_edge_px * edge_width + per_darkness * darkness);
+  double per_opacity = 0;
+  double estimate(float edge_width, float opacity) const {
+    return std::max(0.0, intercept + per_edge_px * edge_width + per_opacity * opacity);
   }
 };
 
 struct HoverSample {
   float edge_width = 0; // Blob::edge_width
-  float darkness = 0;   // Blob::darkness
+  float opacity = 0;    // Blob::opacity
   double height_cm = 0; // true height of the hovering part
 };
 
@@ -135,13 +139,13 @@ inline HoverHeightModel fit_hover_height(const std::vector<HoverSample>& samples
       b(static_cast<int>(samples.size()), 1, CV_64F);
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const HoverSample& s = samples[i];
-    detail::require(std::isfinite(s.edge_width) && std::isfinite(s.darkness) &&
+    detail::require(std::isfinite(s.edge_width) && std::isfinite(s.opacity) &&
                         std::isfinite(s.height_cm),
                     "fit_hover_height: sample " + std::to_string(i) + " is not finite");
     const int r = static_cast<int>(i);
     a.at<double>(r, 0) = 1;
     a.at<double>(r, 1) = s.edge_width;
-    a.at<double>(r, 2) = s.darkness;
+    a.at<double>(r, 2) = s.opacity;
     b.at<double>(r, 0) = s.height_cm;
   }
   cv::Mat x;
@@ -451,6 +455,7 @@ private:
     const std::array<float, 3> inv{1.f / gain_[0], 1.f / gain_[1], 1.f / gain_[2]};
     const LightThresholds th = cal.thresholds_at(detail::luminance(gain_));
     const float ts = th.shadow_darkness, tc = th.contact_darkness, tw = th.contact_warmth;
+    frame_shadow_threshold_ = ts;
     if (!prof && (uniform_valid_.size() != size)) { // no empty-skin model: all skin, flat
       for (cv::Mat& p : uniform_planes_) {
         p.create(size, CV_32F);
@@ -592,7 +597,28 @@ private:
     });
   }
 
-  void summarise(Segmentation& out) const {
+  // 95th percentile of the darkness over a blob's mask, over twice the frame's shadow threshold.
+  float core_opacity(const Blob& b, const cv::Mat& mask) {
+    std::array<int, 256> hist{};
+    int n = 0;
+    for (int y = b.box.y; y < b.box.y + b.box.height; ++y) {
+      const float* d = darkness_.ptr<float>(y);
+      const uchar* m = mask.ptr<uchar>(y);
+      for (int x = b.box.x; x < b.box.x + b.box.width; ++x)
+        if (m[x]) {
+          ++hist[static_cast<std::size_t>(std::clamp(static_cast<int>(d[x] * 255.f), 0, 255))];
+          ++n;
+        }
+    }
+    const int target = (n * 95 + 99) / 100;
+    int acc = 0, v = 0;
+    for (; v < 255; ++v)
+      if ((acc += hist[static_cast<std::size_t>(v)]) >= target) break;
+    const float peak = (static_cast<float>(v) + 0.5f) / 255.f;
+    return frame_shadow_threshold_ > 0 ? peak / (2.f * frame_shadow_threshold_) : 0.f;
+  }
+
+  void summarise(Segmentation& out) {
     out.shadow_box.reset();
     out.contact_box.reset();
     out.contact_point.reset();
@@ -602,13 +628,16 @@ private:
       for (Blob& s : out.shadows)
         if ((s.box & c.box).area() > 0) s.touching = inside = true;
       if (!inside)
-        out.shadows.push_back(Blob{c.box, c.centroid, c.area, c.darkness, 0.f, true, std::nullopt});
+        out.shadows.push_back(
+            Blob{c.box, c.centroid, c.area, c.darkness, 0.f, 0.f, true, std::nullopt});
     }
-    if (config_.hover_model)
-      for (Blob& s : out.shadows)
-        if (!s.touching)
-          s.hover_height_cm =
-              static_cast<float>(config_.hover_model->estimate(s.edge_width, s.darkness));
+    for (Blob& s : out.shadows) {
+      if (s.touching || darkness_.empty()) continue;
+      s.opacity = core_opacity(s, out.shadow_mask);
+      if (config_.hover_model)
+        s.hover_height_cm =
+            static_cast<float>(config_.hover_model->estimate(s.edge_width, s.opacity));
+    }
     for (const Blob& s : out.shadows)
       out.shadow_box = out.shadow_box ? (*out.shadow_box | s.box) : s.box;
     double sx = 0, sy = 0, sa = 0;
@@ -687,6 +716,7 @@ private:
   std::array<cv::Mat, 3> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
   cv::Vec3f gain_{1, 1, 1};
+  float frame_shadow_threshold_ = 0;
   mutable std::array<std::vector<int>, 3> hist_;
   std::vector<std::vector<cv::Point>> contours_;
   std::vector<Kept> kept_;
