@@ -80,8 +80,7 @@ TEST_CASE("compact DenseNet fixture: logits equal torchvision's for every kernel
       CAPTURE(kernel_name);
       CAPTURE(threads);
       const double diff = check_against_torchvision(net, *m.self_test);
-      MESSAGE("tiny fixture, ", kernel_name, ", ", threads, " thread(s): max abs diff ",
-              diff);
+      MESSAGE("tiny fixture, ", kernel_name, ", ", threads, " thread(s): max abs diff ", diff);
     }
 }
 
@@ -164,4 +163,24 @@ TEST_CASE("DenseNet-121 and DenseNet-161, random weights, 3x150x220: equal to to
     MESSAGE(arch, ": max abs diff of logits vs torchvision ", diff);
     std::filesystem::remove(path);
   }
+}
+
+TEST_CASE("features() are what the classifier sees: logits = W * features + b") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  DenseNet net(m);
+  CHECK(net.feature_size() == m.architecture.final_features());
+  CHECK(net.feature_size() == 36); // ((16 + 2*8) / 2 + 3*8) / 2 + 2*8
+  const auto& x = m.self_test->input;
+  const std::vector<float> f(net.features(x).begin(), net.features(x).end());
+  const std::size_t fs = 36;
+  REQUIRE(f.size() == 2 * fs);
+  for (float v : f) CHECK(v >= 0.0f); // after ReLU and averaging
+  const auto w = net.classifier_weight();
+  const auto b = net.classifier_bias();
+  for (std::size_t i = 0; i < 2; ++i)
+    for (std::size_t o = 0; o < 7; ++o) {
+      double acc = b[o];
+      for (std::size_t c = 0; c < fs; ++c) acc += double(w[o * fs + c]) * f[i * fs + c];
+      CHECK(acc == doctest::Approx(m.self_test->logits[i * 7 + o]).epsilon(1e-5));
+    }
 }

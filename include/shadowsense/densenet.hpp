@@ -75,6 +75,25 @@ public:
   // Logits for an n x 3 x h x w tensor (n x num_classes values, row per image). The returned
   // span stays valid until the next call.
   std::span<const float> logits(const Tensor& input) {
+    run(input);
+    return logits_;
+  }
+
+  // The features entering the classifier (norm5, ReLU, global average pool): n x
+  // final_features() values, row per image - what a new classifier head is trained on. The
+  // span stays valid until the next call.
+  std::span<const float> features(const Tensor& input) {
+    run(input);
+    return features_;
+  }
+  int feature_size() const { return blocks_.back().c_out; }
+
+  // The classifier the logits come from (num_classes x feature_size(), row-major, and bias).
+  std::span<const float> classifier_weight() const { return classifier_w_; }
+  std::span<const float> classifier_bias() const { return classifier_b_; }
+
+private:
+  void run(const Tensor& input) {
     detail::require(!input.empty() && input.c() == 3,
                     "DenseNet: input is " +
                         (input.empty() ? std::string("empty") : input.shape_string()) +
@@ -87,14 +106,18 @@ public:
     detail::require(input.all_finite(),
                     "DenseNet: input holds NaN or Inf values, expected finite numbers");
     ensure_buffers(input.h(), input.w());
-    logits_.resize(static_cast<std::size_t>(input.n()) * arch_.num_classes);
-    for (int i = 0; i < input.n(); ++i)
-      forward_one(input.image(i).data(),
-                  std::span<float>(logits_).subspan(static_cast<std::size_t>(i) * arch_.num_classes,
-                                                    arch_.num_classes));
-    return logits_;
+    const auto classes = static_cast<std::size_t>(arch_.num_classes);
+    const auto c = static_cast<std::size_t>(feature_size());
+    logits_.resize(static_cast<std::size_t>(input.n()) * classes);
+    features_.resize(static_cast<std::size_t>(input.n()) * c);
+    for (int i = 0; i < input.n(); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      forward_one(input.image(i).data(), std::span<float>(features_).subspan(k * c, c),
+                  std::span<float>(logits_).subspan(k * classes, classes));
+    }
   }
 
+public:
   // Bytes held for the packed weights, and for the activations and scratch of the current
   // input size (the whole working memory of a forward pass: nothing else is allocated).
   std::size_t weight_bytes() const {
@@ -108,7 +131,7 @@ public:
     return n * sizeof(float);
   }
   std::size_t activation_bytes() const {
-    std::size_t n = padded_input_.size() + conv0_out_.size() + pooled_.size() + logits_.size();
+    std::size_t n = padded_input_.size() + conv0_out_.size() + features_.size() + logits_.size();
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
@@ -259,10 +282,9 @@ private:
       H /= 2;
       W /= 2;
     }
-    pooled_.assign(static_cast<std::size_t>(blocks_.back().c_out), 0.0f);
   }
 
-  void forward_one(const float* in, std::span<float> out) {
+  void forward_one(const float* in, std::span<float> pooled, std::span<float> out) {
     const int H = in_h_, W = in_w_, nr = kernel_.nr;
     // conv0 (7x7, stride 2, pad 3) + folded norm0 + relu0.
     const int PW = W + 6, PH = H + 6;
@@ -408,7 +430,7 @@ private:
         detail::gemm(kernel_, blk.transition, on, pack, store, *pool_, scratch_);
       }
     }
-    // norm5, relu, global average pool, classifier (in double: tiny, and keeps logits exact).
+    // norm5, relu, global average pool, classifier (accumulated in double: it is tiny).
     const Block& last = blocks_.back();
     const int n = block_h_.back() * block_w_.back();
     const float* feat = block_buf_.back().data();
@@ -418,13 +440,13 @@ private:
       const float sh = norm5_.shift[static_cast<std::size_t>(c)];
       double sum = 0;
       for (int j = 0; j < n; ++j) sum += std::max(s[j] * sc + sh, 0.0f);
-      pooled_[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
+      pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
     }
     for (int o = 0; o < arch_.num_classes; ++o) {
       const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * last.c_out;
       double acc = classifier_b_[static_cast<std::size_t>(o)];
       for (int c = 0; c < last.c_out; ++c)
-        acc += double(wr[c]) * pooled_[static_cast<std::size_t>(c)];
+        acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
       out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
     }
   }
@@ -458,7 +480,7 @@ private:
   int max_k_ = 0;
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
-  std::vector<float> padded_input_, conv0_out_, pooled_, logits_;
+  std::vector<float> padded_input_, conv0_out_, features_, logits_;
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
 };
