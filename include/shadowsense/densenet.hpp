@@ -32,6 +32,9 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
+// One instance per thread of the caller: logits()/features() reuse internal buffers, so
+// concurrent calls on the same instance are not allowed (the instance's own worker threads,
+// Config::threads, are managed internally). Movable, not copyable.
 class DenseNet {
 public:
   struct Config {
