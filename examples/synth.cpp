@@ -6,7 +6,7 @@
 //   ss_synth --out DIR [--dataset gestures|tracking|slides|all] [--seed N] [--paper-sizes]
 //            [--users N] [--frames-per-gesture N] [--tracking-per-category N]
 //            [--slides-per-combination N] [--lighting-level L] [--overwrite]
-//            [--preview FILE.png]
+//            [--threads N] [--preview FILE.png]
 //
 // Defaults are small (a few hundred frames in a few seconds); --paper-sizes gives the paper's
 // 6,120 gesture frames, 500 tracking frames and 160 slide sequences. --lighting-level L in
@@ -36,7 +36,8 @@ int usage(const std::string& error) {
             << "usage: ss_synth --out DIR [--dataset gestures|tracking|slides|all] [--seed N]\n"
             << "                [--paper-sizes] [--users N] [--frames-per-gesture N]\n"
             << "                [--tracking-per-category N] [--slides-per-combination N]\n"
-            << "                [--lighting-level L] [--overwrite] [--preview FILE.png]\n";
+            << "                [--lighting-level L] [--overwrite] [--threads N]\n"
+            << "                [--preview FILE.png]\n";
   return 2;
 }
 
@@ -115,6 +116,7 @@ int main(int argc, char** argv) {
   std::string out, dataset = "all", preview_path;
   std::uint64_t seed = 1;
   bool paper = false, overwrite = false;
+  int threads = 1;
   int users = -1, frames_per_gesture = -1, tracking_per_category = -1, slides_per_combination = -1;
   double lighting_level = -1;
   bool have_level = false;
@@ -140,7 +142,9 @@ int main(int argc, char** argv) {
       dataset = std::string(v);
     else if (a == "--preview")
       preview_path = std::string(v);
-    else if (a == "--seed") {
+    else if (a == "--threads") {
+      if (!parse(v, threads)) return usage("--threads expects an integer");
+    } else if (a == "--seed") {
       if (!parse(v, seed)) return usage("--seed expects an unsigned integer");
     } else if (a == "--users") {
       if (!parse(v, users)) return usage("--users expects an integer");
@@ -186,6 +190,7 @@ int main(int argc, char** argv) {
     t.sample.lighting_level = s.slide.variety.lighting_level = lighting_level;
   }
   g.overwrite = t.overwrite = s.overwrite = overwrite;
+  g.threads = t.threads = s.threads = threads;
 
   try {
     // Validate everything before writing anything.

@@ -68,14 +68,20 @@ const std::string good_row =
 
 } // namespace
 
-TEST_CASE("the same seed writes byte-identical datasets; another seed differs") {
+TEST_CASE("the same seed writes byte-identical datasets (any thread count); another seed differs") {
   const fs::path a = fresh_dir("det_a"), b = fresh_dir("det_b"), c = fresh_dir("det_c");
   sim::TrackingDatasetConfig t;
   t.frames_per_category = 2;
   for (const fs::path& root : {a, b}) {
-    sim::write_gesture_dataset(root / "gestures", 5, tiny_gestures());
-    sim::write_tracking_dataset(root / "tracking", 5, t);
-    sim::write_slide_dataset(root / "slides", 5, tiny_slides());
+    // b is written by 3 worker threads: the output must not depend on the thread count.
+    const int threads = root == b ? 3 : 1;
+    auto g = tiny_gestures();
+    auto s = tiny_slides();
+    auto tt = t;
+    g.threads = s.threads = tt.threads = threads;
+    sim::write_gesture_dataset(root / "gestures", 5, g);
+    sim::write_tracking_dataset(root / "tracking", 5, tt);
+    sim::write_slide_dataset(root / "slides", 5, s);
   }
   sim::write_tracking_dataset(c / "tracking", 6, t);
   const auto ta = tree(a), tb = tree(b);
@@ -161,6 +167,10 @@ TEST_CASE("bad configuration is rejected before anything is written") {
   CHECK_THROWS_WITH_AS(sim::write_gesture_dataset(root / "g", 1, g),
                        doctest::Contains("outside [0, 1]"), InvalidArgument);
   sim::TrackingDatasetConfig t;
+  t.threads = 0;
+  CHECK_THROWS_WITH_AS(sim::write_tracking_dataset(root / "t", 1, t), doctest::Contains("threads"),
+                       InvalidArgument);
+  t = {};
   t.frames_per_category = -5;
   CHECK_THROWS_AS(sim::write_tracking_dataset(root / "t", 1, t), InvalidArgument);
   sim::SlideDatasetConfig s;

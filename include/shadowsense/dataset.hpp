@@ -346,12 +346,21 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
 // rows always give the same bytes.
 inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_slide_columns) {
   std::string s = detail::join(metadata_columns);
-  if (with_slide_columns) s += "," + detail::join(slide_columns);
-  s += "\n";
-  auto box = [&](const std::optional<cv::Rect>& b) {
-    if (!b) return std::string(",,,");
-    return std::to_string(b->x) + "," + std::to_string(b->y) + "," + std::to_string(b->width) +
-           "," + std::to_string(b->height);
+  if (with_slide_columns) {
+    s += ',';
+    s += detail::join(slide_columns);
+  }
+  s += '\n';
+  // Appends fields separated by commas (append() only: GCC 12 warns falsely on operator+ chains).
+  bool first = true;
+  auto add = [&](std::string_view v) {
+    if (!first) s += ',';
+    first = false;
+    s.append(v.data(), v.size());
+  };
+  auto add_box = [&](const std::optional<cv::Rect>& b) {
+    for (int v : {b ? b->x : 0, b ? b->y : 0, b ? b->width : 0, b ? b->height : 0})
+      add(b ? std::to_string(v) : std::string());
   };
   for (const MetadataRow& r : rows) {
     detail::require(!r.file_name.empty() && !r.label.empty() && !r.session.empty(),
@@ -361,35 +370,52 @@ inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_
                       "metadata_csv: '" + *t + "' contains a comma, quote or line break");
     detail::require(with_slide_columns == (r.gesture.has_value() && r.direction.has_value()),
                     "metadata_csv: gesture and direction must be set exactly for slide rows");
-    s += r.file_name + "," + r.label + "," + std::to_string(r.user) + "," +
-         std::string(sim::to_string(r.lighting)) + "," +
-         detail::format_number(r.lighting_level, 4) + "," + r.session + "," +
-         std::to_string(r.frame_index) + "," + detail::format_number(r.timestamp_ms, 1) + "," +
-         box(r.shadow_box) + "," + box(r.contact_box) + ",";
-    if (r.contact_point)
-      s += detail::format_number(r.contact_point->x, 3) + "," +
-           detail::format_number(r.contact_point->y, 3);
-    else
-      s += ",";
-    s += "," + detail::format_number(r.px_per_cm, 5);
-    if (with_slide_columns)
-      s += "," + std::string(sim::to_string(*r.gesture)) + "," +
-           std::string(sim::to_string(*r.direction));
-    s += "\n";
+    first = true;
+    add(r.file_name);
+    add(r.label);
+    add(std::to_string(r.user));
+    add(sim::to_string(r.lighting));
+    add(detail::format_number(r.lighting_level, 4));
+    add(r.session);
+    add(std::to_string(r.frame_index));
+    add(detail::format_number(r.timestamp_ms, 1));
+    add_box(r.shadow_box);
+    add_box(r.contact_box);
+    add(r.contact_point ? detail::format_number(r.contact_point->x, 3) : std::string());
+    add(r.contact_point ? detail::format_number(r.contact_point->y, 3) : std::string());
+    add(detail::format_number(r.px_per_cm, 5));
+    if (with_slide_columns) {
+      add(sim::to_string(*r.gesture));
+      add(sim::to_string(*r.direction));
+    }
+    s += '\n';
   }
   return s;
 }
 
 inline std::string sequences_csv(const std::vector<SequenceRow>& rows) {
-  std::string s = detail::join(sequence_columns) + "\n";
+  std::string s = detail::join(sequence_columns);
+  s += '\n';
+  bool first = true;
+  auto add = [&](std::string_view v) {
+    if (!first) s += ',';
+    first = false;
+    s.append(v.data(), v.size());
+  };
   for (const SequenceRow& r : rows) {
     detail::require(!r.sequence.empty() && r.sequence.find_first_of(",\"\n\r") == std::string::npos,
                     "sequences_csv: sequence folder must be non-empty without commas or quotes");
-    s += r.sequence + "," + std::string(sim::to_string(r.gesture)) + "," +
-         std::string(sim::to_string(r.direction)) + "," + std::to_string(r.num_frames) + "," +
-         detail::format_number(r.distance_cm, 3) + "," + detail::format_number(r.fps, 3) + "," +
-         std::to_string(r.user) + "," + std::string(sim::to_string(r.lighting)) + "," +
-         detail::format_number(r.lighting_level, 4) + "\n";
+    first = true;
+    add(r.sequence);
+    add(sim::to_string(r.gesture));
+    add(sim::to_string(r.direction));
+    add(std::to_string(r.num_frames));
+    add(detail::format_number(r.distance_cm, 3));
+    add(detail::format_number(r.fps, 3));
+    add(std::to_string(r.user));
+    add(sim::to_string(r.lighting));
+    add(detail::format_number(r.lighting_level, 4));
+    s += '\n';
   }
   return s;
 }

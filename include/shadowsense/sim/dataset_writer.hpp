@@ -13,10 +13,15 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
+#include <atomic>
 #include <cstdio>
+#include <exception>
 #include <filesystem>
+#include <mutex>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -29,6 +34,7 @@ struct GestureDatasetConfig {
   double fps = 10.0;
   double distractor_probability = 0.25;
   bool overwrite = false; // allow writing into a non-empty folder
+  int threads = 1;        // worker threads; the output is identical for any count
 
   static GestureDatasetConfig paper() {
     GestureDatasetConfig c;
@@ -52,6 +58,8 @@ struct GestureDatasetConfig {
       detail::require(std::isfinite(l) && l >= 0 && l <= 1,
                       "GestureDatasetConfig: lighting level " + std::to_string(l) +
                           " is outside [0, 1]");
+    detail::require(threads >= 1 && threads <= 256,
+                    "GestureDatasetConfig: threads must be in [1, 256]");
     GestureSessionConfig{.frames_per_gesture = frames_per_gesture,
                          .fps = fps,
                          .distractor_probability = distractor_probability}
@@ -64,6 +72,7 @@ struct TrackingDatasetConfig {
   int users = 4;
   TrackingSampleConfig sample{};
   bool overwrite = false;
+  int threads = 1;
 
   static TrackingDatasetConfig paper() {
     TrackingDatasetConfig c;
@@ -79,6 +88,8 @@ struct TrackingDatasetConfig {
                         std::to_string(frames_per_category));
     detail::require(users >= 1 && users <= 1000,
                     "TrackingDatasetConfig: users must be in [1, 1000]");
+    detail::require(threads >= 1 && threads <= 256,
+                    "TrackingDatasetConfig: threads must be in [1, 256]");
     sample.validate();
   }
 };
@@ -88,6 +99,7 @@ struct SlideDatasetConfig {
   int users = 4;
   SlideConfig slide{};
   bool overwrite = false;
+  int threads = 1;
 
   static SlideDatasetConfig paper() {
     SlideDatasetConfig c;
@@ -100,6 +112,8 @@ struct SlideDatasetConfig {
                     "SlideDatasetConfig: sequences_per_combination must be in [1, 100000], got " +
                         std::to_string(sequences_per_combination));
     detail::require(users >= 1 && users <= 1000, "SlideDatasetConfig: users must be in [1, 1000]");
+    detail::require(threads >= 1 && threads <= 256,
+                    "SlideDatasetConfig: threads must be in [1, 256]");
     slide.validate();
   }
 };
@@ -161,6 +175,34 @@ inline std::string numbered(const char* fmt, int n) {
   return buf;
 }
 
+// Runs job(i, renderer) for i in [0, n) on `threads` threads, each with its own Renderer
+// (renderers keep scratch buffers). Every job writes only its own files and result slot, so
+// the output does not depend on the thread count. The first exception stops the others and is
+// rethrown.
+template <class Job>
+inline void parallel_jobs(int n, int threads, const Rig& rig, Job job) {
+  std::atomic<int> next{0};
+  std::atomic<bool> stop{false};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto work = [&] {
+    try {
+      Renderer renderer(rig);
+      for (int i = next++; i < n && !stop; i = next++) job(i, renderer);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      stop = true;
+    }
+  };
+  const int count = std::max(1, std::min(threads, n));
+  std::vector<std::thread> pool;
+  for (int t = 1; t < count; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+
 inline MetadataRow row_from(const GroundTruth& gt) {
   MetadataRow r;
   r.shadow_box = gt.shadow_box;
@@ -178,37 +220,42 @@ inline DatasetSummary write_gesture_dataset(const std::filesystem::path& dir, st
   config.validate();
   internal::prepare_output(dir, config.overwrite, {"metadata.csv"});
   for (Gesture g : all_gestures) internal::make_dir(dir / std::string(to_string(g)));
-  Renderer renderer(Rig::robot());
-  std::vector<MetadataRow> rows;
-  Frame frame;
-  for (int u = 1; u <= config.users; ++u) {
-    const User user = dataset_user(seed, u);
-    for (std::size_t li = 0; li < config.lighting_levels.size(); ++li) {
-      const GestureSession session(
-          derive_seed(seed, 0x6E570000ull + static_cast<std::uint64_t>(u) * 64 + li), user,
-          config.lighting_levels[li],
-          {.frames_per_gesture = config.frames_per_gesture,
-           .fps = config.fps,
-           .distractor_probability = config.distractor_probability});
-      for (int i = 0; i < session.size(); ++i) {
-        GestureFrameInfo info;
-        session.render(renderer, i, frame, &info);
-        MetadataRow r = internal::row_from(frame.gt);
-        r.label = std::string(to_string(info.gesture));
-        r.file_name = r.label + "/" + session.name() + internal::numbered("_%05d.png", i);
-        r.user = user.id;
-        r.lighting = info.light.label;
-        r.lighting_level = info.light.level;
-        r.session = session.name();
-        r.frame_index = i;
-        r.timestamp_ms = info.timestamp_ms;
-        internal::write_png(dir / r.file_name, frame.image);
-        rows.push_back(std::move(r));
-      }
-    }
-  }
-  write_metadata(dir / "metadata.csv", rows, false);
-  return {dir, static_cast<int>(rows.size()), 0};
+  // One job per session (user x lighting), in csv order.
+  const int levels = static_cast<int>(config.lighting_levels.size());
+  std::vector<std::vector<MetadataRow>> rows(static_cast<std::size_t>(config.users * levels));
+  internal::parallel_jobs(
+      config.users * levels, config.threads, Rig::robot(), [&](int job, Renderer& renderer) {
+        const int u = 1 + job / levels;
+        const auto li = static_cast<std::size_t>(job % levels);
+        const User user = dataset_user(seed, u);
+        const GestureSession session(
+            derive_seed(seed, 0x6E570000ull + static_cast<std::uint64_t>(u) * 64 + li), user,
+            config.lighting_levels[li],
+            {.frames_per_gesture = config.frames_per_gesture,
+             .fps = config.fps,
+             .distractor_probability = config.distractor_probability});
+        Frame frame;
+        auto& out = rows[static_cast<std::size_t>(job)];
+        for (int i = 0; i < session.size(); ++i) {
+          GestureFrameInfo info;
+          session.render(renderer, i, frame, &info);
+          MetadataRow r = internal::row_from(frame.gt);
+          r.label = std::string(to_string(info.gesture));
+          r.file_name = r.label + "/" + session.name() + internal::numbered("_%05d.png", i);
+          r.user = user.id;
+          r.lighting = info.light.label;
+          r.lighting_level = info.light.level;
+          r.session = session.name();
+          r.frame_index = i;
+          r.timestamp_ms = info.timestamp_ms;
+          internal::write_png(dir / r.file_name, frame.image);
+          out.push_back(std::move(r));
+        }
+      });
+  std::vector<MetadataRow> all;
+  for (auto& r : rows) all.insert(all.end(), r.begin(), r.end());
+  write_metadata(dir / "metadata.csv", all, false);
+  return {dir, static_cast<int>(all.size()), 0};
 }
 
 // (b) tracking/<class>/<class>_<n>.png + metadata.csv, 200x205 (tracking box).
@@ -217,29 +264,33 @@ inline DatasetSummary write_tracking_dataset(const std::filesystem::path& dir, s
   config.validate();
   internal::prepare_output(dir, config.overwrite, {"metadata.csv"});
   for (TrackCategory c : all_track_categories) internal::make_dir(dir / std::string(to_string(c)));
-  Renderer renderer(Rig::tracking_box());
-  std::vector<MetadataRow> rows;
-  for (int k = 0; k < config.frames_per_category; ++k)
-    for (std::size_t c = 0; c < all_track_categories.size(); ++c) {
-      const int index = k * static_cast<int>(all_track_categories.size()) + static_cast<int>(c);
-      const std::uint64_t s = derive_seed(seed, 0x7AC40000ull + static_cast<std::uint64_t>(index));
-      const User user = dataset_user(
-          seed, 1 + static_cast<int>(mix64(s) % static_cast<std::uint64_t>(config.users)));
-      TrackingSample sample;
-      const Frame frame = render_random_tracking_frame(renderer, all_track_categories[c], s,
-                                                       config.sample, &sample, &user);
-      MetadataRow r = internal::row_from(frame.gt);
-      r.label = std::string(to_string(all_track_categories[c]));
-      r.file_name = r.label + "/" + r.label + internal::numbered("_%04d.png", k);
-      r.user = user.id;
-      r.lighting = sample.light.label;
-      r.lighting_level = sample.light.level;
-      r.session = "tracking";
-      r.frame_index = index;
-      r.timestamp_ms = 1000.0 * index;
-      internal::write_png(dir / r.file_name, frame.image);
-      rows.push_back(std::move(r));
-    }
+  const int categories = static_cast<int>(all_track_categories.size());
+  std::vector<MetadataRow> rows(static_cast<std::size_t>(config.frames_per_category * categories));
+  internal::parallel_jobs(
+      static_cast<int>(rows.size()), config.threads, Rig::tracking_box(),
+      [&](int index, Renderer& renderer) {
+        const int k = index / categories;
+        const TrackCategory category =
+            all_track_categories[static_cast<std::size_t>(index % categories)];
+        const std::uint64_t s =
+            derive_seed(seed, 0x7AC40000ull + static_cast<std::uint64_t>(index));
+        const User user = dataset_user(
+            seed, 1 + static_cast<int>(mix64(s) % static_cast<std::uint64_t>(config.users)));
+        TrackingSample sample;
+        const Frame frame =
+            render_random_tracking_frame(renderer, category, s, config.sample, &sample, &user);
+        MetadataRow r = internal::row_from(frame.gt);
+        r.label = std::string(to_string(category));
+        r.file_name = r.label + "/" + r.label + internal::numbered("_%04d.png", k);
+        r.user = user.id;
+        r.lighting = sample.light.label;
+        r.lighting_level = sample.light.level;
+        r.session = "tracking";
+        r.frame_index = index;
+        r.timestamp_ms = 1000.0 * index;
+        internal::write_png(dir / r.file_name, frame.image);
+        rows[static_cast<std::size_t>(index)] = std::move(r);
+      });
   write_metadata(dir / "metadata.csv", rows, false);
   return {dir, static_cast<int>(rows.size()), 0};
 }
@@ -250,23 +301,33 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
                                           const SlideDatasetConfig& config = {}) {
   config.validate();
   internal::prepare_output(dir, config.overwrite, {"sequences.csv"});
-  Renderer renderer(Rig::tracking_box());
-  std::vector<SequenceRow> sequences;
-  DatasetSummary summary{dir, 0, 0};
-  Frame frame;
-  int index = 0;
-  for (int k = 0; k < config.sequences_per_combination; ++k)
-    for (Direction d : all_directions)
-      for (SlideGesture g : {SlideGesture::palm, SlideGesture::finger}) {
+  // Sequence k * 8 + j: direction j / 2, gesture j % 2 (palm, finger). Folders first, so the
+  // workers never race on creating shared parents.
+  const int n = config.total_sequences();
+  auto direction_of = [](int index) {
+    return all_directions[static_cast<std::size_t>((index % 8) / 2)];
+  };
+  auto gesture_of = [](int index) {
+    return index % 2 == 0 ? SlideGesture::palm : SlideGesture::finger;
+  };
+  auto folder_of = [&](int index) {
+    return std::string(to_string(direction_of(index))) + "/" +
+           std::string(to_string(gesture_of(index))) + internal::numbered("_%04d", index);
+  };
+  for (int index = 0; index < n; ++index) internal::make_dir(dir / folder_of(index));
+  std::vector<SequenceRow> sequences(static_cast<std::size_t>(n));
+  internal::parallel_jobs(
+      n, config.threads, Rig::tracking_box(), [&](int index, Renderer& renderer) {
+        const Direction d = direction_of(index);
+        const SlideGesture g = gesture_of(index);
         const std::uint64_t s =
             derive_seed(seed, 0x511D0000ull + static_cast<std::uint64_t>(index));
         const User user = dataset_user(
             seed, 1 + static_cast<int>(mix64(s) % static_cast<std::uint64_t>(config.users)));
         const SlidePlan plan = plan_slide(s, g, d, config.slide, &user);
-        const std::string folder = std::string(to_string(d)) + "/" + std::string(to_string(g)) +
-                                   internal::numbered("_%04d", index);
-        internal::make_dir(dir / folder);
+        const std::string folder = folder_of(index);
         std::vector<MetadataRow> rows;
+        Frame frame;
         for (int i = 0; i < plan.num_frames(); ++i) {
           render_slide_frame(renderer, plan, i, frame);
           MetadataRow r = internal::row_from(frame.gt);
@@ -284,7 +345,7 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
           rows.push_back(std::move(r));
         }
         write_metadata(dir / folder / "metadata.csv", rows, true);
-        SequenceRow q;
+        SequenceRow& q = sequences[static_cast<std::size_t>(index)];
         q.sequence = folder;
         q.gesture = g;
         q.direction = d;
@@ -294,12 +355,10 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
         q.user = user.id;
         q.lighting = plan.light.label;
         q.lighting_level = plan.light.level;
-        sequences.push_back(q);
-        summary.images += plan.num_frames();
-        ++index;
-      }
+      });
   write_sequences(dir / "sequences.csv", sequences);
-  summary.sequences = static_cast<int>(sequences.size());
+  DatasetSummary summary{dir, 0, n};
+  for (const SequenceRow& q : sequences) summary.images += q.num_frames;
   return summary;
 }
 
