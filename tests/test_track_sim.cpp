@@ -177,3 +177,26 @@ TEST_CASE("images of the wrong size for the empty-skin model are rejected") {
   CHECK_THROWS_AS(seg.set_empty_skin({}), InvalidArgument);
   CHECK_THROWS_AS(calibrate_on_sim(renderer(), 1, 5), InvalidArgument);
 }
+
+TEST_CASE(
+    "robot rig (635x350, elliptical skin): pixels off the skin never count, boxes still fit") {
+  // Most of the frame's corners are robot interior here; they must not bias the calibration
+  // (they once drove the fitted shadow threshold to 1) nor the darkness map.
+  sim::Renderer robot(sim::Rig::robot());
+  const SimCalibration cal = calibrate_on_sim(robot, 0x40B07, 60);
+  for (const LightThresholds& t : cal.config.calibration.by_light) CHECK(t.shadow_darkness < 0.6f);
+  Segmenter seg = segmenter_from(cal);
+  RunningStats shadow_iou, contact_iou;
+  for (int i = 0; i < 9; ++i) {
+    const sim::Frame f = sim::render_random_tracking_frame(
+        robot, static_cast<sim::TrackCategory>(2 + i % 3), 0x40B08 + static_cast<std::uint64_t>(i));
+    const Segmentation s = seg.segment(f.image);
+    REQUIRE(s.shadow_box);
+    REQUIRE(s.contact_box);
+    shadow_iou.add(box_iou(*s.shadow_box, *f.gt.shadow_box));
+    contact_iou.add(box_iou(*s.contact_box, *f.gt.contact_box));
+    CHECK(cv::countNonZero((seg.darkness() != 0) & ~seg.skin_area()) == 0);
+  }
+  CHECK(shadow_iou.mean() >= 0.9);
+  CHECK(contact_iou.mean() >= 0.95);
+}

@@ -340,6 +340,7 @@ public:
         }
     }
     cv::split(inv_profile_, inv_planes_.data());
+    valid_.convertTo(inv_planes_[3], CV_32F, 1.0 / 255); // skin weight: darkness 0 off the skin
   }
   void set_background(const cv::Mat& empty_frame) { set_empty_skin({empty_frame}); }
   bool has_empty_skin() const { return !profile_.empty(); }
@@ -464,7 +465,7 @@ private:
       uniform_valid_.create(size, CV_8UC1);
       uniform_valid_.setTo(255);
     }
-    const std::array<cv::Mat, 3>& planes = prof ? inv_planes_ : uniform_planes_;
+    const std::array<cv::Mat, 4>& planes = prof ? inv_planes_ : uniform_planes_;
     const cv::Mat& valid_map = prof ? valid_ : uniform_valid_;
     const float gb = inv[0], gg = inv[1], gr = inv[2];
     for (int y = 0; y < size.height; ++y) {
@@ -472,6 +473,7 @@ private:
       const float* ipb = planes[0].ptr<float>(y);
       const float* ipg = planes[1].ptr<float>(y);
       const float* ipr = planes[2].ptr<float>(y);
+      const float* sk = planes[3].ptr<float>(y);
       const uchar* v = valid_map.ptr<uchar>(y);
       float* dk = darkness_.ptr<float>(y);
       float* wm = warmth_.ptr<float>(y);
@@ -481,9 +483,9 @@ private:
 #if CV_SIMD128
       // 16 pixels at a time with OpenCV's universal intrinsics (same arithmetic as below).
       const cv::v_float32x4 vgb = cv::v_setall_f32(gb), vgg = cv::v_setall_f32(gg),
-                            vgr = cv::v_setall_f32(gr), one = cv::v_setall_f32(1.f),
-                            third = cv::v_setall_f32(1.f / 3.f), vts = cv::v_setall_f32(ts),
-                            vtc = cv::v_setall_f32(tc), vtw = cv::v_setall_f32(tw);
+                            vgr = cv::v_setall_f32(gr), third = cv::v_setall_f32(1.f / 3.f),
+                            vts = cv::v_setall_f32(ts), vtc = cv::v_setall_f32(tc),
+                            vtw = cv::v_setall_f32(tw);
       auto to_f32 = [](const cv::v_uint8x16& a, cv::v_float32x4* o) {
         cv::v_uint16x8 lo, hi;
         cv::v_expand(a, lo, hi);
@@ -508,7 +510,7 @@ private:
           const cv::v_float32x4 qb = fb[j] * cv::v_load(ipb + o) * vgb;
           const cv::v_float32x4 qg = fg[j] * cv::v_load(ipg + o) * vgg;
           const cv::v_float32x4 qr = fr[j] * cv::v_load(ipr + o) * vgr;
-          const cv::v_float32x4 d = one - (qb + qg + qr) * third;
+          const cv::v_float32x4 d = cv::v_load(sk + o) - (qb + qg + qr) * third;
           const cv::v_float32x4 w = qr - qb;
           cv::v_store(dk + o, d);
           cv::v_store(wm + o, w);
@@ -533,7 +535,7 @@ private:
         const float qb = static_cast<float>(in[3 * x]) * ipb[x] * gb;
         const float qg = static_cast<float>(in[3 * x + 1]) * ipg[x] * gg;
         const float qr = static_cast<float>(in[3 * x + 2]) * ipr[x] * gr;
-        const float d = 1.f - (qb + qg + qr) * (1.f / 3.f);
+        const float d = sk[x] - (qb + qg + qr) * (1.f / 3.f);
         const float w = qr - qb;
         dk[x] = d;
         wm[x] = w;
@@ -712,8 +714,8 @@ private:
   cv::Mat colour_blur_, blurred_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat profile_, inv_profile_, valid_; // empty-skin model
-  std::array<cv::Mat, 3> inv_planes_;     // inverse model, one CV_32F plane per channel
-  std::array<cv::Mat, 3> uniform_planes_; // stand-ins without a model
+  std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
+  std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
   cv::Vec3f gain_{1, 1, 1};
   float frame_shadow_threshold_ = 0;
