@@ -264,6 +264,13 @@ private:
     return c * (1.0 / static_cast<double>(plane_.size()));
   }
 
+  // A rows x cols view of `buffer`, enlarging it only when it is too small.
+  static cv::Mat grow_view(cv::Mat& buffer, int rows, int cols) {
+    if (buffer.rows < rows || buffer.cols < cols)
+      buffer.create(std::max(rows, buffer.rows), std::max(cols, buffer.cols), CV_32FC1);
+    return buffer(cv::Rect(0, 0, cols, rows));
+  }
+
   // Fills px_ (scaled by 1/scale, offset by -origin) into dst with value v.
   void fill(cv::Mat& dst, double scale, double v, cv::Point2d origin = {0, 0}) {
     fixed_.resize(px_.size());
@@ -300,18 +307,22 @@ private:
       return;
     const int scale = sigma_px > 3.0 ? std::max(1, static_cast<int>(sigma_px / 2.0)) : 1;
     const int sw = (rx1 - rx0 + scale - 1) / scale, sh = (ry1 - ry0 + scale - 1) / scale;
-    scratch_.create(sh, sw, CV_32FC1);
-    scratch_.setTo(0);
-    fill(scratch_, scale, alpha, {static_cast<double>(rx0), static_cast<double>(ry0)});
+    // Views into buffers that only grow: no allocation once the largest part has been seen.
+    cv::Mat small = grow_view(scratch_, sh, sw);
+    small.setTo(0);
+    fill(small, scale, alpha, {static_cast<double>(rx0), static_cast<double>(ry0)});
     const double s = sigma_px / scale;
     if (s > 0.2) {
       const int k = 2 * static_cast<int>(std::ceil(3.0 * s)) + 1;
-      cv::GaussianBlur(scratch_, scratch_, cv::Size(k, k), s, s, cv::BORDER_CONSTANT);
+      cv::GaussianBlur(small, small, cv::Size(k, k), s, s,
+                       cv::BORDER_CONSTANT | cv::BORDER_ISOLATED);
     }
-    const cv::Mat* big = &scratch_;
+    cv::Mat upsampled;
+    const cv::Mat* big = &small;
     if (scale > 1) {
-      cv::resize(scratch_, scratch_big_, cv::Size(sw * scale, sh * scale), 0, 0, cv::INTER_LINEAR);
-      big = &scratch_big_;
+      upsampled = grow_view(scratch_big_, sh * scale, sw * scale);
+      cv::resize(small, upsampled, upsampled.size(), 0, 0, cv::INTER_LINEAR);
+      big = &upsampled;
     }
     const cv::Rect virt(rx0, ry0, big->cols, big->rows);
     const cv::Rect img = virt & cv::Rect(0, 0, size.width, size.height);
