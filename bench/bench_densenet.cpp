@@ -162,6 +162,7 @@ TEST_CASE("DenseNet forward, batch 1, 3x150x220", "[densenet]") {
     if (have_torch()) {
       const std::string cmd =
           "/usr/bin/python3 " + source_dir() + "/tools/bench_torch.py --reps 5 --archs " + arch;
+      std::printf("\n");
       std::fflush(stdout);
       REQUIRE(std::system(cmd.c_str()) == 0);
     }
