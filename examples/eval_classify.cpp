@@ -46,6 +46,7 @@ struct Options {
   bool normalise = false;
   int threads = 1;
   std::vector<std::string> speed_models;
+  std::string score_model;
   int subsample = 1;
   bool quiet = false;
 };
@@ -288,6 +289,62 @@ int run_speed(const Options& o) {
   return 0;
 }
 
+// Scores a model file as it is (its own classifier, no training) on every frame of --data with
+// the C++ Classifier: accuracy per lighting and overall, confusion matrices.
+int run_score(const Options& o) {
+  if (o.data.empty()) throw ss::InvalidArgument("--score needs --data DIR");
+  const auto model = ss::ModelFile::load(o.score_model);
+  const auto set = ss::load_gesture_samples(o.data, model.class_names);
+  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
+  ss::FrameEncoder enc(model.preprocess, o.normalise);
+  const std::size_t k = set.class_names.size();
+  std::map<std::string, Confusion> conf;
+  ss::Tensor t;
+  for (const auto& f : set.frames) {
+    enc.run(ss::read_colour_image(f.path), ss::is_dark(f), t);
+    const auto c = clf.classify(t);
+    for (const std::string& key : {lname(f.lighting), std::string("all")}) {
+      auto& m = conf[key];
+      if (m.empty()) m.assign(k, std::vector<int>(k, 0));
+      ++m[static_cast<std::size_t>(f.label)][static_cast<std::size_t>(c.index)];
+    }
+  }
+  std::cout << "Model " << o.score_model << " on " << o.data << " (" << set.frames.size()
+            << " frames" << (o.normalise ? ", lighting normalisation on" : "")
+            << ")\n  lighting    accuracy   frames\n";
+  std::ostringstream js;
+  js << "{\n  \"model\": \"" << o.score_model << "\",\n  \"data\": \"" << o.data
+     << "\",\n  \"accuracy\": {";
+  bool first = true;
+  for (const auto& [key, m] : conf) {
+    int ok = 0, n = 0;
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = 0; j < k; ++j) {
+        n += m[i][j];
+        ok += i == j ? m[i][j] : 0;
+      }
+    std::cout << "  " << std::left << std::setw(10) << key << "  " << pct(double(ok) / n) << "   "
+              << n << "\n";
+    js << (first ? "" : ", ") << '"' << key << "\": " << double(ok) / n;
+    first = false;
+    if (!o.confusion_dir.empty())
+      write_confusion_png(fs::path(o.confusion_dir) / ("score_" + key + ".png"), m, set.class_names,
+                          "Shipped model - " + key + ": " + pct(double(ok) / n));
+  }
+  js << "},\n  \"confusion\": {";
+  first = true;
+  for (const auto& [key, m] : conf) {
+    js << (first ? "" : ", ") << '"' << key << "\": " << json_confusion(m);
+    first = false;
+  }
+  js << "}\n}\n";
+  if (!o.json.empty()) {
+    std::ofstream(o.json + ".tmp") << js.str();
+    fs::rename(o.json + ".tmp", o.json);
+  }
+  return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) try {
@@ -316,6 +373,8 @@ int main(int argc, char** argv) try {
       o.subsample = std::max(1, std::stoi(next()));
     else if (a == "--speed")
       o.speed_models.push_back(next());
+    else if (a == "--score")
+      o.score_model = next();
     else if (a == "--quiet")
       o.quiet = true;
     else if (a == "--tables") {
@@ -329,13 +388,16 @@ int main(int argc, char** argv) try {
     } else if (a == "--help" || a == "-h") {
       std::cout << "ss_eval_classify --data DIR --backbone ALL.ssm [--backbone-dir DIR] "
                    "[--lighting-normalise] [--tables 1,2,3,4] [--json OUT] [--confusion-dir DIR] "
-                   "[--threads N]\nss_eval_classify --speed MODEL[@WxH] ... [--data DIR] "
+                   "[--threads N]\nss_eval_classify --score MODEL --data DIR "
+                   "[--lighting-normalise] [--json OUT] "
+                   "[--confusion-dir DIR]\nss_eval_classify --speed MODEL[@WxH] ... [--data DIR] "
                    "[--subsample K] [--json OUT]\n";
       return 0;
     } else
       throw ss::InvalidArgument("unknown argument '" + a + "' (see --help)");
   }
   if (!o.speed_models.empty()) return run_speed(o);
+  if (!o.score_model.empty()) return run_score(o);
   if (o.data.empty() || o.backbone.empty())
     throw ss::InvalidArgument("--data and --backbone are required (see --help)");
   if ((o.tables.count(3) || o.tables.count(4)) && o.backbone_dir.empty())
