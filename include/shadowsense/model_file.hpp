@@ -527,8 +527,7 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
   a.init_features = r.count("init_features", 1, 65536);
   {
     const std::uint32_t classes = r.u32("num_classes");
-    if (classes == 0)
-      throw ModelFileError("model architecture: zero classes, expected at least 1");
+    if (classes == 0) throw ModelFileError("model architecture: zero classes, expected at least 1");
     a.num_classes = r.count_value(classes, "num_classes", 1, 1 << 20);
   }
   a.bn_eps = r.f32("bn_eps");
