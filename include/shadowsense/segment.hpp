@@ -341,6 +341,7 @@ public:
     }
     cv::split(inv_profile_, inv_planes_.data());
     valid_.convertTo(inv_planes_[3], CV_32F, 1.0 / 255); // skin weight: darkness 0 off the skin
+    refresh_ref_samples();
   }
   void set_background(const cv::Mat& empty_frame) { set_empty_skin({empty_frame}); }
   bool has_empty_skin() const { return !profile_.empty(); }
@@ -401,26 +402,30 @@ private:
     for (auto& h : hist) h.assign(bins, 0);
     const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
     int n = 0;
-    for (int y = 1; y < src_->rows; y += 3) {
-      const cv::Vec3b* row = src_->ptr<cv::Vec3b>(y);
-      const cv::Vec3f* ip = prof ? inv_profile_.ptr<cv::Vec3f>(y) : nullptr;
-      for (int x = 1; x < src_->cols; x += 3) {
-        if (ip && ip[x][0] == 0.f) continue;
-        ++n;
-        for (int k = 0; k < 3; ++k) {
-          const float v = ip ? row[x][k] * ip[x][k] : static_cast<float>(row[x][k]);
-          ++hist[k][static_cast<std::size_t>(std::clamp(static_cast<int>(v * 4.f), 0, bins - 1))];
-        }
+    if (prof) { // the model's precomputed sample grid (on the skin only), contiguous in memory
+      for (const RefSample& r : ref_samples_) {
+        const uchar* px = src_->ptr<uchar>(r.y) + 3 * r.x;
+        for (int k = 0; k < 3; ++k)
+          ++hist[k][static_cast<std::size_t>(
+              std::clamp(static_cast<int>(px[k] * r.inv[k] * 4.f), 0, bins - 1))];
+      }
+      n = static_cast<int>(ref_samples_.size());
+    } else {
+      for (int y = 1; y < src_->rows; y += 3) {
+        const uchar* row = src_->ptr<uchar>(y);
+        for (int x = 1; x < src_->cols; x += 3, ++n)
+          for (int k = 0; k < 3; ++k) ++hist[k][static_cast<std::size_t>(row[3 * x + k]) * 4];
       }
     }
     const int target =
         std::max(1, static_cast<int>(std::ceil(config_.calibration.reference_percentile * n)));
     cv::Vec3f ref;
     for (int k = 0; k < 3; ++k) {
-      int acc = 0, v = 0;
-      for (; v < bins - 1; ++v) {
-        acc += hist[k][static_cast<std::size_t>(v)];
-        if (acc >= target) break;
+      // From the top: the bin where the count from below first reaches `target`.
+      int above = n, v = bins - 1;
+      for (; v > 0; --v) {
+        above -= hist[k][static_cast<std::size_t>(v)];
+        if (above < target) break;
       }
       ref[k] = std::max(1.0f, (static_cast<float>(v) + 0.5f) * 0.25f);
     }
@@ -653,6 +658,16 @@ private:
       out.contact_point = cv::Point2f(static_cast<float>(sx / sa), static_cast<float>(sy / sa));
   }
 
+  // The pixels (every third of every third row, on the skin) that set each frame's gain.
+  void refresh_ref_samples() {
+    ref_samples_.clear();
+    for (int y = 1; y < inv_profile_.rows; y += 3) {
+      const cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
+      for (int x = 1; x < inv_profile_.cols; x += 3)
+        if (ip[x][0] != 0.f) ref_samples_.push_back({y, x, ip[x]});
+    }
+  }
+
   // Slow update of the empty-skin model on skin pixels well outside any shadow.
   void adapt(const Segmentation& out) {
     if (config_.calibration.mode != SegmentMode::relative) return;
@@ -673,6 +688,7 @@ private:
         }
       }
     }
+    refresh_ref_samples();
   }
 
   // Width of the darkness ramp at a blob's edge: its mean darkness divided by the mean darkness
@@ -717,6 +733,11 @@ private:
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
+  struct RefSample {
+    int y, x;
+    cv::Vec3f inv;
+  };
+  std::vector<RefSample> ref_samples_;
   cv::Vec3f gain_{1, 1, 1};
   float frame_shadow_threshold_ = 0;
   mutable std::array<std::vector<int>, 3> hist_;
