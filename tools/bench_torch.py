@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """Time torchvision's DenseNet forward (batch 1, eval, no_grad) on this machine for the
 comparison in bench/bench_densenet.cpp. Prints one line per run:
-    torch <arch> threads=<t> ms=<median ms> peak_mb=<RSS growth of the first forward, MB>
+    torch <arch> threads=<t> ms=<median ms> cpu_ms=<process CPU time per forward>
+          peak_mb=<RSS growth of the first forward, MB>
 Usage: /usr/bin/python3 tools/bench_torch.py [--archs densenet121 densenet161]
        [--threads 1 2] [--size 150 220] [--reps 10]
 """
@@ -34,12 +35,14 @@ def main():
                 for _ in range(3):
                     model(x)
                 times = []
+                cpu0 = time.process_time()
                 for _ in range(args.reps):
                     t0 = time.perf_counter()
                     model(x)
                     times.append((time.perf_counter() - t0) * 1000)
+                cpu_ms = (time.process_time() - cpu0) * 1000 / args.reps
             print(f"torch {arch} threads={t} ms={statistics.median(times):.2f} "
-                  f"peak_mb={peak_mb:.1f}", flush=True)
+                  f"cpu_ms={cpu_ms:.2f} peak_mb={peak_mb:.1f}", flush=True)
 
 
 if __name__ == "__main__":
