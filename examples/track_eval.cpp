@@ -308,6 +308,17 @@ void print_table5(const std::map<std::string, CategoryResult>& t) {
   if (auto it = t.find("hover"); it != t.end())
     std::printf("false contact on hover: %d / %d\n", it->second.contact.false_positives,
                 it->second.frames);
+  for (const auto& [name, c] : t) {
+    if (name == "nothing" || name == "hover" || name == "palm" || name == "fist" ||
+        name == "finger")
+      continue;
+    std::printf(
+        "%s (%d frames): shadow IoU %.3f (%.3f), missed %d, false pos. %d; contact IoU %.3f "
+        "(%.3f), missed %d, false pos. %d\n",
+        name.c_str(), c.frames, c.shadow.iou.mean(), c.shadow.iou.sd(), c.shadow.missed,
+        c.shadow.false_positives, c.contact.iou.mean(), c.contact.iou.sd(), c.contact.missed,
+        c.contact.false_positives);
+  }
 }
 
 void print_figure14(const SlideResults& r) {
@@ -416,7 +427,23 @@ void write_json(const Options& o, const SegmenterCalibration& cal,
 int main(int argc, char** argv) {
   const Options o = parse(argc, argv);
   try {
-    sim::Renderer renderer(sim::Rig::tracking_box());
+    // The calibration frames are rendered with the rig whose frame size matches the data
+    // (tracking box 200x205 or robot 635x350), taken from the first image.
+    sim::Rig rig = sim::Rig::tracking_box();
+    {
+      fs::path csv = o.tracking / "metadata.csv";
+      if (!fs::exists(csv) && fs::exists(o.slides / "sequences.csv")) {
+        const auto seqs = read_sequences(o.slides / "sequences.csv");
+        if (!seqs.empty()) csv = o.slides / seqs.front().sequence / "metadata.csv";
+      }
+      if (fs::exists(csv)) {
+        const Metadata md = read_metadata(csv);
+        if (!md.rows.empty() &&
+            read_image(md, md.rows.front()).size() == sim::Rig::robot().image_size)
+          rig = sim::Rig::robot();
+      }
+    }
+    sim::Renderer renderer(rig);
     Segmenter::Config base;
     base.calibration.mode = o.mode;
     SimCalibration cal = calibrate_on_sim(renderer, o.calib_seed, o.calib_frames, base);
@@ -426,7 +453,8 @@ int main(int argc, char** argv) {
     if (!o.calibration_out.empty())
       save_calibration(cal.config.calibration, o.calibration_out.string());
     Segmenter seg = segmenter_from(cal);
-    std::cout << "calibration: " << o.calib_frames << " generator frames, seed " << o.calib_seed
+    std::cout << "calibration: " << o.calib_frames << " generator frames (" << rig.name
+              << " rig), seed " << o.calib_seed
               << (o.calibration_in.empty() ? ""
                                            : " (thresholds from " + o.calibration_in.string() + ")")
               << "\n";
