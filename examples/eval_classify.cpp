@@ -94,7 +94,8 @@ std::vector<int> train_and_predict(const ss::GestureSamples& set, const Features
   for (int c = 0; c < classes; ++c)
     if (std::find(yt.begin(), yt.end(), c) == yt.end())
       throw ss::DatasetError("class '" + set.class_names[static_cast<std::size_t>(c)] +
-                             "' has no training frames in a split");
+                             "' of the model has no training frames in a split of this data "
+                             "(a class folder is missing or empty)");
   const auto r =
       ss::HeadTrainer().train(ss::LinearHead::random(classes, static_cast<int>(f.x.cols()), 0),
                               rows(f.x, train), yt, rows(f.x, val), ss::labels_of(set, val));
@@ -129,6 +130,14 @@ Score score(const ss::GestureSamples& set, const Indices& test, const std::vecto
     ++s.frames;
   }
   if (s.frames == 0) throw ss::DatasetError("a test split has no frames");
+  for (std::size_t c = 0; c < k; ++c) {
+    int n = 0;
+    for (int v : s.confusion[c]) n += v;
+    if (n == 0)
+      throw ss::DatasetError("class '" + set.class_names[c] +
+                             "' has no test frames in a split (its class folder is missing or "
+                             "empty for these users/lightings)");
+  }
   s.accuracy = double(ok) / s.frames;
   return s;
 }
@@ -301,8 +310,15 @@ int run_score(const Options& o) {
   std::map<std::string, Confusion> conf;
   ss::Tensor t;
   for (const auto& f : set.frames) {
-    enc.run(ss::read_colour_image(f.path), ss::is_dark(f), t);
-    const auto c = clf.classify(t);
+    ss::Classification c;
+    try {
+      enc.run(ss::read_colour_image(f.path), ss::is_dark(f), t);
+      c = clf.classify(t);
+    } catch (const ss::IoError&) {
+      throw;
+    } catch (const ss::Error& e) {
+      throw ss::DatasetError(f.path.string() + ": " + e.what());
+    }
     for (const std::string& key : {lname(f.lighting), std::string("all")}) {
       auto& m = conf[key];
       if (m.empty()) m.assign(k, std::vector<int>(k, 0));

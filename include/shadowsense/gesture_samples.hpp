@@ -146,8 +146,15 @@ extract_features(FeatureExtractor& fx, FrameEncoder& enc, const GestureSamples& 
   Tensor t;
   for (std::size_t k = 0; k < indices.size(); ++k) {
     const auto& f = set.frames[indices[k]];
-    enc.run(read_colour_image(f.path), is_dark(f), t);
-    const auto v = fx.extract(t);
+    std::span<const float> v;
+    try {
+      enc.run(read_colour_image(f.path), is_dark(f), t);
+      v = fx.extract(t);
+    } catch (const IoError&) {
+      throw;
+    } catch (const Error& e) { // name the frame: wrong geometry for the model, bad pixels
+      throw DatasetError(f.path.string() + ": " + e.what());
+    }
     for (int c = 0; c < fx.dim(); ++c)
       out(static_cast<Eigen::Index>(k), c) = v[static_cast<std::size_t>(c)];
     if (progress && ((k + 1) % 100 == 0 || k + 1 == indices.size()))
