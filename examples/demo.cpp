@@ -164,8 +164,8 @@ int main(int argc, char** argv) try {
   }
   ss::Segmenter::Config sc;
   sc.calibration = ss::fit_calibration(empty, labelled, sc, 3);
-  // fit_calibration returns shadow_darkness 1.0 (no shadow pixel) on robot-rig frames; until
-  // that is fixed, keep its contact thresholds and use the default shadow threshold.
+  // Guard: older fits could return shadow_darkness 1.0 (no shadow pixel) on the robot rig;
+  // keep the contact thresholds and fall back to the default shadow threshold then.
   for (auto& b : sc.calibration.by_light)
     if (b.shadow_darkness > 0.9f) b.shadow_darkness = ss::LightThresholds{}.shadow_darkness;
   ss::Segmenter segmenter(sc);
@@ -181,9 +181,10 @@ int main(int argc, char** argv) try {
   fs::create_directories(out);
   std::ofstream csv(out / "events.csv.tmp");
   csv << "time_s,from,to,x_cm,y_cm,direction,gesture,confidence,scene\n";
-  std::printf("shadowsense demo: %d frames at %.0f fps, model %s (%s), lighting normalisation %s\n",
-              frames, fps, model_path.string().c_str(),
-              model.class_names.empty() ? "?" : "6 gestures", normalise ? "on" : "off");
+  std::printf("shadowsense demo: %d frames at %.0f fps, model %s (%zu classes), lighting "
+              "normalisation %s\n",
+              frames, fps, model_path.string().c_str(), model.class_names.size(),
+              normalise ? "on" : "off");
   std::printf("%7s  %-7s %-7s %15s  %-6s %-10s %6s  %s\n", "time", "from", "to", "position cm",
               "dir", "gesture", "conf", "scene");
   struct Shot {
