@@ -9,11 +9,6 @@
 //
 // The segmenter is calibrated on frames rendered by the scene generator with --calib-seed, never
 // on the evaluated frames.
-// GCC 12 reports a false -Wrestrict inside std::string concatenation inlined from the dataset
-// reader (GCC bug 105651); silence only that, only here.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wrestrict"
-#endif
 #include <shadowsense/dataset.hpp>
 #include <shadowsense/fsm.hpp>
 #include <shadowsense/io.hpp>

@@ -199,7 +199,7 @@ template <class Columns>
 inline std::string join(const Columns& c) {
   std::string s;
   for (const auto& x : c) {
-    if (!s.empty()) s += ',';
+    if (!s.empty()) s.push_back(',');
     s.append(x.data(), x.size());
   }
   return s;
@@ -304,7 +304,7 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
     r.px_per_cm = p.real(18, 1e-6, 1e6);
     if (md.slide_columns) {
       r.gesture = p.parse_enum(19, sim::slide_gesture_from_string);
-      r.direction = p.parse_enum(20, sim::direction_from_string);
+      r.direction = p.parse_enum(20, sim::movement_direction_from_string);
     }
     md.rows.push_back(std::move(r));
   }
@@ -329,7 +329,7 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     detail::check_relative(p, 0);
     r.sequence = p.text(0);
     r.gesture = p.parse_enum(1, sim::slide_gesture_from_string);
-    r.direction = p.parse_enum(2, sim::direction_from_string);
+    r.direction = p.parse_enum(2, sim::movement_direction_from_string);
     r.num_frames = p.integer(3, 1, 1 << 24);
     r.distance_cm = p.real(4, 0.0, 1e4);
     r.fps = p.real(5, 1e-3, 1e4);

@@ -32,6 +32,7 @@
 //    larger summed displacement, then to the order right, left, front, back.
 #pragma once
 
+#include <shadowsense/direction.hpp>
 #include <shadowsense/error.hpp>
 
 #include <opencv2/core.hpp>
@@ -46,7 +47,6 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 
 enum class TouchState { none, appear, touch, move, lift };
-enum class Direction { none, left, right, front, back };
 
 inline const char* to_string(TouchState s) {
   switch (s) {
@@ -62,33 +62,6 @@ inline const char* to_string(TouchState s) {
     return "lift";
   }
   return "?";
-}
-
-inline const char* to_string(Direction d) {
-  switch (d) {
-  case Direction::none:
-    return "none";
-  case Direction::left:
-    return "left";
-  case Direction::right:
-    return "right";
-  case Direction::front:
-    return "front";
-  case Direction::back:
-    return "back";
-  }
-  return "?";
-}
-
-// Parses "left", "right", "front", "back" (and "none"); throws InvalidArgument otherwise.
-inline Direction direction_from_string(const std::string& s) {
-  if (s == "left") return Direction::left;
-  if (s == "right") return Direction::right;
-  if (s == "front") return Direction::front;
-  if (s == "back") return Direction::back;
-  if (s == "none") return Direction::none;
-  throw InvalidArgument("direction '" + s +
-                        "' is unknown; expected left, right, front, back or none");
 }
 
 // Which robot-frame direction each image-axis sign means. Must be a permutation of the four.

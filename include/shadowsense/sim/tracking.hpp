@@ -6,6 +6,7 @@
 // front = -y (up in the image), back = +y.
 #pragma once
 
+#include <shadowsense/direction.hpp>
 #include <shadowsense/error.hpp>
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/lighting.hpp>
@@ -52,9 +53,10 @@ inline TrackCategory track_category_from_string(std::string_view s) {
 }
 
 enum class SlideGesture { palm, finger };
-enum class Direction { left, right, front, back };
-inline constexpr std::array<Direction, 4> all_directions{Direction::left, Direction::right,
-                                                         Direction::front, Direction::back};
+using shadowsense::all_directions;
+using shadowsense::Direction;
+using shadowsense::movement_direction_from_string;
+using shadowsense::to_string;
 
 inline std::string_view to_string(SlideGesture g) {
   return g == SlideGesture::palm ? "palm" : "finger";
@@ -63,25 +65,6 @@ inline SlideGesture slide_gesture_from_string(std::string_view s) {
   if (s == "palm") return SlideGesture::palm;
   if (s == "finger") return SlideGesture::finger;
   throw InvalidArgument("unknown slide gesture '" + std::string(s) + "'; expected palm or finger");
-}
-inline std::string_view to_string(Direction d) {
-  switch (d) {
-  case Direction::left:
-    return "left";
-  case Direction::right:
-    return "right";
-  case Direction::front:
-    return "front";
-  case Direction::back:
-    return "back";
-  }
-  return "left";
-}
-inline Direction direction_from_string(std::string_view s) {
-  for (Direction d : all_directions)
-    if (to_string(d) == s) return d;
-  throw InvalidArgument("unknown direction '" + std::string(s) +
-                        "'; expected left, right, front or back");
 }
 // Unit vector of a direction in image axes (x right, y down): front = up = -y.
 inline cv::Point2d direction_vector(Direction d) {
@@ -94,6 +77,8 @@ inline cv::Point2d direction_vector(Direction d) {
     return {0, -1};
   case Direction::back:
     return {0, 1};
+  case Direction::none:
+    break;
   }
   return {0, 0};
 }
