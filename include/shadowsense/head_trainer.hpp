@@ -32,47 +32,23 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-// The frozen feature extractor: the DenseNet up to norm5 -> ReLU -> global average pool.
-// DenseNet exposes only logits, so this runs it with an identity classifier (weight = I,
-// bias = 0): its logits are exactly the pooled features (the classifier runs in double and
-// rounds once to float). Costs c x c extra multiply-adds, c = final feature width.
+// The frozen feature extractor: the DenseNet up to norm5 -> ReLU -> global average pool
+// (DenseNet::features). The model's own classifier and self-test are kept but not used here.
 class FeatureExtractor {
 public:
   explicit FeatureExtractor(const ModelFile& model, DenseNet::Config config = {})
-      : dim_(model.architecture.final_features()),
-        net_(identity_head(model), no_self_test(config)) {}
+      : net_(model, config), dim_(net_.feature_size()) {}
 
   int dim() const { return dim_; }
   DenseNet& network() { return net_; }
 
   // n x dim features for an n x 3 x h x w preprocessed tensor (row per image); the span stays
   // valid until the next call.
-  std::span<const float> extract(const Tensor& input) { return net_.logits(input); }
+  std::span<const float> extract(const Tensor& input) { return net_.features(input); }
 
 private:
-  static ModelFile identity_head(const ModelFile& model) {
-    model.validate();
-    ModelFile m = model;
-    const int c = model.architecture.final_features();
-    m.architecture.num_classes = c;
-    m.class_names.clear();
-    for (int i = 0; i < c; ++i) m.class_names.push_back("feature" + std::to_string(i));
-    auto& w = m.tensor("classifier.weight");
-    w.shape = {c, c};
-    w.values.assign(static_cast<std::size_t>(c) * c, 0.0f);
-    for (int i = 0; i < c; ++i) w.values[static_cast<std::size_t>(i) * c + i] = 1.0f;
-    auto& b = m.tensor("classifier.bias");
-    b.shape = {c};
-    b.values.assign(static_cast<std::size_t>(c), 0.0f);
-    m.self_test.reset(); // its logits belong to the original classifier
-    return m;
-  }
-  static DenseNet::Config no_self_test(DenseNet::Config c) {
-    c.run_self_test = false;
-    return c;
-  }
-  int dim_;
   DenseNet net_;
+  int dim_;
 };
 
 // A linear classifier on features: logits = weight * x + bias.
