@@ -10,8 +10,9 @@ TEST_CASE("version macros and constants agree") {
   CHECK(shadowsense::version_major == SHADOWSENSE_VERSION_MAJOR);
   CHECK(shadowsense::version_minor == SHADOWSENSE_VERSION_MINOR);
   CHECK(std::string(shadowsense::version_string) ==
-        std::to_string(SHADOWSENSE_VERSION_MAJOR) + "." + std::to_string(SHADOWSENSE_VERSION_MINOR) +
-            "." + std::to_string(SHADOWSENSE_VERSION_PATCH));
+        std::to_string(SHADOWSENSE_VERSION_MAJOR) + "." +
+            std::to_string(SHADOWSENSE_VERSION_MINOR) + "." +
+            std::to_string(SHADOWSENSE_VERSION_PATCH));
 }
 
 TEST_CASE("the ABI namespace is inline and versioned") {

@@ -12,7 +12,8 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // Throws InvalidArgument unless `image` is a non-empty 8-bit, 3-channel (BGR or RGB) image.
 inline void require_colour_image(const cv::Mat& image, const char* argument_name) {
   const std::string name = argument_name;
-  if (image.empty()) throw InvalidArgument(name + ": image is empty; expected an 8-bit 3-channel image");
+  if (image.empty())
+    throw InvalidArgument(name + ": image is empty; expected an 8-bit 3-channel image");
   if (image.dims != 2)
     throw InvalidArgument(name + ": image has " + std::to_string(image.dims) +
                           " dimensions; expected 2 (rows x cols)");

@@ -1,7 +1,7 @@
 // Umbrella header for image-file I/O; link shadowsense::io (adds OpenCV imgcodecs).
 #pragma once
 
-#include <shadowsense/shadowsense.hpp>
 #include <shadowsense/dataset.hpp>
-#include <shadowsense/sim/dataset_writer.hpp>
 #include <shadowsense/gesture_samples.hpp>
+#include <shadowsense/shadowsense.hpp>
+#include <shadowsense/sim/dataset_writer.hpp>

@@ -2,17 +2,18 @@
 // Image-file I/O (datasets, the scene generator's writers) is in <shadowsense/io.hpp>.
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/image_check.hpp>
-#include <shadowsense/version.hpp>
-#include <shadowsense/fsm.hpp>
-#include <shadowsense/segment.hpp>
-#include <shadowsense/track.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/densenet.hpp>
-#include <shadowsense/sim/sim.hpp>
-#include <shadowsense/preprocess.hpp>
 #include <shadowsense/classify.hpp>
-#include <shadowsense/lighting_normalise.hpp>
+#include <shadowsense/densenet.hpp>
+#include <shadowsense/direction.hpp>
+#include <shadowsense/error.hpp>
+#include <shadowsense/fsm.hpp>
 #include <shadowsense/head_trainer.hpp>
+#include <shadowsense/image_check.hpp>
+#include <shadowsense/lighting_normalise.hpp>
+#include <shadowsense/model_file.hpp>
+#include <shadowsense/preprocess.hpp>
+#include <shadowsense/segment.hpp>
+#include <shadowsense/sim/sim.hpp>
+#include <shadowsense/tensor.hpp>
+#include <shadowsense/track.hpp>
+#include <shadowsense/version.hpp>

@@ -9,11 +9,11 @@
 // Bump together with the version numbers above.
 #define SHADOWSENSE_ABI_NAMESPACE v0_1
 
-#define SHADOWSENSE_NAMESPACE_BEGIN                                                            \
-  namespace shadowsense {                                                                      \
+#define SHADOWSENSE_NAMESPACE_BEGIN                                                                \
+  namespace shadowsense {                                                                          \
   inline namespace SHADOWSENSE_ABI_NAMESPACE {
-#define SHADOWSENSE_NAMESPACE_END                                                              \
-  }                                                                                            \
+#define SHADOWSENSE_NAMESPACE_END                                                                  \
+  }                                                                                                \
   }
 
 SHADOWSENSE_NAMESPACE_BEGIN
