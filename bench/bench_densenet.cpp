@@ -4,7 +4,7 @@
 // Prints a summary line per configuration: ms, GFLOP/s, working memory, max abs diff of the
 // logits against torchvision. Random weights come from tools/densenet_to_model.py when
 // /usr/bin/python3 has torch (with torchvision's logits embedded), else from C++ (no diff).
-#include <shadowsense/densenet.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
 
 #include <Eigen/Core>
 #include <catch2/catch.hpp>

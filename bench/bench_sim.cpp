@@ -1,6 +1,6 @@
 // Frames rendered per second by the scene generator, per rig (one thread: OpenCV's own
 // threading is switched off so the number is per core).
-#include <shadowsense/sim/sim.hpp>
+#include <shadowsense/sim.hpp>
 
 #include <catch2/catch.hpp>
 

@@ -8,8 +8,9 @@
 // and contact; the contact tracker keeps ids; the classifier runs only while a shadow is seen
 // (gating); the touch state machine emits events. Prints an event log (time, state, position in
 // cm, gesture, confidence) and writes DIR/demo_strip.png (annotated frames) and DIR/events.csv.
-#include <shadowsense/io.hpp>
-#include <shadowsense/track_eval.hpp>
+#include <shadowsense/eval.hpp>
+#include <shadowsense/train.hpp>
+#include <shadowsense/eval/track_eval.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -8,7 +8,7 @@
 //
 // Users get ids K..K+N-1 and their body from the id and the seed, so disjoint id ranges give
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
-#include <shadowsense/io.hpp>
+#include <shadowsense/eval.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 

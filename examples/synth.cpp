@@ -13,7 +13,7 @@
 // [0, 1] renders every dataset under one custom light (0 night, 0.5 dusk, 1 daylight) to test
 // on unseen lighting conditions. --preview writes one annotated montage (ground-truth shadow
 // box blue, contact box white, contact point red) of all classes; alone it writes nothing else.
-#include <shadowsense/io.hpp>
+#include <shadowsense/eval.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -1,7 +1,7 @@
 // libFuzzer target for the model-file loader: any byte string must either load (and then
 // re-serialise to the same bytes) or throw ModelFileError - never crash, hang, read out of
 // bounds or allocate without bound. Built and run by .ci/steps/fuzz.sh.
-#include <shadowsense/model_file.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
 
 #include <algorithm>
 #include <cstddef>

@@ -1,6 +1,6 @@
 // The backend concept with a user-defined backend, the log-sum-exp softmax on extreme logits,
 // and the DenseNet reference classifier end to end on images.
-#include <shadowsense/classify.hpp>
+#include <shadowsense/classify/classifier.hpp>
 
 #include <doctest/doctest.h>
 

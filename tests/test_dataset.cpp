@@ -1,6 +1,6 @@
 // The dataset format: writers (deterministic, validated, never half-written) and the strict
 // csv reader.
-#include <shadowsense/io.hpp>
+#include <shadowsense/eval.hpp>
 
 #include <doctest/doctest.h>
 

@@ -1,7 +1,7 @@
 // The DenseNet forward pass against torchvision: a committed compact fixture (always), its
 // extreme-BatchNorm twin, and DenseNet-121/-161 with random weights generated at test time by
 // tools/densenet_to_model.py when Debian's python3-torch is installed.
-#include <shadowsense/densenet.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
 
 #include <doctest/doctest.h>
 

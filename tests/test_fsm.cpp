@@ -1,5 +1,5 @@
 // The touch state machine (paper Fig. 7): exact event sequences for hand-built observation streams.
-#include <shadowsense/fsm.hpp>
+#include <shadowsense/sense/touch_state_machine.hpp>
 
 #include <doctest/doctest.h>
 

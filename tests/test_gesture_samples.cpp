@@ -1,7 +1,7 @@
 // Bad classification data gets a clear error naming the file (issue 5 robustness): an empty
 // folder, a csv without frames, a class the model does not know, a corrupt or missing image.
-#include <shadowsense/dataset.hpp>
-#include <shadowsense/gesture_samples.hpp>
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/train/gesture_samples.hpp>
 
 #include <doctest/doctest.h>
 

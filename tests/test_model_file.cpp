@@ -1,6 +1,6 @@
 // The model file: round trips, and every kind of bad file rejected with a message that names
 // what was wrong (truncation at every byte, magic, version, shapes, NaN, checksum, classes).
-#include <shadowsense/model_file.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
 
 #include <doctest/doctest.h>
 

@@ -1,7 +1,7 @@
 // Preprocessing against torchvision's tensor path (golden vectors from
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
-#include <shadowsense/densenet.hpp>
-#include <shadowsense/preprocess.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/classify/preprocess.hpp>
 
 #include <doctest/doctest.h>
 

@@ -1,5 +1,5 @@
 // Gesture scenes and recording sessions on the robot rig.
-#include <shadowsense/sim/sim.hpp>
+#include <shadowsense/sim.hpp>
 
 #include <doctest/doctest.h>
 

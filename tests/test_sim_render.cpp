@@ -1,6 +1,6 @@
 // The scene generator's renderer: determinism, ground truth consistent with the pixels,
 // lighting presets, contact colour and input validation.
-#include <shadowsense/sim/sim.hpp>
+#include <shadowsense/sim.hpp>
 
 #include <doctest/doctest.h>
 

@@ -1,5 +1,5 @@
 // Multi-touch track IDs: exact expectations on hand-built detection streams.
-#include <shadowsense/track.hpp>
+#include <shadowsense/sense/tracker.hpp>
 
 #include <doctest/doctest.h>
 

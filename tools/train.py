@@ -7,7 +7,7 @@ log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is
 lower validation loss). Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
 bilinear resize without antialias, centre crop, adjust_contrast, adjust_brightness for dark
 images, Normalize), optionally preceded by the lighting normalisation of
-include/shadowsense/lighting.hpp (--lighting-normalise).
+include/shadowsense/classify/lighting_normalise.hpp (--lighting-normalise).
 
 Modes
   --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
@@ -49,7 +49,7 @@ import densenet_to_model as d2m  # noqa: E402
 MEAN = [0.485, 0.456, 0.406]
 STD = [0.229, 0.224, 0.225]
 DARK_LEVEL = 0.25
-# Lighting normalisation (include/shadowsense/lighting.hpp): every channel scaled so its mean
+# Lighting normalisation (include/shadowsense/classify/lighting_normalise.hpp): every channel scaled so its mean
 # over the image becomes TARGET (gray world + exposure), then clamped to [0, 1].
 NORMALISE_TARGET = 0.35
 

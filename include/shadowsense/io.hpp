@@ -1,7 +1,6 @@
-// Umbrella header for image-file I/O; link shadowsense::io (adds OpenCV imgcodecs).
+// I/O umbrella header (target shadowsense::io, adds OpenCV imgcodecs): the dataset format
+// (docs/dataset_format.md) and reading image files.
 #pragma once
 
-#include <shadowsense/dataset.hpp>
-#include <shadowsense/gesture_samples.hpp>
+#include <shadowsense/io/dataset.hpp>
 #include <shadowsense/shadowsense.hpp>
-#include <shadowsense/sim/dataset_writer.hpp>

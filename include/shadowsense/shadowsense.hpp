@@ -1,19 +1,24 @@
-// Umbrella header: everything that needs only OpenCV core + imgproc and Eigen.
-// Image-file I/O (datasets, the scene generator's writers) is in <shadowsense/io.hpp>.
+// Runtime umbrella header: what a robot links (OpenCV core + imgproc only; no Eigen, no
+// image files, no scene generator).
+//   core/      version, errors, tensors, directions, image checks
+//   sense/     segmenter, tracker, touch state machine (shadow -> contact -> touch events)
+//   classify/  preprocessing, the backend concept, Classifier<Backend>
+//   backends/densenet/  the reference backend: model file + hand-written forward pass
+// Other targets, each with its own umbrella: <shadowsense/io.hpp> (dataset files, imgcodecs),
+// <shadowsense/train.hpp> (on-device head training, Eigen), <shadowsense/sim.hpp> (scene
+// generator), <shadowsense/eval.hpp> (evaluation helpers).
 #pragma once
 
-#include <shadowsense/classify.hpp>
-#include <shadowsense/densenet.hpp>
-#include <shadowsense/direction.hpp>
-#include <shadowsense/error.hpp>
-#include <shadowsense/fsm.hpp>
-#include <shadowsense/head_trainer.hpp>
-#include <shadowsense/image_check.hpp>
-#include <shadowsense/lighting_normalise.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/preprocess.hpp>
-#include <shadowsense/segment.hpp>
-#include <shadowsense/sim/sim.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/track.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/classify/classifier.hpp>
+#include <shadowsense/classify/lighting_normalise.hpp>
+#include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/direction.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/image_check.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
+#include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/touch_state_machine.hpp>
+#include <shadowsense/sense/tracker.hpp>

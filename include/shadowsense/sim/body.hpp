@@ -3,7 +3,7 @@
 // penumbra grows and its darkness falls with height; parts at height 0 are in contact.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/rng.hpp>
 
 #include <opencv2/core.hpp>

@@ -3,7 +3,7 @@
 // blocks, in time order, with a smooth pose drift within each block).
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/renderer.hpp>

@@ -2,7 +2,7 @@
 // [0, 1] (0 = night, 0.5 = dusk, 1 = daylight) so unseen conditions can be generated.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/rng.hpp>
 
 #include <opencv2/core.hpp>

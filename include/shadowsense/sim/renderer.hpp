@@ -9,7 +9,7 @@
 // wrinkles), vignetting, light colour, ambient light and sensor noise are then composed.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/rig.hpp>

@@ -4,7 +4,7 @@
 // (200x205 crop of a 26 x 26.6 cm box top, camera 45 cm below).
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
 

@@ -3,7 +3,7 @@
 // a seed must give byte-identical frames and csv files on every platform.
 #pragma once
 
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <cmath>
 #include <cstdint>

@@ -1,5 +1,5 @@
 // The scene generator (core only: OpenCV core + imgproc). Dataset writers are in
-// <shadowsense/dataset.hpp> (needs imgcodecs).
+// <shadowsense/io/dataset.hpp> (needs imgcodecs).
 #pragma once
 
 #include <shadowsense/sim/body.hpp>

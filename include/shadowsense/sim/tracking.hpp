@@ -6,8 +6,8 @@
 // front = -y (up in the image), back = +y.
 #pragma once
 
-#include <shadowsense/direction.hpp>
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/direction.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/renderer.hpp>

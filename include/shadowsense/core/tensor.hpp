@@ -2,8 +2,8 @@
 // pass and classifier backends. A CHW image is a tensor with n == 1.
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <cmath>
 #include <cstddef>

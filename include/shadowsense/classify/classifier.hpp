@@ -6,12 +6,12 @@
 // TensorRT. Classifier<Backend> adds preprocessing, a numerically safe softmax and the label.
 #pragma once
 
-#include <shadowsense/densenet.hpp>
-#include <shadowsense/error.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/preprocess.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
 

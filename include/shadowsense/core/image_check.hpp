@@ -1,7 +1,7 @@
 // Up-front validation of images handed to the library, with messages naming the argument.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
 

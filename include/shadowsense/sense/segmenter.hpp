@@ -23,8 +23,8 @@
 // file (format in docs/tracking_eval.md).
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/image_check.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/image_check.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/hal/intrin.hpp>

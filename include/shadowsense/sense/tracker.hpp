@@ -4,7 +4,7 @@
 // a hit counter before a track is confirmed and a time-out before it is dropped.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
 

@@ -4,7 +4,7 @@
 // file, line and column) and a writer that never leaves a half-written csv looking complete.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/tracking.hpp>
 

@@ -12,10 +12,10 @@
 // OpenCV images are BGR: the input channel order is a required, explicit choice.
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>

@@ -6,8 +6,8 @@
 // the fallback. Summation order differs from PyTorch's only by float rounding.
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <algorithm>
 #include <condition_variable>

@@ -16,11 +16,11 @@
 // - all buffers are sized at construction for the largest input seen so far and reused.
 #pragma once
 
-#include <shadowsense/detail/gemm.hpp>
-#include <shadowsense/error.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/backends/densenet/gemm.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <algorithm>
 #include <cmath>

@@ -4,8 +4,8 @@
 // benchmark and the tests. Calibrate on frames that are NOT in the evaluation set (another seed).
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/segment.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sim/sim.hpp>
 
 #include <opencv2/core.hpp>

@@ -2,7 +2,7 @@
 // these with a message that names what was wrong and what was expected.
 #pragma once
 
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <stdexcept>
 #include <string>

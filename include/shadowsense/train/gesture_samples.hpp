@@ -5,12 +5,12 @@
 // and tools/train.py see identical tensors.
 #pragma once
 
-#include <shadowsense/dataset.hpp>
-#include <shadowsense/error.hpp>
-#include <shadowsense/head_trainer.hpp>
-#include <shadowsense/lighting_normalise.hpp>
-#include <shadowsense/preprocess.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/train/head_trainer.hpp>
+#include <shadowsense/classify/lighting_normalise.hpp>
+#include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 

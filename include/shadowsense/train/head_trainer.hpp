@@ -11,11 +11,11 @@
 //   save_model_file(model_with_head(model, r.head, names), "robot.ssm");
 #pragma once
 
-#include <shadowsense/densenet.hpp>
-#include <shadowsense/error.hpp>
-#include <shadowsense/model_file.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <Eigen/Core>
 

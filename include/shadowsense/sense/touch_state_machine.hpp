@@ -32,8 +32,8 @@
 //    larger summed displacement, then to the order right, left, front, back.
 #pragma once
 
-#include <shadowsense/direction.hpp>
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/direction.hpp>
+#include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
 

@@ -2,7 +2,7 @@
 // machine, the scene generator's slides and the dataset format.
 #pragma once
 
-#include <shadowsense/error.hpp>
+#include <shadowsense/core/error.hpp>
 
 #include <array>
 #include <string>

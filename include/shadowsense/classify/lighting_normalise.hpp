@@ -8,8 +8,8 @@
 // normalisation replaces).
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
 

@@ -7,9 +7,9 @@
 // expected, so a bad file is rejected before it reaches the forward pass.
 #pragma once
 
-#include <shadowsense/error.hpp>
-#include <shadowsense/tensor.hpp>
-#include <shadowsense/version.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/version.hpp>
 
 #include <algorithm>
 #include <array>
