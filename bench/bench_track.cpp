@@ -1,9 +1,9 @@
 // Tracker frames per second on one core (segmentation + multi-touch ids + state machine), at
 // 200x205 (tracking rig) and 635x350 (robot rig), printed next to the shadow/contact IoU the
 // same segmenter reaches on the same frames (speed is only meaningful next to accuracy).
+#include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
-#include <shadowsense/eval/track_eval.hpp>
 
 #include <catch2/catch.hpp>
 

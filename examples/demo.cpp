@@ -9,8 +9,8 @@
 // (gating); the touch state machine emits events. Prints an event log (time, state, position in
 // cm, gesture, confidence) and writes DIR/demo_strip.png (annotated frames) and DIR/events.csv.
 #include <shadowsense/eval.hpp>
-#include <shadowsense/train.hpp>
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/train.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

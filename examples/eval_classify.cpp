@@ -13,8 +13,8 @@
 // --backbone: Tables 1 and 2 (must not have seen the evaluation users).
 // --backbone-dir: no_<lighting>.ssm (Table 3: never saw that lighting) and only_<lighting>.ssm
 // (Table 4: saw only that lighting), for daylight, dusk and night.
-#include <shadowsense/train/gesture_samples.hpp>
 #include <shadowsense/eval.hpp>
+#include <shadowsense/train/gesture_samples.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

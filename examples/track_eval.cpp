@@ -9,11 +9,11 @@
 //
 // The segmenter is calibrated on frames rendered by the scene generator with --calib-seed, never
 // on the evaluated frames.
-#include <shadowsense/io/dataset.hpp>
-#include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/eval.hpp>
-#include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/touch_state_machine.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -8,8 +8,8 @@
 //
 // Validation: the last 30% (by timestamp) of every session x class block. --fine-tune starts
 // from the model's own classifier instead of a fresh one (same classes required).
-#include <shadowsense/train/gesture_samples.hpp>
 #include <shadowsense/eval.hpp>
+#include <shadowsense/train/gesture_samples.hpp>
 
 #include <charconv>
 #include <cstdio>

@@ -1,11 +1,11 @@
 // On-device transfer learning: the loss and its gradient (finite differences), Adam against
 // torch.optim.Adam, the frozen feature extractor against the DenseNet's own classifier, the
 // saved model reloading to the same predictions, and training on generated gesture frames.
-#include <shadowsense/train/gesture_samples.hpp>
-#include <shadowsense/train/head_trainer.hpp>
 #include <shadowsense/classify/lighting_normalise.hpp>
 #include <shadowsense/classify/preprocess.hpp>
 #include <shadowsense/sim.hpp>
+#include <shadowsense/train/gesture_samples.hpp>
+#include <shadowsense/train/head_trainer.hpp>
 
 #include <doctest/doctest.h>
 

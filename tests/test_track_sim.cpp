@@ -1,8 +1,8 @@
 // The tracker on frames rendered by the scene generator, against its exact ground truth.
 // Calibration frames use a different seed from every frame evaluated here.
+#include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
-#include <shadowsense/eval/track_eval.hpp>
 
 #include <doctest/doctest.h>
 

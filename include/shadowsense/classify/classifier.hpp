@@ -7,9 +7,9 @@
 #pragma once
 
 #include <shadowsense/backends/densenet/densenet.hpp>
-#include <shadowsense/core/error.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 

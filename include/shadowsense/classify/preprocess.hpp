@@ -12,8 +12,8 @@
 // OpenCV images are BGR: the input channel order is a required, explicit choice.
 #pragma once
 
-#include <shadowsense/core/error.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 

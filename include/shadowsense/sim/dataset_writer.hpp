@@ -5,8 +5,8 @@
 // so an interrupted run never leaves a dataset that looks complete.
 #pragma once
 
-#include <shadowsense/io/dataset.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/io/dataset.hpp>
 #include <shadowsense/sim/gestures.hpp>
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/tracking.hpp>

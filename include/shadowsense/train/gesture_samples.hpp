@@ -5,12 +5,12 @@
 // and tools/train.py see identical tensors.
 #pragma once
 
-#include <shadowsense/io/dataset.hpp>
-#include <shadowsense/core/error.hpp>
-#include <shadowsense/train/head_trainer.hpp>
 #include <shadowsense/classify/lighting_normalise.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/train/head_trainer.hpp>
 
 #include <opencv2/imgcodecs.hpp>
 

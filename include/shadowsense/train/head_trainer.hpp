@@ -12,8 +12,8 @@
 #pragma once
 
 #include <shadowsense/backends/densenet/densenet.hpp>
-#include <shadowsense/core/error.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 
