@@ -160,6 +160,14 @@ public:
       if (t.id == id) return t;
     return std::nullopt;
   }
+  // Drops every track and forgets the previous timestamp (a new stream) but keeps the ids
+  // growing, so an id is never reused.
+  void clear_tracks() {
+    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    tracks_.clear();
+    last_t_.reset();
+  }
+  // Back to the initial state (ids start at 1 again).
   void reset() {
     detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
     tracks_.clear();
