@@ -78,24 +78,27 @@ struct Segmentation {
   std::size_t dropped_contact_blobs = 0;      // likewise for contact
 };
 
+// Segmenter settings (every BasicSegmenter<Rule> takes the same).
+struct SegmenterConfig {
+  SegmenterCalibration calibration{};
+  int pre_blur = 0;            // box blur of the colour image before classification (0/1 = off)
+  int mask_blur = 5;           // Gaussian kernel for the binary masks (odd; 0/1 = off)
+  double min_shadow_area = 30; // contours smaller than this (mask px) are dropped
+  double min_contact_area = 6;
+  int shadow_merge_gap = 12; // contours whose boxes are this close (px) form one blob
+  int contact_merge_gap = 4;
+  std::optional<HoverHeightModel> hover_model{}; // sets Blob::hover_height_cm when present
+  bool adaptive = false;          // per-pixel empty-skin model updated over time (video)
+  float adapt_rate = 0.05f;       // weight of a new frame in the empty-skin model
+  double profile_smoothing = 3.0; // Gaussian sigma (px) of the empty-skin model
+  int max_blobs = 1024;           // contours kept per class and frame (largest first)
+  int max_image_side = 8192;      // frames wider or taller are refused before any allocation
+};
+
 template <PixelRule Rule>
 class BasicSegmenter {
 public:
-  struct Config {
-    SegmenterCalibration calibration{};
-    int pre_blur = 0;            // box blur of the colour image before classification (0/1 = off)
-    int mask_blur = 5;           // Gaussian kernel for the binary masks (odd; 0/1 = off)
-    double min_shadow_area = 30; // contours smaller than this (mask px) are dropped
-    double min_contact_area = 6;
-    int shadow_merge_gap = 12; // contours whose boxes are this close (px) form one blob
-    int contact_merge_gap = 4;
-    std::optional<HoverHeightModel> hover_model{}; // sets Blob::hover_height_cm when present
-    bool adaptive = false;          // per-pixel empty-skin model updated over time (video)
-    float adapt_rate = 0.05f;       // weight of a new frame in the empty-skin model
-    double profile_smoothing = 3.0; // Gaussian sigma (px) of the empty-skin model
-    int max_blobs = 1024;           // contours kept per class and frame (largest first)
-    int max_image_side = 8192;      // frames wider or taller are refused before any allocation
-  };
+  using Config = SegmenterConfig;
 
   BasicSegmenter() requires std::is_default_constructible_v<Rule> ||
       std::is_constructible_v<Rule, const SegmenterCalibration&> : BasicSegmenter(Config{}) {}
