@@ -1,12 +1,11 @@
 // Labelled gesture frames for training and evaluation: a dataset folder (docs/dataset_format.md)
 // read into frames with a class index, the paper's metadata splits (by user, lighting and
-// collection time), and the frame encoder every classifier entry point shares (optional
-// lighting normalisation, then the Preprocessor), so ss_train_head, ss_eval_classify, ss_demo
-// and tools/train.py see identical tensors.
+// collection time), and feature extraction through the FrameEncoder every classifier entry
+// point shares (classify/frame_encoder.hpp), so ss_train_head, ss_eval_classify, ss_classify,
+// ss_demo and tools/train.py see identical tensors.
 #pragma once
 
-#include <shadowsense/classify/lighting_normalise.hpp>
-#include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/classify/frame_encoder.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/io/dataset.hpp>
@@ -110,31 +109,6 @@ inline cv::Mat read_colour_image(const std::filesystem::path& path) {
                                              "an image format OpenCV reads)");
   return img;
 }
-
-// BGR frame -> network input: optional lighting normalisation (then no brightness factor),
-// then the Preprocessor with the model's parameters.
-class FrameEncoder {
-public:
-  FrameEncoder(const PreprocessParams& params, bool lighting_normalise)
-      : normalise_(lighting_normalise), pre_(Preprocessor::Config{params, ChannelOrder::bgr}) {}
-  bool lighting_normalise() const { return normalise_; }
-  const Preprocessor& preprocessor() const { return pre_; }
-
-  void run(const cv::Mat& bgr, bool dark, Tensor& out) {
-    if (normalise_) {
-      norm_.run(bgr, float_);
-      pre_.run(float_, false, out);
-    } else {
-      pre_.run(bgr, dark, out);
-    }
-  }
-
-private:
-  bool normalise_;
-  Preprocessor pre_;
-  LightingNormaliser norm_;
-  cv::Mat float_;
-};
 
 // Pooled features of the given frames (row per index, in order). progress(done, total) is
 // called every 100 frames.
