@@ -120,8 +120,10 @@ TEST_CASE("--help and --version print on the given stream and exit 0") {
   CHECK(h.find("\n  --lighting-level L        light level (a number in [0, 1]; default 0.5)\n") !=
         std::string::npos);
   CHECK(h.find("(one of relative, fixed_ranges; default relative)") != std::string::npos);
-  CHECK(h.find("  --tables LIST             tables to compute (a comma-separated list, each an "
-               "integer in [1, 4]; default 1,2,3,4)\n") != std::string::npos);
+  CHECK(
+      h.find(
+          "  --tables LIST             tables to compute (a comma-separated list, each an integer "
+          "in [1, 4];\n                            default 1,2,3,4)\n") != std::string::npos);
   CHECK(h.find("  --speed MODEL[@WxH]       time a model (may be repeated)\n") !=
         std::string::npos);
   CHECK(h.find("  --no-lighting-normalise   paper preprocessing\n") != std::string::npos);

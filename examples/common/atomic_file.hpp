@@ -39,8 +39,13 @@ inline void write_file_atomically(const std::filesystem::path& path, std::string
   fs::path tmp;
   int fd = -1;
   for (int attempt = 0; fd < 0 && attempt < 100; ++attempt) {
-    tmp = dir / ("." + path.filename().string() + ".tmp." + std::to_string(::getpid()) + "." +
-                 std::to_string(counter++));
+    std::string name(1, '.'); // ".<name>.tmp.<pid>.<n>": hidden, unique to this process
+    name += path.filename().string();
+    name += ".tmp.";
+    name += std::to_string(::getpid());
+    name += '.';
+    name += std::to_string(counter++);
+    tmp = dir / name;
     fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd < 0 && errno != EEXIST) throw fail("cannot create a temporary file", errno);
   }

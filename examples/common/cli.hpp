@@ -297,12 +297,12 @@ public:
            (positional_ ? " " + positional_name_ + "..." : "") + "\n";
     for (std::size_t i = 0; i < usage_.size(); ++i)
       s += (i ? "       " : "usage: ") + usage_[i] + "\n";
-    s += "\n" + summary_ + "\n\noptions:\n";
+    s += "\n" + wrap(summary_, 0) + "\n\noptions:\n";
     const auto entry = [&](std::string left, const std::string& text) {
       left = "  " + left;
       s += left.size() < 28 ? left + std::string(28 - left.size(), ' ')
                             : left + "\n" + std::string(28, ' ');
-      s += text + "\n";
+      s += wrap(text, 28) + "\n";
     };
     if (positional_) entry(positional_name_ + "...", positional_description_);
     for (const auto& o : options_) {
@@ -325,6 +325,29 @@ public:
   }
 
 private:
+  // `text` broken at spaces into lines of at most 100 columns, continuation lines indented by
+  // `indent` (the first line starts at column `indent` too).
+  static std::string wrap(const std::string& text, std::size_t indent) {
+    std::string out;
+    std::size_t column = indent;
+    for (std::size_t start = 0; start < text.size();) {
+      std::size_t end = text.find(' ', start);
+      if (end == std::string::npos) end = text.size();
+      const std::size_t word = end - start;
+      if (column > indent && column + 1 + word > 100) {
+        out += "\n" + std::string(indent, ' ');
+        column = indent;
+      } else if (column > indent) {
+        out += ' ';
+        ++column;
+      }
+      out.append(text, start, word);
+      column += word;
+      start = end + 1;
+    }
+    return out;
+  }
+
   detail::Option& add(std::string name, std::string value_name, std::string description,
                       std::function<std::string()> expected) {
     if (!name.starts_with("--") || name.size() < 3 || name.find('=') != std::string::npos ||
