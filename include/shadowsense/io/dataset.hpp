@@ -108,9 +108,9 @@ public:
       : file_(file), line_(line), header_(header), fields_(fields) {}
 
   [[noreturn]] void fail(std::size_t col, const std::string& what) const {
-    throw DatasetError(file_.string() + ":" + std::to_string(line_) + ": column " +
-                       std::to_string(col + 1) + " '" + std::string(header_[col]) + "': " + what +
-                       "; got '" + std::string(fields_[col]) + "'");
+    SHADOWSENSE_THROW(DatasetError(file_.string() + ":" + std::to_string(line_) + ": column " +
+                                   std::to_string(col + 1) + " '" + std::string(header_[col]) +
+                                   "': " + what + "; got '" + std::string(fields_[col]) + "'"));
   }
   std::string_view raw(std::size_t col) const { return fields_[col]; }
   bool empty(std::size_t col) const { return fields_[col].empty(); }
@@ -171,7 +171,7 @@ private:
 // Reads a csv into lines, checking the header against `expected` (each alternative tried).
 inline std::vector<std::string> read_csv_lines(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw DatasetError(path.string() + ": cannot open the csv file");
+  if (!in) SHADOWSENSE_THROW(DatasetError(path.string() + ": cannot open the csv file"));
   std::vector<std::string> lines;
   std::string line;
   while (std::getline(in, line)) {
@@ -180,7 +180,8 @@ inline std::vector<std::string> read_csv_lines(const std::filesystem::path& path
   }
   while (!lines.empty() && lines.back().empty()) lines.pop_back();
   if (lines.empty())
-    throw DatasetError(path.string() + ":1: the csv file is empty; expected a header row");
+    SHADOWSENSE_THROW(
+        DatasetError(path.string() + ":1: the csv file is empty; expected a header row"));
   return lines;
 }
 
@@ -208,12 +209,12 @@ inline std::string join(const Columns& c) {
 inline void check_row_width(const std::filesystem::path& path, int line, std::string_view text,
                             const std::vector<std::string_view>& fields, std::size_t expected) {
   if (text.find('"') != std::string_view::npos)
-    throw DatasetError(path.string() + ":" + std::to_string(line) +
-                       ": quoted fields are not supported");
+    SHADOWSENSE_THROW(DatasetError(path.string() + ":" + std::to_string(line) +
+                                   ": quoted fields are not supported"));
   if (fields.size() != expected)
-    throw DatasetError(path.string() + ":" + std::to_string(line) + ": row has " +
-                       std::to_string(fields.size()) + " columns; expected " +
-                       std::to_string(expected) + " (as in the header)");
+    SHADOWSENSE_THROW(DatasetError(path.string() + ":" + std::to_string(line) + ": row has " +
+                                   std::to_string(fields.size()) + " columns; expected " +
+                                   std::to_string(expected) + " (as in the header)"));
 }
 
 inline void check_relative(const FieldParser& p, std::size_t col) {
@@ -244,15 +245,16 @@ inline void write_file_atomically(const std::filesystem::path& path, const std::
   const std::filesystem::path tmp = path.string() + ".tmp";
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError(tmp.string() + ": cannot create the file");
+    if (!out) SHADOWSENSE_THROW(IoError(tmp.string() + ": cannot create the file"));
     out << text;
     out.flush();
-    if (!out) throw IoError(tmp.string() + ": writing failed");
+    if (!out) SHADOWSENSE_THROW(IoError(tmp.string() + ": writing failed"));
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec)
-    throw IoError(path.string() + ": cannot rename the temporary file into place: " + ec.message());
+    SHADOWSENSE_THROW(
+        IoError(path.string() + ": cannot rename the temporary file into place: " + ec.message()));
 }
 
 } // namespace detail
@@ -269,9 +271,10 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
                                slide_columns.data())) {
     md.slide_columns = true;
   } else {
-    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
-                       detail::join(metadata_columns) + "' (slide sequences add '," +
-                       detail::join(slide_columns) + "')");
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
+                                   "'; expected '" + detail::join(metadata_columns) +
+                                   "' (slide sequences add '," + detail::join(slide_columns) +
+                                   "')"));
   }
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
@@ -316,8 +319,8 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
   const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
   const std::vector<std::string_view> header = detail::split_csv(lines[0]);
   if (!detail::header_is(header, sequence_columns))
-    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
-                       detail::join(sequence_columns) + "'");
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
+                                   "'; expected '" + detail::join(sequence_columns) + "'"));
   std::vector<SequenceRow> rows;
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
@@ -435,8 +438,8 @@ inline cv::Mat read_image(const Metadata& md, const MetadataRow& row) {
   const std::filesystem::path p = md.image_path(row);
   cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
   if (img.empty())
-    throw DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
-                       ": cannot read image '" + p.string() + "'");
+    SHADOWSENSE_THROW(DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
+                                   ": cannot read image '" + p.string() + "'"));
   return img;
 }
 

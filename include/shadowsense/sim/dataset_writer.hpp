@@ -140,23 +140,24 @@ inline void prepare_output(const std::filesystem::path& dir, bool overwrite,
   detail::require(!dir.empty(), "dataset writer: the output folder path is empty");
   std::error_code ec;
   if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) throw IoError(dir.string() + ": exists and is not a folder");
+    if (!fs::is_directory(dir, ec))
+      SHADOWSENSE_THROW(IoError(dir.string() + ": exists and is not a folder"));
     if (!fs::is_empty(dir, ec)) {
       if (!overwrite)
-        throw IoError(dir.string() +
-                      ": folder is not empty; choose a new folder or allow overwriting");
+        SHADOWSENSE_THROW(IoError(
+            dir.string() + ": folder is not empty; choose a new folder or allow overwriting"));
       for (const char* name : csv_names) fs::remove(dir / name, ec);
     }
   }
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
-    throw IoError(dir.string() + ": cannot create the output folder: " + ec.message());
+    SHADOWSENSE_THROW(IoError(dir.string() + ": cannot create the output folder: " + ec.message()));
 }
 
 inline void make_dir(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
+  if (ec) SHADOWSENSE_THROW(IoError(dir.string() + ": cannot create folder: " + ec.message()));
 }
 
 inline void write_png(const std::filesystem::path& path, const cv::Mat& image) {
@@ -164,9 +165,9 @@ inline void write_png(const std::filesystem::path& path, const cv::Mat& image) {
   try {
     ok = cv::imwrite(path.string(), image);
   } catch (const cv::Exception& e) {
-    throw IoError(path.string() + ": cannot write image: " + e.what());
+    SHADOWSENSE_THROW(IoError(path.string() + ": cannot write image: " + e.what()));
   }
-  if (!ok) throw IoError(path.string() + ": cannot write image");
+  if (!ok) SHADOWSENSE_THROW(IoError(path.string() + ": cannot write image"));
 }
 
 inline std::string numbered(const char* fmt, int n) {
