@@ -4,6 +4,7 @@
 // file, line and column) and a writer that never leaves a half-written csv looking complete.
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/lighting.hpp>
 #include <shadowsense/sim/tracking.hpp>
@@ -239,24 +240,6 @@ inline std::string format_number(double v, int decimals) {
   return buf;
 }
 
-// Writes text to path via a temporary file and a rename, so a reader never sees a partial
-// csv: the file either does not exist yet or is complete.
-inline void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) SHADOWSENSE_THROW(IoError(tmp.string() + ": cannot create the file"));
-    out << text;
-    out.flush();
-    if (!out) SHADOWSENSE_THROW(IoError(tmp.string() + ": writing failed"));
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec)
-    SHADOWSENSE_THROW(
-        IoError(path.string() + ": cannot rename the temporary file into place: " + ec.message()));
-}
-
 } // namespace detail
 
 // Reads and validates a metadata.csv (gestures, tracking, or one slide sequence).
@@ -423,14 +406,16 @@ inline std::string sequences_csv(const std::vector<SequenceRow>& rows) {
   return s;
 }
 
-// Writes a metadata.csv atomically (temporary file + rename).
+// Writes a metadata.csv atomically (core/atomic_file.hpp: temporary file, checked writes,
+// fsync, rename).
 inline void write_metadata(const std::filesystem::path& csv_path,
-                           const std::vector<MetadataRow>& rows, bool with_slide_columns) {
-  detail::write_file_atomically(csv_path, metadata_csv(rows, with_slide_columns));
+                           const std::vector<MetadataRow>& rows, bool with_slide_columns,
+                           Sync sync = Sync::file) {
+  write_file_atomically(csv_path, metadata_csv(rows, with_slide_columns), sync);
 }
 inline void write_sequences(const std::filesystem::path& csv_path,
                             const std::vector<SequenceRow>& rows) {
-  detail::write_file_atomically(csv_path, sequences_csv(rows));
+  write_file_atomically(csv_path, sequences_csv(rows));
 }
 
 // Loads a row's image as 8-bit BGR.

@@ -5,6 +5,7 @@
 // so an interrupted run never leaves a dataset that looks complete.
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/sim/gestures.hpp>
@@ -160,14 +161,20 @@ inline void make_dir(const std::filesystem::path& dir) {
   if (ec) SHADOWSENSE_THROW(IoError(dir.string() + ": cannot create folder: " + ec.message()));
 }
 
+// Encodes in memory, then writes atomically: a frame file is never half-written.
 inline void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(path.string(), image);
+    ok = cv::imencode(".png", image, bytes);
   } catch (const cv::Exception& e) {
-    SHADOWSENSE_THROW(IoError(path.string() + ": cannot write image: " + e.what()));
+    SHADOWSENSE_THROW(IoError(path.string() + ": cannot encode the image as PNG: " + e.what()));
   }
-  if (!ok) SHADOWSENSE_THROW(IoError(path.string() + ": cannot write image"));
+  if (!ok) SHADOWSENSE_THROW(IoError(path.string() + ": cannot encode the image as PNG"));
+  // Deferred fsync: the dataset's csv, written last, follows one sync_filesystem().
+  write_file_atomically(path,
+                        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                        Sync::deferred);
 }
 
 inline std::string numbered(const char* fmt, int n) {
@@ -255,6 +262,7 @@ inline DatasetSummary write_gesture_dataset(const std::filesystem::path& dir, st
       });
   std::vector<MetadataRow> all;
   for (auto& r : rows) all.insert(all.end(), r.begin(), r.end());
+  sync_filesystem(dir);
   write_metadata(dir / "metadata.csv", all, false);
   return {dir, static_cast<int>(all.size()), 0};
 }
@@ -292,6 +300,7 @@ inline DatasetSummary write_tracking_dataset(const std::filesystem::path& dir, s
         internal::write_png(dir / r.file_name, frame.image);
         rows[static_cast<std::size_t>(index)] = std::move(r);
       });
+  sync_filesystem(dir);
   write_metadata(dir / "metadata.csv", rows, false);
   return {dir, static_cast<int>(rows.size()), 0};
 }
@@ -345,7 +354,8 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
           internal::write_png(dir / folder / r.file_name, frame.image);
           rows.push_back(std::move(r));
         }
-        write_metadata(dir / folder / "metadata.csv", rows, true);
+        // Deferred like the frames: sequences.csv completes the dataset.
+        write_metadata(dir / folder / "metadata.csv", rows, true, Sync::deferred);
         SequenceRow& q = sequences[static_cast<std::size_t>(index)];
         q.sequence = folder;
         q.gesture = g;
@@ -357,6 +367,7 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
         q.lighting = plan.light.label;
         q.lighting_level = plan.light.level;
       });
+  sync_filesystem(dir);
   write_sequences(dir / "sequences.csv", sequences);
   DatasetSummary summary{dir, 0, n};
   for (const SequenceRow& q : sequences) summary.images += q.num_frames;
