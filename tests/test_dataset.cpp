@@ -212,6 +212,29 @@ TEST_CASE(
   CHECK_FALSE(fs::exists(done / "metadata.csv"));
 }
 
+TEST_CASE("overwriting slides killed early leaves no old csv beside new frames") {
+  // Issue 11: `ss_synth --overwrite` stopped early left old per-sequence metadata.csv files
+  // beside new frames. The writer now removes sequences.csv, then every metadata.csv, before
+  // writing a frame; a failure at the first frame stands for a kill.
+  const fs::path root = fresh_dir("slides_overwrite");
+  sim::SlideDatasetConfig c = tiny_slides();
+  sim::write_slide_dataset(root, 3, c);
+  int old_csvs = 0;
+  for (const auto& e : fs::recursive_directory_iterator(root))
+    old_csvs += e.path().filename() == "metadata.csv" ? 1 : 0;
+  REQUIRE(old_csvs == 8);
+  fs::remove(root / "left" / "palm_0000" / "frame_0000.png");
+  fs::create_directories(root / "left" / "palm_0000" / "frame_0000.png");
+  c.overwrite = true;
+  CHECK_THROWS_AS(sim::write_slide_dataset(root, 4, c), IoError);
+  CHECK_FALSE(fs::exists(root / "sequences.csv"));
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    CAPTURE(e.path());
+    CHECK(e.path().filename() != "metadata.csv");
+    CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+  }
+}
+
 TEST_CASE("the csv reader accepts well-formed rows") {
   const Metadata m = read_metadata(csv_with(
       "good.csv", good_row + "nothing/b.png,nothing,2,custom,0.3,s,0,0,,,,,,,,,,,7.5\r\n"));

@@ -133,8 +133,15 @@ inline User dataset_user(std::uint64_t seed, int id) {
 
 namespace internal {
 
+inline void remove_csv(const std::filesystem::path& p) {
+  std::error_code ec;
+  std::filesystem::remove(p, ec);
+  if (ec) SHADOWSENSE_THROW(IoError(p.string() + ": cannot remove the old csv: " + ec.message()));
+}
+
 // Makes `dir` ready to receive a dataset: it must be new/empty unless overwrite, in which case
-// the old csv files are removed first so the old dataset no longer looks complete.
+// the old csv files (top-level first, then every nested metadata.csv) are removed before any
+// frame is written, so the old dataset no longer looks complete.
 inline void prepare_output(const std::filesystem::path& dir, bool overwrite,
                            std::initializer_list<const char*> csv_names) {
   namespace fs = std::filesystem;
@@ -147,7 +154,19 @@ inline void prepare_output(const std::filesystem::path& dir, bool overwrite,
       if (!overwrite)
         SHADOWSENSE_THROW(IoError(
             dir.string() + ": folder is not empty; choose a new folder or allow overwriting"));
-      for (const char* name : csv_names) fs::remove(dir / name, ec);
+      // The top-level csv first (the dataset stops looking complete), then every nested
+      // metadata.csv (slide sequences), so a run killed after this point never leaves an old
+      // csv beside new frames.
+      for (const char* name : csv_names) remove_csv(dir / name);
+      std::vector<fs::path> nested;
+      for (auto it = fs::recursive_directory_iterator(dir, ec);
+           !ec && it != fs::recursive_directory_iterator(); it.increment(ec))
+        if (it->path().filename() == "metadata.csv") nested.push_back(it->path());
+      if (ec)
+        SHADOWSENSE_THROW(
+            IoError(dir.string() +
+                    ": cannot list the old dataset to remove its csv files: " + ec.message()));
+      for (const fs::path& p : nested) remove_csv(p);
     }
   }
   fs::create_directories(dir, ec);
