@@ -65,6 +65,13 @@ public:
   using Error::Error;
 };
 
+// One instance of a type that is not internally synchronised was used from two threads at
+// once (core/thread_owner.hpp). A programming error in the caller: use one instance per thread.
+class ConcurrentUseError : public Error {
+public:
+  using Error::Error;
+};
+
 namespace detail {
 // require<E>(condition, message)
 //   ensures: returns normally when condition holds; otherwise raises E(message) through
