@@ -1,13 +1,15 @@
 // The on-disk dataset format (docs/dataset_format.md): ImageFolder-style folders of PNG
 // frames with one metadata.csv per dataset (per sequence for slides) and a sequences.csv
 // for slide datasets. A strict reader (malformed rows are rejected with a DatasetError naming
-// file, line and column) and a writer that never leaves a half-written csv looking complete.
+// file, line and column; images are checked from their headers: inside the folder, bounded,
+// boxes inside) and atomic writers. Depends on core/ and io/ only (its enums: io/labels.hpp).
 #pragma once
 
 #include <shadowsense/core/atomic_file.hpp>
+#include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
-#include <shadowsense/sim/lighting.hpp>
-#include <shadowsense/sim/tracking.hpp>
+#include <shadowsense/io/image_file.hpp>
+#include <shadowsense/io/labels.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -18,6 +20,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -43,7 +46,7 @@ struct MetadataRow {
   std::string file_name; // relative to the csv's folder
   std::string label;     // the "class" column
   int user = 0;
-  sim::Lighting lighting = sim::Lighting::daylight;
+  Lighting lighting = Lighting::daylight;
   double lighting_level = 1.0;
   std::string session;
   int frame_index = 0;
@@ -53,8 +56,8 @@ struct MetadataRow {
   std::optional<cv::Point2f> contact_point;
   double px_per_cm = 0;
   // Slide sequences only.
-  std::optional<sim::SlideGesture> gesture;
-  std::optional<sim::Direction> direction;
+  std::optional<SlideGesture> gesture;
+  std::optional<Direction> direction;
   int line = 0; // line in the csv (1 = header), for messages
 };
 
@@ -72,13 +75,13 @@ struct Metadata {
 // One row of slides/sequences.csv.
 struct SequenceRow {
   std::string sequence; // folder relative to sequences.csv, holding frames + metadata.csv
-  sim::SlideGesture gesture = sim::SlideGesture::palm;
-  sim::Direction direction = sim::Direction::right;
+  SlideGesture gesture = SlideGesture::palm;
+  Direction direction = Direction::right;
   int num_frames = 0;
   double distance_cm = 0;
   double fps = 0;
   int user = 0;
-  sim::Lighting lighting = sim::Lighting::daylight;
+  Lighting lighting = Lighting::daylight;
   double lighting_level = 1.0;
   int line = 0;
 };
@@ -227,11 +230,10 @@ inline void check_relative(const FieldParser& p, std::size_t col) {
     if (part == "..") p.fail(col, "the path must not leave the dataset folder ('..')");
 }
 
-inline void check_lighting_level(const FieldParser& p, std::size_t col, sim::Lighting l,
-                                 double level) {
-  if (l != sim::Lighting::custom && level != sim::lighting_level(l))
-    p.fail(col, "does not match the lighting preset '" + std::string(sim::to_string(l)) +
-                    "' (level " + std::to_string(sim::lighting_level(l)) + ")");
+inline void check_lighting_level(const FieldParser& p, std::size_t col, Lighting l, double level) {
+  if (l != Lighting::custom && level != lighting_level(l))
+    p.fail(col, "does not match the lighting preset '" + std::string(to_string(l)) + "' (level " +
+                    std::to_string(lighting_level(l)) + ")");
 }
 
 inline std::string format_number(double v, int decimals) {
@@ -259,6 +261,7 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
                                    "' (slide sequences add '," + detail::join(slide_columns) +
                                    "')"));
   }
+  std::map<std::string, int> first_line; // file_name -> line, for duplicates
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
     const std::vector<std::string_view> f = detail::split_csv(lines[li]);
@@ -270,7 +273,7 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
     r.file_name = p.text(0);
     r.label = p.text(1);
     r.user = p.integer(2, 0, 1000000);
-    r.lighting = p.parse_enum(3, sim::lighting_from_string);
+    r.lighting = p.parse_enum(3, lighting_from_string);
     r.lighting_level = p.real(4, 0.0, 1.0);
     detail::check_lighting_level(p, 4, r.lighting, r.lighting_level);
     r.session = p.text(5);
@@ -289,11 +292,17 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
       p.fail(8, "a frame with a contact box must have a shadow box");
     r.px_per_cm = p.real(18, 1e-6, 1e6);
     if (md.slide_columns) {
-      r.gesture = p.parse_enum(19, sim::slide_gesture_from_string);
-      r.direction = p.parse_enum(20, sim::movement_direction_from_string);
+      r.gesture = p.parse_enum(19, slide_gesture_from_string);
+      r.direction = p.parse_enum(20, movement_direction_from_string);
     }
+    if (const auto [it, fresh] = first_line.emplace(r.file_name, line); !fresh)
+      p.fail(0, "duplicate row: the same file is already listed on line " +
+                    std::to_string(it->second));
     md.rows.push_back(std::move(r));
   }
+  if (md.rows.empty())
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() +
+                                   ":2: no data rows; expected at least one row after the header"));
   return md;
 }
 
@@ -305,6 +314,7 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
                                    "'; expected '" + detail::join(sequence_columns) + "'"));
   std::vector<SequenceRow> rows;
+  std::map<std::string, int> first_line; // sequence -> line, for duplicates
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
     const std::vector<std::string_view> f = detail::split_csv(lines[li]);
@@ -314,17 +324,23 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     r.line = line;
     detail::check_relative(p, 0);
     r.sequence = p.text(0);
-    r.gesture = p.parse_enum(1, sim::slide_gesture_from_string);
-    r.direction = p.parse_enum(2, sim::movement_direction_from_string);
+    r.gesture = p.parse_enum(1, slide_gesture_from_string);
+    r.direction = p.parse_enum(2, movement_direction_from_string);
     r.num_frames = p.integer(3, 1, 1 << 24);
     r.distance_cm = p.real(4, 0.0, 1e4);
     r.fps = p.real(5, 1e-3, 1e4);
     r.user = p.integer(6, 0, 1000000);
-    r.lighting = p.parse_enum(7, sim::lighting_from_string);
+    r.lighting = p.parse_enum(7, lighting_from_string);
     r.lighting_level = p.real(8, 0.0, 1.0);
     detail::check_lighting_level(p, 8, r.lighting, r.lighting_level);
+    if (const auto [it, fresh] = first_line.emplace(r.sequence, line); !fresh)
+      p.fail(0, "duplicate row: the same sequence is already listed on line " +
+                    std::to_string(it->second));
     rows.push_back(std::move(r));
   }
+  if (rows.empty())
+    SHADOWSENSE_THROW(
+        DatasetError(csv_path.string() + ":2: no data rows; expected at least one sequence"));
   return rows;
 }
 
@@ -360,7 +376,7 @@ inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_
     add(r.file_name);
     add(r.label);
     add(std::to_string(r.user));
-    add(sim::to_string(r.lighting));
+    add(to_string(r.lighting));
     add(detail::format_number(r.lighting_level, 4));
     add(r.session);
     add(std::to_string(r.frame_index));
@@ -371,8 +387,8 @@ inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_
     add(r.contact_point ? detail::format_number(r.contact_point->y, 3) : std::string());
     add(detail::format_number(r.px_per_cm, 5));
     if (with_slide_columns) {
-      add(sim::to_string(*r.gesture));
-      add(sim::to_string(*r.direction));
+      add(to_string(*r.gesture));
+      add(to_string(*r.direction));
     }
     s += '\n';
   }
@@ -393,13 +409,13 @@ inline std::string sequences_csv(const std::vector<SequenceRow>& rows) {
                     "sequences_csv: sequence folder must be non-empty without commas or quotes");
     first = true;
     add(r.sequence);
-    add(sim::to_string(r.gesture));
-    add(sim::to_string(r.direction));
+    add(to_string(r.gesture));
+    add(to_string(r.direction));
     add(std::to_string(r.num_frames));
     add(detail::format_number(r.distance_cm, 3));
     add(detail::format_number(r.fps, 3));
     add(std::to_string(r.user));
-    add(sim::to_string(r.lighting));
+    add(to_string(r.lighting));
     add(detail::format_number(r.lighting_level, 4));
     s += '\n';
   }
@@ -418,14 +434,131 @@ inline void write_sequences(const std::filesystem::path& csv_path,
   write_file_atomically(csv_path, sequences_csv(rows));
 }
 
-// Loads a row's image as 8-bit BGR.
-inline cv::Mat read_image(const Metadata& md, const MetadataRow& row) {
-  const std::filesystem::path p = md.image_path(row);
-  cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
-  if (img.empty())
+namespace detail {
+
+// "file:line: column N 'name': " for messages about a row's column.
+inline std::string where(const std::filesystem::path& csv, int line, std::size_t col,
+                         std::string_view name) {
+  return csv.string() + ":" + std::to_string(line) + ": column " + std::to_string(col + 1) + " '" +
+         std::string(name) + "': ";
+}
+
+// `relative` (already free of '..' and absolute parts) resolved inside `folder`, refusing a
+// path that leaves the folder through a symlink.
+inline std::filesystem::path inside_folder(const std::filesystem::path& folder,
+                                           const std::string& relative, const std::string& at) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path base = fs::weakly_canonical(folder, ec);
+  const fs::path full = fs::weakly_canonical(folder / relative, ec);
+  if (ec)
+    SHADOWSENSE_THROW(DatasetError(at + "cannot resolve '" + relative + "': " + ec.message()));
+  const fs::path rel = full.lexically_relative(base);
+  if (rel.empty() || *rel.begin() == "..")
+    SHADOWSENSE_THROW(DatasetError(at + "'" + relative + "' resolves to '" + full.string() +
+                                   "', outside the dataset folder '" + base.string() +
+                                   "' (a symlink leaves it)"));
+  return folder / relative;
+}
+
+inline void check_box_inside(const std::optional<cv::Rect>& box, cv::Size size,
+                             const std::string& at, const char* what) {
+  if (!box) return;
+  if ((*box & cv::Rect(cv::Point(), size)) != *box)
+    SHADOWSENSE_THROW(DatasetError(
+        at + what + " (" + std::to_string(box->x) + ", " + std::to_string(box->y) + ", " +
+        std::to_string(box->width) + ", " + std::to_string(box->height) + ") is not inside the " +
+        std::to_string(size.width) + "x" + std::to_string(size.height) + " image"));
+}
+
+} // namespace detail
+
+// check_image(md, row, limits)
+//   ensures: the row's image lies inside the dataset folder (no symlink leaves it), is a
+//            regular PNG/JPEG/BMP file within `limits` (read from its header, no decoding), and
+//            the row's boxes and contact point lie inside it. Returns the image size.
+//   throws:  DatasetError naming csv:line: column and the problem.
+inline cv::Size check_image(const Metadata& md, const MetadataRow& row,
+                            const ImageLimits& limits = {}) {
+  const std::string at = detail::where(md.csv_path, row.line, 0, "file_name");
+  const std::filesystem::path p = detail::inside_folder(md.folder(), row.file_name, at);
+  ImageHeader h;
+  try {
+    h = read_image_header(p, limits);
+  } catch (const IoError& e) {
+    SHADOWSENSE_THROW(DatasetError(at + e.what()));
+  }
+  const cv::Size size(h.width, h.height);
+  detail::check_box_inside(row.shadow_box, size,
+                           detail::where(md.csv_path, row.line, 8, "shadow_x"), "the shadow box");
+  detail::check_box_inside(row.contact_box, size,
+                           detail::where(md.csv_path, row.line, 12, "contact_x"),
+                           "the contact box");
+  if (row.contact_point &&
+      !cv::Rect2f(0.f, 0.f, static_cast<float>(size.width), static_cast<float>(size.height))
+           .contains(*row.contact_point))
+    SHADOWSENSE_THROW(DatasetError(detail::where(md.csv_path, row.line, 16, "contact_cx") +
+                                   "the contact point is not inside the " +
+                                   std::to_string(size.width) + "x" + std::to_string(size.height) +
+                                   " image"));
+  return size;
+}
+
+// check_images(md, limits): check_image for every row (reads only the headers).
+inline void check_images(const Metadata& md, const ImageLimits& limits = {}) {
+  for (const MetadataRow& row : md.rows) (void)check_image(md, row, limits);
+}
+
+// Loads a row's image as 8-bit BGR after check_image (bounded: the header is checked before
+// any pixel is decoded). Throws DatasetError naming csv:line.
+inline cv::Mat read_image(const Metadata& md, const MetadataRow& row,
+                          const ImageLimits& limits = {}) {
+  (void)check_image(md, row, limits);
+  try {
+    return read_image_file(md.image_path(row), cv::IMREAD_COLOR, limits);
+  } catch (const IoError& e) {
     SHADOWSENSE_THROW(DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
-                                   ": cannot read image '" + p.string() + "'"));
-  return img;
+                                   ": cannot read image: " + e.what()));
+  }
+}
+
+// read_sequence_metadata(sequences_csv, row)
+//   ensures: the metadata.csv of one slide sequence listed in sequences.csv, read and checked
+//            against its row there: the folder stays inside the dataset, the csv has slide
+//            columns, num_frames equals its row count, and every row's gesture, direction,
+//            user, lighting and lighting_level equal the sequence's.
+//   throws:  DatasetError naming the file:line: column that disagrees (and the other file).
+inline Metadata read_sequence_metadata(const std::filesystem::path& sequences_csv,
+                                       const SequenceRow& seq) {
+  const std::filesystem::path folder =
+      detail::inside_folder(sequences_csv.parent_path(), seq.sequence,
+                            detail::where(sequences_csv, seq.line, 0, "sequence"));
+  Metadata md = read_metadata(folder / "metadata.csv");
+  const std::string other =
+      " disagrees with " + sequences_csv.string() + ":" + std::to_string(seq.line);
+  if (!md.slide_columns)
+    SHADOWSENSE_THROW(DatasetError(md.csv_path.string() +
+                                   ":1: a slide sequence's csv needs the gesture and direction "
+                                   "columns;" +
+                                   other));
+  if (static_cast<int>(md.rows.size()) != seq.num_frames)
+    SHADOWSENSE_THROW(DatasetError(detail::where(sequences_csv, seq.line, 3, "num_frames") +
+                                   std::to_string(seq.num_frames) + " frames, but " +
+                                   md.csv_path.string() + " has " + std::to_string(md.rows.size()) +
+                                   " rows"));
+  for (const MetadataRow& r : md.rows) {
+    auto check = [&](bool ok, std::size_t col, std::string_view name) {
+      if (!ok)
+        SHADOWSENSE_THROW(DatasetError(detail::where(md.csv_path, r.line, col, name) + "the value" +
+                                       other + " (column '" + std::string(name) + "')"));
+    };
+    check(r.gesture == seq.gesture, 19, "gesture");
+    check(r.direction == seq.direction, 20, "direction");
+    check(r.user == seq.user, 2, "user");
+    check(r.lighting == seq.lighting, 3, "lighting");
+    check(std::abs(r.lighting_level - seq.lighting_level) < 1e-9, 4, "lighting_level");
+  }
+  return md;
 }
 
 SHADOWSENSE_NAMESPACE_END
