@@ -265,7 +265,7 @@ def image_header(path):
         import stat
         if not stat.S_ISREG(st.st_mode):
             raise DatasetError(f"{path}: not a regular file (a folder, device or pipe); "
-                               "expected an image")
+                               "expected the image")
         if st.st_size > MAX_FILE_BYTES:
             raise DatasetError(f"{path}: the file has {st.st_size} bytes; the limit is "
                                f"{MAX_FILE_BYTES}")

@@ -17,9 +17,9 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -146,13 +146,17 @@ public:
     }
     return v;
   }
-  template <class F>
-  auto parse_enum(std::size_t col, F from_string) const {
-    try {
-      return from_string(fields_[col]);
-    } catch (const InvalidArgument& e) {
-      fail(col, e.what());
+  // One of `values` by its to_string name (no exceptions to translate: a user-defined
+  // SHADOWSENSE_THROW would skip a catch).
+  template <class E, std::size_t N>
+  E choice(std::size_t col, const std::array<E, N>& values, const char* what) const {
+    std::string expected;
+    for (std::size_t i = 0; i < N; ++i) {
+      if (fields_[col] == std::string_view(to_string(values[i]))) return values[i];
+      expected.append(i == 0 ? "" : i + 1 == N ? " or " : ", ").append(to_string(values[i]));
     }
+    fail(col, std::string("unknown ") + what + " '" + std::string(fields_[col]) + "'; expected " +
+                  expected);
   }
   // Four columns x, y, w, h: all empty (absent) or all integers with w, h > 0.
   std::optional<cv::Rect> box(std::size_t col) const {
@@ -172,21 +176,34 @@ private:
   const std::vector<std::string_view>& fields_;
 };
 
-// Reads a csv into lines, checking the header against `expected` (each alternative tried).
-inline std::vector<std::string> read_csv_lines(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) SHADOWSENSE_THROW(DatasetError(path.string() + ": cannot open the csv file"));
+// Splits csv text into lines (a trailing '\r' dropped, trailing empty lines ignored).
+inline std::vector<std::string> csv_lines(std::string_view text,
+                                          const std::filesystem::path& path) {
   std::vector<std::string> lines;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    lines.push_back(line);
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(start, end - start);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    lines.emplace_back(line);
+    start = end + 1;
   }
   while (!lines.empty() && lines.back().empty()) lines.pop_back();
   if (lines.empty())
     SHADOWSENSE_THROW(
         DatasetError(path.string() + ":1: the csv file is empty; expected a header row"));
   return lines;
+}
+
+// A csv file's text: a regular file of at most max_csv_bytes (no FIFO hang, no /dev/zero).
+inline constexpr std::uint64_t max_csv_bytes = 1ull << 30;
+inline std::string read_csv_text(const std::filesystem::path& path) {
+  ImageLimits limits;
+  limits.max_file_bytes = max_csv_bytes;
+  const BoundedFile f(path, limits, "csv file", {}, true);
+  const std::vector<unsigned char> b = f.read_at(0, static_cast<std::size_t>(f.size()));
+  return std::string(b.begin(), b.end());
 }
 
 template <class Columns>
@@ -244,9 +261,12 @@ inline std::string format_number(double v, int decimals) {
 
 } // namespace detail
 
-// Reads and validates a metadata.csv (gestures, tracking, or one slide sequence).
-inline Metadata read_metadata(const std::filesystem::path& csv_path) {
-  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+// parse_metadata(text, csv_path): validates the text of a metadata.csv (gestures, tracking, or
+// one slide sequence); csv_path names it in messages and anchors the rows' relative paths.
+// throws DatasetError naming csv_path:line: column. read_metadata(csv_path) reads the file
+// (a regular file of at most max_csv_bytes) and parses it.
+inline Metadata parse_metadata(std::string_view text, const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::csv_lines(text, csv_path);
   Metadata md;
   md.csv_path = csv_path;
   const std::vector<std::string_view> header = detail::split_csv(lines[0]);
@@ -273,7 +293,7 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
     r.file_name = p.text(0);
     r.label = p.text(1);
     r.user = p.integer(2, 0, 1000000);
-    r.lighting = p.parse_enum(3, lighting_from_string);
+    r.lighting = p.choice(3, all_lightings, "lighting");
     r.lighting_level = p.real(4, 0.0, 1.0);
     detail::check_lighting_level(p, 4, r.lighting, r.lighting_level);
     r.session = p.text(5);
@@ -292,8 +312,8 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
       p.fail(8, "a frame with a contact box must have a shadow box");
     r.px_per_cm = p.real(18, 1e-6, 1e6);
     if (md.slide_columns) {
-      r.gesture = p.parse_enum(19, slide_gesture_from_string);
-      r.direction = p.parse_enum(20, movement_direction_from_string);
+      r.gesture = p.choice(19, all_slide_gestures, "slide gesture");
+      r.direction = p.choice(20, all_directions, "direction");
     }
     if (const auto [it, fresh] = first_line.emplace(r.file_name, line); !fresh)
       p.fail(0, "duplicate row: the same file is already listed on line " +
@@ -306,9 +326,14 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
   return md;
 }
 
-// Reads and validates slides/sequences.csv.
-inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_path) {
-  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+inline Metadata read_metadata(const std::filesystem::path& csv_path) {
+  return parse_metadata(detail::read_csv_text(csv_path), csv_path);
+}
+
+// parse_sequences(text, csv_path) / read_sequences(csv_path): the same for sequences.csv.
+inline std::vector<SequenceRow> parse_sequences(std::string_view text,
+                                                const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::csv_lines(text, csv_path);
   const std::vector<std::string_view> header = detail::split_csv(lines[0]);
   if (!detail::header_is(header, sequence_columns))
     SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
@@ -324,13 +349,13 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     r.line = line;
     detail::check_relative(p, 0);
     r.sequence = p.text(0);
-    r.gesture = p.parse_enum(1, slide_gesture_from_string);
-    r.direction = p.parse_enum(2, movement_direction_from_string);
+    r.gesture = p.choice(1, all_slide_gestures, "slide gesture");
+    r.direction = p.choice(2, all_directions, "direction");
     r.num_frames = p.integer(3, 1, 1 << 24);
     r.distance_cm = p.real(4, 0.0, 1e4);
     r.fps = p.real(5, 1e-3, 1e4);
     r.user = p.integer(6, 0, 1000000);
-    r.lighting = p.parse_enum(7, lighting_from_string);
+    r.lighting = p.choice(7, all_lightings, "lighting");
     r.lighting_level = p.real(8, 0.0, 1.0);
     detail::check_lighting_level(p, 8, r.lighting, r.lighting_level);
     if (const auto [it, fresh] = first_line.emplace(r.sequence, line); !fresh)
@@ -342,6 +367,10 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     SHADOWSENSE_THROW(
         DatasetError(csv_path.string() + ":2: no data rows; expected at least one sequence"));
   return rows;
+}
+
+inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_path) {
+  return parse_sequences(detail::read_csv_text(csv_path), csv_path);
 }
 
 // The csv text of metadata rows (header included). Numbers use fixed decimals so the same
@@ -482,12 +511,7 @@ inline cv::Size check_image(const Metadata& md, const MetadataRow& row,
                             const ImageLimits& limits = {}) {
   const std::string at = detail::where(md.csv_path, row.line, 0, "file_name");
   const std::filesystem::path p = detail::inside_folder(md.folder(), row.file_name, at);
-  ImageHeader h;
-  try {
-    h = read_image_header(p, limits);
-  } catch (const IoError& e) {
-    SHADOWSENSE_THROW(DatasetError(at + e.what()));
-  }
+  const ImageHeader h = detail::image_header(p, limits, at, true);
   const cv::Size size(h.width, h.height);
   detail::check_box_inside(row.shadow_box, size,
                            detail::where(md.csv_path, row.line, 8, "shadow_x"), "the shadow box");
@@ -514,12 +538,9 @@ inline void check_images(const Metadata& md, const ImageLimits& limits = {}) {
 inline cv::Mat read_image(const Metadata& md, const MetadataRow& row,
                           const ImageLimits& limits = {}) {
   (void)check_image(md, row, limits);
-  try {
-    return read_image_file(md.image_path(row), cv::IMREAD_COLOR, limits);
-  } catch (const IoError& e) {
-    SHADOWSENSE_THROW(DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
-                                   ": cannot read image: " + e.what()));
-  }
+  return detail::image_file(
+      md.image_path(row), cv::IMREAD_COLOR, limits,
+      md.csv_path.string() + ":" + std::to_string(row.line) + ": cannot read image: ", true);
 }
 
 // read_sequence_metadata(sequences_csv, row)

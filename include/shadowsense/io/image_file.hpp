@@ -41,6 +41,7 @@
 #include <cstring>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <fcntl.h>
@@ -71,14 +72,19 @@ namespace detail {
 // An open, regular, size-checked file; reads are bounded by its size.
 class BoundedFile {
 public:
-  BoundedFile(const std::filesystem::path& path, const ImageLimits& limits) : path_(path) {
+  // Failures raise IoError("<prefix><path>: ...") or, when as_dataset_error, DatasetError (so
+  // the dataset reader needs no catch-and-rethrow, which a user SHADOWSENSE_THROW would skip).
+  BoundedFile(const std::filesystem::path& path, const ImageLimits& limits,
+              const char* noun = "image", std::string prefix = {}, bool as_dataset_error = false)
+      : path_(path), prefix_(std::move(prefix)), as_dataset_error_(as_dataset_error) {
     limits.validate();
     fd_ = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-    if (fd_ < 0) fail(std::string("cannot open the image: ") + std::strerror(errno));
+    if (fd_ < 0) fail(std::string("cannot open the ") + noun + ": " + std::strerror(errno));
     struct stat st {};
-    if (::fstat(fd_, &st) != 0) fail(std::string("cannot stat the image: ") + std::strerror(errno));
+    if (::fstat(fd_, &st) != 0)
+      fail(std::string("cannot stat the ") + noun + ": " + std::strerror(errno));
     if (!S_ISREG(st.st_mode))
-      fail("not a regular file (a folder, device or pipe); expected an image");
+      fail(std::string("not a regular file (a folder, device or pipe); expected the ") + noun);
     size_ = static_cast<std::uint64_t>(st.st_size);
     if (size_ > limits.max_file_bytes)
       fail("the file has " + std::to_string(size_) + " bytes; the limit is " +
@@ -110,11 +116,15 @@ public:
   }
 
   [[noreturn]] void fail(const std::string& what) const {
-    SHADOWSENSE_THROW(IoError(path_.string() + ": " + what));
+    const std::string m = prefix_ + path_.string() + ": " + what;
+    if (as_dataset_error_) SHADOWSENSE_THROW(DatasetError(m));
+    SHADOWSENSE_THROW(IoError(m));
   }
 
 private:
   std::filesystem::path path_;
+  std::string prefix_;
+  bool as_dataset_error_ = false;
   int fd_ = -1;
   std::uint64_t size_ = 0;
 };
@@ -166,11 +176,9 @@ inline ImageHeader parse_jpeg_header(const BoundedFile& f) {
   f.fail("malformed JPEG: no SOF segment in the first 4096 segments");
 }
 
-} // namespace detail
-
-inline ImageHeader read_image_header(const std::filesystem::path& path,
-                                     const ImageLimits& limits = {}) {
-  const detail::BoundedFile f(path, limits);
+inline ImageHeader image_header(const std::filesystem::path& path, const ImageLimits& limits,
+                                const std::string& prefix, bool as_dataset_error) {
+  const BoundedFile f(path, limits, "image", prefix, as_dataset_error);
   const std::vector<unsigned char> h = f.read_at(0, 32);
   static constexpr std::array<unsigned char, 8> png_magic{0x89, 'P',  'N',  'G',
                                                           '\r', '\n', 0x1A, '\n'};
@@ -178,26 +186,26 @@ inline ImageHeader read_image_header(const std::filesystem::path& path,
   std::int64_t w = 0, hgt = 0;
   if (h.size() >= 8 && std::equal(png_magic.begin(), png_magic.end(), h.begin())) {
     if (h.size() < 24) f.fail("truncated PNG: the IHDR chunk is incomplete");
-    if (std::memcmp(h.data() + 12, "IHDR", 4) != 0 || detail::be32(h.data() + 8) != 13)
+    if (std::memcmp(h.data() + 12, "IHDR", 4) != 0 || be32(h.data() + 8) != 13)
       f.fail("malformed PNG: the first chunk is not a 13-byte IHDR");
     out.format = "png";
-    w = detail::be32(h.data() + 16);
-    hgt = detail::be32(h.data() + 20);
+    w = be32(h.data() + 16);
+    hgt = be32(h.data() + 20);
   } else if (h.size() >= 3 && h[0] == 0xFF && h[1] == 0xD8 && h[2] == 0xFF) {
-    const ImageHeader j = detail::parse_jpeg_header(f);
+    const ImageHeader j = parse_jpeg_header(f);
     out.format = j.format;
     w = j.width;
     hgt = j.height;
   } else if (h.size() >= 2 && h[0] == 'B' && h[1] == 'M') {
     if (h.size() < 26) f.fail("truncated BMP header");
-    const std::uint32_t dib = detail::le32(h.data() + 14);
+    const std::uint32_t dib = le32(h.data() + 14);
     out.format = "bmp";
     if (dib == 12) {
-      w = detail::le16(h.data() + 18);
-      hgt = detail::le16(h.data() + 20);
+      w = le16(h.data() + 18);
+      hgt = le16(h.data() + 20);
     } else if (dib >= 40 && dib <= 124) {
-      w = static_cast<std::int32_t>(detail::le32(h.data() + 18));
-      hgt = static_cast<std::int32_t>(detail::le32(h.data() + 22));
+      w = static_cast<std::int32_t>(le32(h.data() + 18));
+      hgt = static_cast<std::int32_t>(le32(h.data() + 22));
       if (hgt < 0) hgt = -hgt; // top-down rows
     } else {
       f.fail("malformed BMP: unknown info header size " + std::to_string(dib));
@@ -217,10 +225,10 @@ inline ImageHeader read_image_header(const std::filesystem::path& path,
   return out;
 }
 
-inline cv::Mat read_image_file(const std::filesystem::path& path, int flags = cv::IMREAD_COLOR,
-                               const ImageLimits& limits = {}) {
-  const ImageHeader header = read_image_header(path, limits);
-  const detail::BoundedFile f(path, limits);
+inline cv::Mat image_file(const std::filesystem::path& path, int flags, const ImageLimits& limits,
+                          const std::string& prefix, bool as_dataset_error) {
+  const ImageHeader header = image_header(path, limits, prefix, as_dataset_error);
+  const BoundedFile f(path, limits, "image", prefix, as_dataset_error);
   const std::vector<unsigned char> bytes = f.read_at(0, static_cast<std::size_t>(f.size()));
   if (bytes.size() != f.size()) f.fail("the file changed size while being read");
   cv::Mat img;
@@ -239,6 +247,18 @@ inline cv::Mat read_image_file(const std::filesystem::path& path, int flags = cv
            " differs from the header's " + std::to_string(header.width) + "x" +
            std::to_string(header.height));
   return img;
+}
+
+} // namespace detail
+
+inline ImageHeader read_image_header(const std::filesystem::path& path,
+                                     const ImageLimits& limits = {}) {
+  return detail::image_header(path, limits, {}, false);
+}
+
+inline cv::Mat read_image_file(const std::filesystem::path& path, int flags = cv::IMREAD_COLOR,
+                               const ImageLimits& limits = {}) {
+  return detail::image_file(path, flags, limits, {}, false);
 }
 
 SHADOWSENSE_NAMESPACE_END

@@ -17,6 +17,7 @@
 #include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
 
+#include <array>
 #include <string>
 #include <string_view>
 
@@ -24,6 +25,8 @@ SHADOWSENSE_NAMESPACE_BEGIN
 
 // Scene lighting: the three presets of the paper and `custom` (any level in [0, 1]).
 enum class Lighting { daylight, dusk, night, custom };
+inline constexpr std::array<Lighting, 4> all_lightings{Lighting::daylight, Lighting::dusk,
+                                                       Lighting::night, Lighting::custom};
 
 inline std::string_view to_string(Lighting l) {
   switch (l) {
@@ -64,6 +67,8 @@ inline double lighting_level(Lighting l) {
 
 // The hand part of a slide (paper 5.2.3).
 enum class SlideGesture { palm, finger };
+inline constexpr std::array<SlideGesture, 2> all_slide_gestures{SlideGesture::palm,
+                                                                SlideGesture::finger};
 
 inline std::string_view to_string(SlideGesture g) {
   return g == SlideGesture::palm ? "palm" : "finger";
@@ -71,8 +76,8 @@ inline std::string_view to_string(SlideGesture g) {
 inline SlideGesture slide_gesture_from_string(std::string_view s) {
   if (s == "palm") return SlideGesture::palm;
   if (s == "finger") return SlideGesture::finger;
-  SHADOWSENSE_THROW(InvalidArgument("unknown slide gesture '" + std::string(s) +
-                                    "'; expected palm or finger"));
+  SHADOWSENSE_THROW(
+      InvalidArgument("unknown slide gesture '" + std::string(s) + "'; expected palm or finger"));
 }
 
 SHADOWSENSE_NAMESPACE_END
