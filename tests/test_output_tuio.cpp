@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <string>
@@ -272,14 +273,22 @@ int lo_collect(const char* path, const char* types, lo_arg** argv, int argc, lo_
     s += ' ';
     s += types[i];
     s += ':';
-    if (types[i] == 'i')
-      s += std::to_string(argv[i]->i);
-    else if (types[i] == 'f')
-      s += std::to_string(argv[i]->f);
-    else if (types[i] == 's')
-      s += &argv[i]->s;
-    else
+    // liblo's argument pointers are only 4-byte aligned while lo_arg needs 8: copy the bytes
+    // instead of reading the union's members.
+    const auto* raw = reinterpret_cast<const char*>(argv[i]);
+    if (types[i] == 'i') {
+      std::int32_t v;
+      std::memcpy(&v, raw, sizeof v);
+      s += std::to_string(v);
+    } else if (types[i] == 'f') {
+      float v;
+      std::memcpy(&v, raw, sizeof v);
+      s += std::to_string(v);
+    } else if (types[i] == 's') {
+      s += raw;
+    } else {
       s += '?';
+    }
   }
   c->lines.push_back(s);
   return 0;
