@@ -8,6 +8,11 @@
 //             jointly) minimising misclassified pixels over all frames, per light group when
 //             light_groups > 1, and the fixed-mode colour ranges; base's other fields kept.
 //   throws:   InvalidArgument.
+//   Masks are per-pixel labels (generator renders, a painting tool).
+// calibrate_from_frames(empty_frames, touch_frames, options)
+//   A robot's own frames: empty skin (required) plus touch frames labelled by coarse boxes or
+//   not at all; returns the calibration with the empty-skin model, structured warnings and a
+//   report per light level. Rules and guards below and in docs/calibration.md.
 // Plain functions; no shared state (any thread).
 #pragma once
 
@@ -456,16 +461,21 @@ inline float best_box_threshold(const cv::Mat& model, const SegmenterConfig& bas
 //    reference, so light levels mix). Light groups: the empty frames' reference luminances,
 //    sorted, split where one is more than light_group_ratio above the previous. Each touch frame
 //    joins the group of nearest luminance (log scale).
+//  * Noise per group: noise_quantile of the empty frames' darkness, smoothed like the masks
+//    (Config::mask_blur).
 //  * Labelled frame, "surely outside": a ring ring_margin_px..ring_margin_px + ring_width_px
 //    outside the shadow box; "shadow core": the pixels in the shadow box away from the contact
-//    box, whose 95th-percentile darkness is the frame's core darkness; "surely contact": the
-//    contact box minus contact_inset per side, pixels at least as dark as the shadow threshold.
-//  * Shadow threshold per group: half the median core darkness (a shadow's edge is where its
-//    opacity is half the core's, the labels' convention), raised to noise + 0.02 when the empty
-//    skin's noise (noise_quantile of the darkness of empty frames and rings) reaches it.
-//  * Contact thresholds per group: (darkness, warmth) minimising misclassified pixels between
-//    "surely contact" and the shadow pixels away from the contact box, rings and empty frames.
-//  * Unlabelled frame: pixels darker than noise + 0.05 are shadow; its core darkness as above;
+//    box, whose 99th-percentile smoothed darkness is the frame's core darkness; "surely contact":
+//    the contact box minus contact_inset per side, pixels at least as dark as the shadow
+//    threshold.
+//  * Shadow threshold per group: the one in [noise + 0.02, 0.95] whose shadow boxes best match
+//    the group's labelled shadow boxes (best_box_threshold); a group with unlabelled frames only:
+//    half the median core darkness (a shadow's edge is where its opacity is half the core's), at
+//    least noise + 0.02. Core darkness within 0.04 of the noise: the group is ignored.
+//  * Contact thresholds per group: (darkness from the shadow threshold up, warmth) minimising
+//    misclassified pixels between "surely contact" and the shadow core, rings and empty frames.
+//  * Unlabelled frame: pixels whose smoothed darkness exceeds noise + 0.05 are shadow; its core
+//  darkness as above;
 //    2-means on (darkness, warmth) of those pixels (initial split at the median darkness); the
 //    cluster with the higher mean warmth is contact when it is also darker and warmer by at least
 //    0.05 than the other, else the frame is a hover (contact_not_separated).
