@@ -26,6 +26,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -769,7 +770,10 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
                std::to_string(f.last_warmth_bin()) + " of " + std::to_string(nb) +
                "): the contact pixels are not separated from the rest");
   };
-  // Fallback for contact thresholds: the fit over all groups, else the defaults.
+  // Fallback for contact thresholds: the fit over all groups, else the defaults. Its edge check
+  // is reported only when some light level uses it.
+  std::function<void()> overall_edges = [] {};
+  bool overall_used = false;
   LightThresholds overall{0, options.base.calibration.shadow_darkness,
                           options.base.calibration.contact_darkness,
                           options.base.calibration.contact_warmth};
@@ -786,7 +790,15 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     for (const auto& t : shadow_t)
       if (t) lowest = std::min(lowest, *t);
     const LightThresholds t = all.fit(0, lowest);
-    check_edges(all, "all light groups");
+    overall_edges = [&, bi = all.last_darkness_bin(), bj = all.last_warmth_bin()] {
+      const int nb = detail::ThresholdFit::nb;
+      if (bi >= nb || bj <= 0 || bj >= nb)
+        warn(CalibrationIssue::threshold_at_edge,
+             "all light groups: a contact threshold sits at the edge of the searched range "
+             "(darkness bin " +
+                 std::to_string(bi) + ", warmth bin " + std::to_string(bj) + " of " +
+                 std::to_string(nb) + "): the contact pixels are not separated");
+    };
     overall.contact_darkness = t.contact_darkness;
     overall.contact_warmth = t.contact_warmth;
   } else {
@@ -821,7 +833,10 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
       check_edges(groups[g].fit, where);
       r.thresholds.contact_darkness = t.contact_darkness;
       r.thresholds.contact_warmth = t.contact_warmth;
-    } else if (ng > 1) {
+    } else {
+      overall_used = true;
+    }
+    if (groups[g].fit.contact_positives() < options.min_class_pixels && ng > 1) {
       warn(CalibrationIssue::too_few_pixels,
            where + ": " +
                std::to_string(static_cast<long long>(groups[g].fit.contact_positives())) +
@@ -829,6 +844,7 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     }
     r.fitted = true;
   }
+  if (overall_used) overall_edges();
   if (ng == 1) {
     cal.shadow_darkness = result.groups[0].thresholds.shadow_darkness;
     cal.contact_darkness = result.groups[0].thresholds.contact_darkness;
