@@ -626,10 +626,13 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     Group& grp = groups[g];
     if (!f.labelled) {
       std::vector<cv::Vec2f> cand;
+      std::vector<float> sm; // smoothed darkness, on the noise's footing
       for (int y = 0; y < d.rows; ++y)
         for (int x = 0; x < d.cols; ++x)
-          if (skin.at<uchar>(y, x) && smoothed.at<float>(y, x) >= noise[g] + 0.05f)
+          if (skin.at<uchar>(y, x) && smoothed.at<float>(y, x) >= noise[g] + 0.05f) {
             cand.push_back({d.at<float>(y, x), w.at<float>(y, x)});
+            sm.push_back(smoothed.at<float>(y, x));
+          }
       if (static_cast<double>(cand.size()) < options.min_class_pixels) {
         warn(CalibrationIssue::too_few_pixels,
              "unlabelled touch frame " + std::to_string(i) + ": " + std::to_string(cand.size()) +
@@ -638,14 +641,11 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
                  " (frame skipped)");
         continue;
       }
-      std::vector<float> dk;
-      for (const auto& c : cand) dk.push_back(c[0]);
-      grp.hover_cores.push_back(detail::quantile(dk, 0.95f));
-      const float median = detail::quantile(dk, 0.5f);
+      const float median = detail::quantile(sm, 0.5f);
       cv::Mat pts(static_cast<int>(cand.size()), 2, CV_32F, cand.data());
       cv::Mat labels(static_cast<int>(cand.size()), 1, CV_32S);
       for (int k = 0; k < labels.rows; ++k)
-        labels.at<int>(k) = cand[static_cast<std::size_t>(k)][0] > median;
+        labels.at<int>(k) = sm[static_cast<std::size_t>(k)] > median;
       cv::Mat centres;
       cv::kmeans(pts, 2, labels,
                  cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-5), 1,
@@ -661,6 +661,9 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
         const cv::Vec2f& v = cand[static_cast<std::size_t>(k)];
         add_contact(grp, v[0], v[1], separated && labels.at<int>(k) == warm);
       }
+      // Core darkness: over all its shadow pixels (contact included), a conservative choice that
+      // keeps the empty skin clear; see docs/calibration.md for the measured cost on hovers.
+      grp.hover_cores.push_back(detail::quantile(sm, 0.95f));
       continue;
     }
     grp.box_frames.push_back(i);
