@@ -9,11 +9,15 @@
 // generator), <shadowsense/eval.hpp> (evaluation helpers).
 #pragma once
 
+#include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/classify/backend.hpp>
 #include <shadowsense/classify/classifier.hpp>
+#include <shadowsense/classify/frame_encoder.hpp>
 #include <shadowsense/classify/lighting_normalise.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/image_check.hpp>

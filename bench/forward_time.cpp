@@ -1,0 +1,89 @@
+// forward_time: times the DenseNet forward pass of one model file on one raw input, for the
+// side-by-side comparison with ONNX Runtime (tools/onnxruntime_bench/run.py drives it and the
+// ONNX Runtime timer alternately). Prints one JSON object on stdout: per-iteration wall times
+// (ms), the multiply-adds of one forward pass, the kernel and the logits.
+//   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS
+// INPUT.f32: 3 x H x W little-endian float32 values (CHW, already preprocessed).
+#include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/backends/densenet/model_file.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace ss = shadowsense;
+
+namespace {
+
+constexpr std::string_view usage =
+    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS\n"
+    "Times the DenseNet forward pass on a 1 x 3 x H x W float32 input (raw little-endian CHW)\n"
+    "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n";
+
+int positive_int(const char* text, const char* what) {
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || v < 1 || v > 100000)
+    throw ss::InvalidArgument(std::string(what) + " '" + text + "': expected an integer 1..100000");
+  return static_cast<int>(v);
+}
+
+ss::Tensor read_input(const std::string& path, int h, int w) {
+  ss::Tensor t(1, 3, h, w);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ss::IoError(path + ": cannot open the input file");
+  in.read(reinterpret_cast<char*>(t.data()), static_cast<std::streamsize>(t.size() * 4));
+  if (in.gcount() != static_cast<std::streamsize>(t.size() * 4) || in.peek() != EOF)
+    throw ss::IoError(path + ": expected exactly 3 x " + std::to_string(h) + " x " +
+                      std::to_string(w) + " float32 values");
+  return t;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  if (argc == 2 && std::string_view(argv[1]) == "--help") {
+    std::cout << usage;
+    return 0;
+  }
+  if (argc == 2 && std::string_view(argv[1]) == "--version") {
+    std::cout << "forward_time shadowsense " << ss::version_string << '\n';
+    return 0;
+  }
+  try {
+    if (argc != 7)
+      throw ss::InvalidArgument("expected 6 arguments, got " + std::to_string(argc - 1));
+    const int h = positive_int(argv[3], "H"), w = positive_int(argv[4], "W");
+    const int threads = positive_int(argv[5], "THREADS");
+    const int iterations = positive_int(argv[6], "ITERATIONS");
+    const ss::ModelFile model = ss::ModelFile::load(argv[1]);
+    ss::DenseNet net(model, {.threads = threads, .run_self_test = false});
+    const ss::Tensor input = read_input(argv[2], h, w);
+    for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
+    std::vector<double> ms;
+    for (int i = 0; i < iterations; ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      net.logits(input);
+      ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    }
+    const auto logits = net.logits(input);
+    std::cout << "{\"ms\": [";
+    for (std::size_t i = 0; i < ms.size(); ++i) std::printf("%s%.4f", i ? ", " : "", ms[i]);
+    std::fflush(stdout);
+    std::cout << "], \"macs\": " << net.macs(h, w) << ", \"kernel\": \"" << net.kernel_name()
+              << "\", \"logits\": [";
+    for (std::size_t i = 0; i < logits.size(); ++i) std::printf("%s%.9g", i ? ", " : "", logits[i]);
+    std::fflush(stdout);
+    std::cout << "]}\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "forward_time: error: " << e.what() << '\n' << usage;
+    return 2;
+  }
+}
