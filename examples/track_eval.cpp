@@ -418,8 +418,13 @@ int main(int argc, char** argv) {
     Segmenter seg = segmenter_from(cal);
     std::cout << "calibration: " << o.calib_frames << " generator frames (" << rig.name
               << " rig), seed " << o.calib_seed
-              << (o.calibration_in.empty() ? ""
-                                           : " (thresholds from " + o.calibration_in.string() + ")")
+              << (o.calibration_in.empty()
+                      ? ""
+                      : " (thresholds" +
+                            std::string(cal.config.calibration.empty_skin.empty()
+                                            ? ""
+                                            : " and empty-skin model") +
+                            " from " + o.calibration_in.string() + ")")
               << "\n";
 
     std::optional<std::map<std::string, CategoryResult>> t5;
