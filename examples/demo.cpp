@@ -137,9 +137,10 @@ int main(int argc, char** argv) try {
   }
   if (model_path.empty()) model_path = find_model(argv[0]);
   const auto t_start = std::chrono::steady_clock::now();
-  const auto model = ss::ModelFile::load(model_path);
-  auto clf = ss::make_densenet_classifier(model);
-  ss::FrameEncoder enc(model.preprocess, normalise);
+  auto model = ss::ModelFile::load(model_path);
+  // On by default (version-1 files do not record it; the shipped version-2 model does).
+  model.preprocess.lighting_normalise = normalise;
+  auto clf = ss::make_densenet_classifier(model); // owns the whole frame encoding
 
   sim::Renderer renderer(sim::Rig::robot());
   // Segmenter calibration from a few generated frames (empty skin + labelled touches, three
@@ -196,7 +197,6 @@ int main(int argc, char** argv) try {
   std::string last_scene;
   int classified = 0, gated = 0;
   std::map<std::string, int> shot_for_scene;
-  ss::Tensor input;
   for (int i = 0; i < frames; ++i) {
     const double t = i / fps, t_ms = 1000.0 * t;
     std::string what;
@@ -213,8 +213,7 @@ int main(int argc, char** argv) try {
     std::string label = "-";
     float conf = 0;
     if (seg.shadow_box) {
-      enc.run(frame.image, false, input);
-      const auto c = clf.classify(input);
+      const auto c = clf.classify(frame.image); // the model's lighting and dark-frame rules
       label = c.label;
       conf = c.probabilities[static_cast<std::size_t>(c.index)];
       ++classified;
