@@ -24,5 +24,6 @@
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
