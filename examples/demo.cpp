@@ -239,9 +239,10 @@ int main(int argc, char** argv) {
     p.parse(argc, argv);
     if (model_path.empty()) model_path = find_model(argv[0]);
     const auto t_start = std::chrono::steady_clock::now();
-    const auto model = ss::ModelFile::load(model_path);
-    auto clf = ss::make_densenet_classifier(model, {.threads = threads});
-    ss::FrameEncoder enc(model.preprocess, normalise);
+    auto model = ss::ModelFile::load(model_path);
+    // On by default (version-1 files do not record it; the shipped version-2 model does).
+    model.preprocess.lighting_normalise = normalise;
+    auto clf = ss::make_densenet_classifier(model, {.threads = threads}); // owns the encoding
 
     sim::Renderer renderer(sim::Rig::robot());
     ss::Segmenter segmenter = calibrated_segmenter(renderer);
@@ -266,7 +267,6 @@ int main(int argc, char** argv) {
     std::string last_scene;
     int classified = 0, gated = 0;
     std::map<std::string, int> shot_for_scene;
-    ss::Tensor input;
     for (int i = 0; i < frames; ++i) {
       FrameResult r;
       r.t = i / fps;
@@ -282,8 +282,7 @@ int main(int argc, char** argv) {
       const auto& tracks = tracker.update(dets, t_ms);
       // Gate: no inference while nothing is near the skin.
       if (seg.shadow_box) {
-        enc.run(frame.image, false, input);
-        const auto c = clf.classify(input);
+        const auto c = clf.classify(frame.image); // the model's lighting and dark-frame rules
         r.label = c.label;
         r.confidence = c.probabilities[static_cast<std::size_t>(c.index)];
         ++classified;
