@@ -41,11 +41,9 @@ double check_against_torchvision(DenseNet& net, const ModelSelfTest& st) {
   return max_diff;
 }
 
+// Every kernel this CPU runs, the reference (the oracle) included.
 std::vector<GemmKernelKind> available_kernels() {
-  std::vector<GemmKernelKind> out;
-  for (auto k : {GemmKernelKind::avx512, GemmKernelKind::avx2, GemmKernelKind::portable})
-    if (detail::cpu_has(k)) out.push_back(k);
-  return out;
+  return detail::available_kernels();
 }
 
 bool torch_available() {
