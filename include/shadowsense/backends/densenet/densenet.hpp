@@ -77,6 +77,10 @@ public:
 
   // Logits for an n x 3 x h x w tensor (n x num_classes values, row per image). The returned
   // span stays valid until the next call.
+  // requires: input is n x 3 x h x w with accepts(h, w) and only finite values (else
+  //           InvalidArgument naming the problem).
+  // ensures:  every logit is finite; a NaN or Inf produced inside the pass (weights or input
+  //           magnitudes that overflow float) throws Error naming the image index and logit.
   std::span<const float> logits(const Tensor& input) {
     run(input);
     return logits_;
@@ -117,6 +121,15 @@ private:
       const auto k = static_cast<std::size_t>(i);
       forward_one(input.image(i).data(), std::span<float>(features_).subspan(k * c, c),
                   std::span<float>(logits_).subspan(k * classes, classes));
+      // A NaN or Inf anywhere in the pass reaches the logits (ReLU and the pools propagate
+      // NaN), so checking these few values is enough.
+      for (std::size_t o = 0; o < classes; ++o)
+        detail::require<Error>(std::isfinite(logits_[k * classes + o]),
+                               "DenseNet: logit " + std::to_string(o) + " of image " +
+                                   std::to_string(i) + " is " +
+                                   std::to_string(logits_[k * classes + o]) +
+                                   " for a finite input, expected a finite number: the model's "
+                                   "weights (or the input's magnitude) overflow float");
     }
   }
 
