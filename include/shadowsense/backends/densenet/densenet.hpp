@@ -41,6 +41,10 @@ public:
     int threads = 1; // worker threads incl. the caller
     GemmKernelKind kernel = GemmKernelKind::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
+    // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
+    // vector_ops (all four set) are used instead of `kernel`.
+    detail::MicroKernel micro_kernel{};
+    detail::VectorOps vector_ops{};
   };
 
   explicit DenseNet(const ModelFile& model) : DenseNet(model, Config{}) {}
@@ -48,8 +52,18 @@ public:
       : config_(config), arch_(model.architecture), class_names_(model.class_names),
         preprocess_(model.preprocess) {
     model.validate();
-    kernel_ = detail::select_micro_kernel(config.kernel);
-    ops_ = detail::select_vector_ops(kernel_.kind);
+    if (config.micro_kernel.fn) {
+      detail::require(config.micro_kernel.mr >= 1 && config.micro_kernel.nr >= 1 &&
+                          config.vector_ops.affine_relu && config.vector_ops.bias_relu &&
+                          config.vector_ops.pool_affine_relu && config.vector_ops.pack3x3,
+                      "DenseNet: a custom micro-kernel needs mr, nr >= 1 and all four vector "
+                      "ops set");
+      kernel_ = config.micro_kernel;
+      ops_ = config.vector_ops;
+    } else {
+      kernel_ = detail::select_micro_kernel(config.kernel);
+      ops_ = detail::select_vector_ops(kernel_.kind);
+    }
     pool_ = std::make_unique<detail::ThreadPool>(config.threads);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);

@@ -29,13 +29,22 @@ namespace detail {
 #endif
 
 template <int MR, int NR>
-inline void micro_kernel_portable(int K, const float* a, const float* b, float* out) {
-  float acc[MR][NR] = {};
-  for (int k = 0; k < K; ++k, a += MR, b += NR)
-    for (int r = 0; r < MR; ++r)
-      for (int j = 0; j < NR; ++j) acc[r][j] += a[r] * b[j];
-  for (int r = 0; r < MR; ++r)
-    for (int j = 0; j < NR; ++j) out[r * NR + j] = acc[r][j];
+inline void micro_kernel_portable(int K, const float* __restrict a, const float* __restrict b,
+                                  float* __restrict out) {
+  static_assert(MR >= 1 && NR % 4 == 0, "the register block is whole 4-lane vectors wide");
+  float acc[MR * NR];
+  SHADOWSENSE_UNROLL(64)
+  for (int i = 0; i < MR * NR; ++i) acc[i] = 0.0f;
+  for (int k = 0; k < K; ++k, a += MR, b += NR) {
+    SHADOWSENSE_UNROLL(16)
+    for (int r = 0; r < MR; ++r) {
+      const float x = a[r];
+      SHADOWSENSE_UNROLL(32)
+      for (int j = 0; j < NR; ++j) acc[r * NR + j] += x * b[j];
+    }
+  }
+  SHADOWSENSE_UNROLL(64)
+  for (int i = 0; i < MR * NR; ++i) out[i] = acc[i];
 }
 
 // Element-wise loops, one definition per instruction set (ATTR: a target attribute or empty).
