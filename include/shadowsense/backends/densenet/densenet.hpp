@@ -374,7 +374,7 @@ private:
       const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
       for (int y = 0; y < bh; ++y)
         for (int x = 0; x < bw; ++x) {
-          float mx = -INFINITY;
+          float mx = -INFINITY, nan_probe = 0.0f;
           for (int dy = -1; dy <= 1; ++dy) {
             const int iy = 2 * y + dy;
             if (iy < 0 || iy >= h0_) continue;
@@ -382,10 +382,12 @@ private:
               const int ix = 2 * x + dx;
               if (ix < 0 || ix >= w0_) continue;
               const float v = s[iy * w0_ + ix];
-              mx = (v > mx || v != v) && mx == mx ? v : mx;
+              mx = std::max(mx, v);
+              nan_probe += v; // >= 0 terms: NaN exactly when a NaN is in the window
             }
           }
-          dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] = mx;
+          dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] =
+              nan_probe == nan_probe ? mx : nan_probe;
         }
     }
   }
