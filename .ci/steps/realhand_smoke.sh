@@ -9,7 +9,7 @@ bin=${TRACK_EVAL_BIN_DIR:-$root/build/examples}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 "$root/tools/realhand/render.py" --out "$work/rh" --seed 3 --users 1 \
-  --frames-per-user 1 --tracking-contact 2 --tracking-empty 2 --tracking-hover 2 --slides 8
+  --frames-per-user 1 --tracking-contact 2 --tracking-empty 2 --tracking-hover 2 --slides 8 --workers 2
 "$bin/ss_eval_classify" --score "$root/models/default.ssm" --data "$work/rh/gestures" --quiet \
   --json "$work/score.json"
 "$bin/ss_track_eval" --data "$work/rh" --calib-frames 20 --json "$work/track.json"

@@ -10,12 +10,13 @@ forearms, a torso and arms of our own.
 
 Output layout and csv columns are those of docs/dataset_format.md, so <shadowsense/io/dataset.hpp>
 (ss_eval_classify, ss_track_eval) reads it. Deterministic: the same --seed, silhouettes and
-OpenCV/numpy build give the same files.
+OpenCV/numpy build give the same files, for any --workers.
 
 Usage:
   /usr/bin/python3 tools/realhand/render.py --out DIR [--seed N] [--users 5]
       [--frames-per-user 4] [--tracking-contact 60] [--tracking-empty 120]
       [--tracking-hover 120] [--slides 40] [--silhouettes data/realhand] [--only WHAT]
+      [--workers N]
   WHAT: gestures, tracking or slides (default: all three).
 Exit 0 on success; 2 on bad arguments or unreadable silhouettes (message on stderr).
 This is a VALIDATION set: never train or tune on it.
@@ -315,7 +316,7 @@ def make_user(uid, sils, rng):
     pools = {}
     for pose, lst in sils.items():
         idx = np.arange(len(lst))
-        pools[pose] = [lst[i] for i in idx if i % 1 == 0]
+        pools[pose] = [lst[i] for i in idx]  # every body draws from all silhouettes
     return dict(id=uid, scale=rng.uniform(0.88, 1.1), arm=rng.uniform(5.2, 7.4),
                 skin=SKIN[int(rng.integers(0, len(SKIN)))] * rng.uniform(0.95, 1.05, 3),
                 mirror=bool(rng.integers(0, 2)), pools=pools)
@@ -456,30 +457,49 @@ def hash_key(k):
     return h
 
 
-def render_gestures(out, seed, sils, users, per_user):
-    rig = Rig(**ROBOT)
+_CTX = {}  # per-process state (rigs, silhouettes, seed); set before the worker pool forks
+
+
+def _map(fn, tasks, workers):
+    if workers <= 1:
+        return [fn(t) for t in tasks]
+    import multiprocessing as mp
+    with mp.get_context("fork").Pool(workers) as pool:
+        return pool.map(fn, tasks, chunksize=1)
+
+
+def _gesture_session(task):
+    u, lighting = task
+    out, seed, sils, per_user, rig = (_CTX[k] for k in ("out", "seed", "sils", "per_user", "robot"))
+    user = make_user(u, sils, rng_for(seed, "user", u))
+    session = f"u{u}_{lighting}"
+    idx = 0
+    srng = rng_for(seed, "session", u, lighting)
+    alb, tint = fabric(rig, srng)
+    lines = []
+    for b, cls in enumerate(GESTURES):
+        for k in range(per_user):
+            rng = rng_for(seed, "g", u, lighting, cls, k)
+            light = light_preset(lighting, LEVEL[lighting], rng)
+            parts = gesture_parts(rig, user, cls, rng) or []
+            occ, occ_vis, con = compose(rig, parts, light, rng, rng.uniform() < 0.3)
+            img = finish(rig, occ_vis, con, light, user["skin"], rng, alb, tint)
+            sb, cb, cp = truth(rig, occ, con)
+            name = f"{cls}/{session}_{idx:04d}.png"
+            write_png(os.path.join(out, "gestures", name), img)
+            ts = idx * 100.0 + b * 3000.0
+            lines.append(row_text(name, cls, u, lighting, LEVEL[lighting], session, idx, ts,
+                                  sb, cb, cp, rig.px_per_cm))
+            idx += 1
+    return lines
+
+
+def render_gestures(out, seed, sils, users, per_user, workers=1):
+    _CTX.update(out=out, seed=seed, sils=sils, per_user=per_user, robot=Rig(**ROBOT))
+    tasks = [(u, lg) for u in range(users) for lg in ("daylight", "dusk", "night")]
     lines = [HEADER]
-    for u in range(users):
-        user = make_user(u, sils, rng_for(seed, "user", u))
-        for lighting in ("daylight", "dusk", "night"):
-            session = f"u{u}_{lighting}"
-            idx = 0
-            srng = rng_for(seed, "session", u, lighting)
-            alb, tint = fabric(rig, srng)
-            for b, cls in enumerate(GESTURES):
-                for k in range(per_user):
-                    rng = rng_for(seed, "g", u, lighting, cls, k)
-                    light = light_preset(lighting, LEVEL[lighting], rng)
-                    parts = gesture_parts(rig, user, cls, rng) or []
-                    occ, occ_vis, con = compose(rig, parts, light, rng, rng.uniform() < 0.3)
-                    img = finish(rig, occ_vis, con, light, user["skin"], rng, alb, tint)
-                    sb, cb, cp = truth(rig, occ, con)
-                    name = f"{cls}/{session}_{idx:04d}.png"
-                    write_png(os.path.join(out, "gestures", name), img)
-                    ts = idx * 100.0 + b * 3000.0
-                    lines.append(row_text(name, cls, u, lighting, LEVEL[lighting], session, idx, ts,
-                                          sb, cb, cp, rig.px_per_cm))
-                    idx += 1
+    for ls in _map(_gesture_session, tasks, workers):
+        lines += ls
     write_text(os.path.join(out, "gestures", "metadata.csv"), lines)
     return len(lines) - 1
 
@@ -501,32 +521,36 @@ def track_parts(rig, user, cat, rng, centre=None, angle=None):
     return hand_parts(rig, user, pose, rng, wrist, ang, 0.0, "tip" if cat == "finger" else "all")
 
 
-def render_tracking(out, seed, sils, n_contact, n_empty, n_hover, n_users=8):
-    rig = Rig(**BOX)
-    users = [make_user(100 + u, sils, rng_for(seed, "tuser", u)) for u in range(n_users)]
-    lines = [HEADER]
+def _tracking_frame(task):
+    cat, n = task
+    out, seed, users, rig = (_CTX[k] for k in ("out", "seed", "tusers", "box"))
+    rng = rng_for(seed, "t", cat, n)
+    user = users[n % len(users)]
+    if cat == "nothing":  # several light levels, recorded as custom
+        level = float(np.round(rng.uniform(0, 1), 3))
+        lighting = "custom"
+    else:
+        lighting = ("daylight", "dusk", "night")[n % 3]
+        level = LEVEL[lighting]
+    light = light_preset(lighting, level, rng)
+    alb, tint = fabric(rig, rng)
+    parts = [] if cat == "nothing" else (track_parts(rig, user, cat, rng) or [])
+    occ, occ_vis, con = compose(rig, parts, light, rng, rng.uniform() < 0.3)
+    img = finish(rig, occ_vis, con, light, user["skin"], rng, alb, tint)
+    sb, cb, cp = truth(rig, occ, con)
+    name = f"{cat}/{cat}_{n}.png"
+    write_png(os.path.join(out, "tracking", name), img)
+    return row_text(name, cat, user["id"], lighting, level, "tracking", n, 1000.0 * n, sb, cb, cp,
+                    rig.px_per_cm)
+
+
+def render_tracking(out, seed, sils, n_contact, n_empty, n_hover, n_users=8, workers=1):
+    _CTX.update(out=out, seed=seed, box=Rig(**BOX),
+                tusers=[make_user(100 + u, sils, rng_for(seed, "tuser", u)) for u in range(n_users)])
     counts = {"nothing": n_empty, "hover": n_hover, "palm": n_contact, "fist": n_contact,
               "finger": n_contact}
-    for cat in TRACK:
-        for n in range(counts[cat]):
-            rng = rng_for(seed, "t", cat, n)
-            user = users[n % n_users]
-            if cat == "nothing":  # several light levels, recorded as custom
-                level = float(np.round(rng.uniform(0, 1), 3))
-                lighting = "custom"
-            else:
-                lighting = ("daylight", "dusk", "night")[n % 3]
-                level = LEVEL[lighting]
-            light = light_preset(lighting, level, rng)
-            alb, tint = fabric(rig, rng)
-            parts = [] if cat == "nothing" else (track_parts(rig, user, cat, rng) or [])
-            occ, occ_vis, con = compose(rig, parts, light, rng, rng.uniform() < 0.3)
-            img = finish(rig, occ_vis, con, light, user["skin"], rng, alb, tint)
-            sb, cb, cp = truth(rig, occ, con)
-            name = f"{cat}/{cat}_{n}.png"
-            write_png(os.path.join(out, "tracking", name), img)
-            lines.append(row_text(name, cat, user["id"], lighting, level, "tracking", n,
-                                  1000.0 * n, sb, cb, cp, rig.px_per_cm))
+    tasks = [(cat, n) for cat in TRACK for n in range(counts[cat])]
+    lines = [HEADER] + _map(_tracking_frame, tasks, workers)
     write_text(os.path.join(out, "tracking", "metadata.csv"), lines)
     return len(lines) - 1
 
@@ -537,55 +561,61 @@ def ease(t, kind):
     return 0.5 - 0.5 * math.cos(math.pi * t)
 
 
-def render_slides(out, seed, sils, n_seq):
-    rig = Rig(**BOX)
-    seq_lines = ["sequence,gesture,direction,num_frames,distance_cm,fps,user,lighting,lighting_level"]
-    combos = [(g, d) for g in ("palm", "finger") for d in DIRECTIONS]
+SLIDE_COMBOS = [(g, d) for g in ("palm", "finger") for d in DIRECTIONS]
+
+
+def _slide_sequence(q):
+    out, seed, sils, rig = (_CTX[k] for k in ("out", "seed", "sils", "box"))
+    combos = SLIDE_COMBOS
     fps = 30.0
-    total = 0
-    for q in range(n_seq):
-        gesture, direction = combos[q % len(combos)]
-        rng = rng_for(seed, "s", q)
-        user = make_user(200 + q, sils, rng_for(seed, "suser", q))
-        lighting = ("daylight", "dusk", "night")[q % 3]
-        level = LEVEL[lighting]
-        light = light_preset(lighting, level, rng)
-        alb, tint = fabric(rig, rng)
-        dist = rng.uniform(5, 13)
-        dur = rng.uniform(0.2, 1.0)
-        nf = max(2, int(round(dur * fps)) + 1)
-        kind = int(rng.integers(0, 2))
-        dx, dy = DIRECTIONS[direction]
-        start = (rng.uniform(-3, 3) - dx * dist / 2, rng.uniform(-4, 0) - dy * dist / 2)
-        ang = rng.uniform(-30, 30)
-        wob = rng.uniform(0.1, 0.5)
-        folder = f"{direction}/{gesture}_{q}"
-        lines = [HEADER + ",gesture,direction"]
-        cat = "palm" if gesture == "palm" else "finger"
-        # one fixed body per sequence: the same silhouette for every frame
-        srng_state = int(rng.integers(0, 1 << 62))
-        for i in range(nf):
-            t = i / (nf - 1)
-            s = ease(t, kind) * dist
-            side = wob * math.sin(math.pi * t)
-            c = (start[0] + dx * s - dy * side, start[1] + dy * s + dx * side)
-            frng = np.random.default_rng([srng_state, i])
-            prng = np.random.default_rng(srng_state)  # same silhouette/scale choices each frame
-            parts = track_parts(rig, user, cat, prng, centre=c, angle=ang) or []
-            occ, occ_vis, con = compose(rig, parts, light, frng, False)
-            img = finish(rig, occ_vis, con, light, user["skin"], frng, alb, tint)
-            sb, cb, cp = truth(rig, occ, con)
-            name = f"frame_{i:04d}.png"
-            write_png(os.path.join(out, "slides", folder, name), img)
-            lines.append(row_text(name, direction, user["id"], lighting, level, folder, i,
-                                  1000.0 * i / fps, sb, cb, cp, rig.px_per_cm,
-                                  [gesture, direction]))
-        write_text(os.path.join(out, "slides", folder, "metadata.csv"), lines)
-        seq_lines.append(",".join([folder, gesture, direction, str(nf), fmt(dist, 3), fmt(fps, 3),
-                                   str(user["id"]), lighting, fmt(level, 4)]))
-        total += nf
+    gesture, direction = combos[q % len(combos)]
+    rng = rng_for(seed, "s", q)
+    user = make_user(200 + q, sils, rng_for(seed, "suser", q))
+    lighting = ("daylight", "dusk", "night")[q % 3]
+    level = LEVEL[lighting]
+    light = light_preset(lighting, level, rng)
+    alb, tint = fabric(rig, rng)
+    dist = rng.uniform(5, 13)
+    dur = rng.uniform(0.2, 1.0)
+    nf = max(2, int(round(dur * fps)) + 1)
+    kind = int(rng.integers(0, 2))
+    dx, dy = DIRECTIONS[direction]
+    start = (rng.uniform(-3, 3) - dx * dist / 2, rng.uniform(-4, 0) - dy * dist / 2)
+    ang = rng.uniform(-30, 30)
+    wob = rng.uniform(0.1, 0.5)
+    folder = f"{direction}/{gesture}_{q}"
+    lines = [HEADER + ",gesture,direction"]
+    cat = "palm" if gesture == "palm" else "finger"
+    # one fixed body per sequence: the same silhouette for every frame
+    srng_state = int(rng.integers(0, 1 << 62))
+    for i in range(nf):
+        t = i / (nf - 1)
+        s = ease(t, kind) * dist
+        side = wob * math.sin(math.pi * t)
+        c = (start[0] + dx * s - dy * side, start[1] + dy * s + dx * side)
+        frng = np.random.default_rng([srng_state, i])
+        prng = np.random.default_rng(srng_state)  # same silhouette/scale choices each frame
+        parts = track_parts(rig, user, cat, prng, centre=c, angle=ang) or []
+        occ, occ_vis, con = compose(rig, parts, light, frng, False)
+        img = finish(rig, occ_vis, con, light, user["skin"], frng, alb, tint)
+        sb, cb, cp = truth(rig, occ, con)
+        name = f"frame_{i:04d}.png"
+        write_png(os.path.join(out, "slides", folder, name), img)
+        lines.append(row_text(name, direction, user["id"], lighting, level, folder, i,
+                              1000.0 * i / fps, sb, cb, cp, rig.px_per_cm,
+                              [gesture, direction]))
+    write_text(os.path.join(out, "slides", folder, "metadata.csv"), lines)
+    return (",".join([folder, gesture, direction, str(nf), fmt(dist, 3), fmt(fps, 3),
+                      str(user["id"]), lighting, fmt(level, 4)]), nf)
+
+
+def render_slides(out, seed, sils, n_seq, workers=1):
+    _CTX.update(out=out, seed=seed, sils=sils, box=Rig(**BOX))
+    res = _map(_slide_sequence, list(range(n_seq)), workers)
+    seq_lines = ["sequence,gesture,direction,num_frames,distance_cm,fps,user,lighting,lighting_level"]
+    seq_lines += [r[0] for r in res]
     write_text(os.path.join(out, "slides", "sequences.csv"), seq_lines)
-    return n_seq, total
+    return n_seq, sum(r[1] for r in res)
 
 
 def main(argv):
@@ -601,9 +631,11 @@ def main(argv):
     ap.add_argument("--silhouettes", default=os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "..", "data", "realhand"))
     ap.add_argument("--only", choices=["gestures", "tracking", "slides"])
+    ap.add_argument("--workers", type=int, default=1,
+                    help="worker processes; the files are identical for any value")
     ap.add_argument("--version", action="version", version=VERSION)
     a = ap.parse_args(argv)
-    for k in ("users", "frames_per_user", "slides"):
+    for k in ("users", "frames_per_user", "slides", "workers"):
         if getattr(a, k) < 1:
             ap.error(f"--{k.replace('_', '-')} must be >= 1")
     for k in ("tracking_contact", "tracking_empty", "tracking_hover", "seed"):
@@ -612,14 +644,14 @@ def main(argv):
     try:
         sils = load_silhouettes(a.silhouettes)
         if a.only in (None, "gestures"):
-            n = render_gestures(a.out, a.seed, sils, a.users, a.frames_per_user)
+            n = render_gestures(a.out, a.seed, sils, a.users, a.frames_per_user, a.workers)
             print(f"gestures: {n} frames")
         if a.only in (None, "tracking"):
             n = render_tracking(a.out, a.seed, sils, a.tracking_contact, a.tracking_empty,
-                                a.tracking_hover)
+                                a.tracking_hover, workers=a.workers)
             print(f"tracking: {n} frames")
         if a.only in (None, "slides"):
-            q, n = render_slides(a.out, a.seed, sils, a.slides)
+            q, n = render_slides(a.out, a.seed, sils, a.slides, a.workers)
             print(f"slides: {q} sequences, {n} frames")
     except Fail as e:
         sys.stderr.write(f"render.py: {e}\n")
