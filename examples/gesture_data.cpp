@@ -4,7 +4,10 @@
 // ss_train_head and ss_eval_classify; the training data of the shipped model comes from it.
 //
 //   ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F]
-//                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--scale X]
+//                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--randomise]
+//
+// --randomise: domain randomisation (include/shadowsense/sim/randomise.hpp, ranges in
+// docs/scene_generator.md): fabric, light, camera, lens, noise, compression, body, occluders.
 //
 // Users get ids K..K+N-1 and their body from the id and the seed, so disjoint id ranges give
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
@@ -60,6 +63,7 @@ int to_int(const std::string& flag, const std::string& v, int lo, int hi) {
 int main(int argc, char** argv) try {
   std::string out, lightings = "daylight,dusk,night";
   int users = 4, first_user = 0, frames = 20;
+  bool randomise = false;
   std::uint64_t seed = 1;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -79,9 +83,12 @@ int main(int argc, char** argv) try {
       lightings = next();
     else if (a == "--seed")
       seed = static_cast<std::uint64_t>(to_int(a, next(), 0, 1 << 30));
+    else if (a == "--randomise")
+      randomise = true;
     else if (a == "--help" || a == "-h") {
       std::cout << "ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F per "
-                   "gesture and session] [--lightings daylight,dusk,night|levels] [--seed S]\n";
+                   "gesture and session] [--lightings daylight,dusk,night|levels] [--seed S] "
+                   "[--randomise]\n";
       return 0;
     } else
       throw ss::InvalidArgument("unknown argument '" + a + "' (see --help)");
@@ -102,6 +109,7 @@ int main(int argc, char** argv) try {
   ss::sim::Frame frame;
   ss::sim::GestureSessionConfig cfg;
   cfg.frames_per_gesture = frames;
+  cfg.randomise = randomise;
   int written = 0;
   for (int u = first_user; u < first_user + users; ++u) {
     ss::sim::Rng urng(ss::sim::derive_seed(seed, 0x05E40000ull + static_cast<std::uint64_t>(u)));
