@@ -292,6 +292,17 @@ inline constexpr std::array<int, 64> jpeg_chroma{
     99, 99, 47, 66, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99,
     99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99, 99};
 
+// 2^18 N(0, 1) samples from a fixed seed, built once (thread-safe static initialisation).
+inline const std::vector<float>& normal_table() {
+  static const std::vector<float> table = [] {
+    std::vector<float> t(std::size_t{1} << 18);
+    Rng rng(0x7AB1E5EEDull);
+    for (float& v : t) v = static_cast<float>(rng.normal());
+    return t;
+  }();
+  return table;
+}
+
 // Quantises every 8x8 block of a CV_32F plane (values 0..255) in the DCT domain.
 inline void jpeg_plane(cv::Mat& plane, const std::array<int, 64>& table, int quality) {
   const double s = quality < 50 ? 5000.0 / quality : 200.0 - 2.0 * quality;
@@ -301,19 +312,53 @@ inline void jpeg_plane(cv::Mat& plane, const std::array<int, 64>& table, int qua
   const int w = (plane.cols + 7) / 8 * 8, h = (plane.rows + 7) / 8 * 8;
   cv::Mat padded;
   cv::copyMakeBorder(plane, padded, 0, h - plane.rows, 0, w - plane.cols, cv::BORDER_REPLICATE);
-  padded -= 128.0;
-  cv::Mat block;
+  // Orthonormal 8-point DCT-II basis: c[k][n] = a_k cos((2n + 1) k pi / 16).
+  std::array<float, 64> c{};
+  for (int k = 0; k < 8; ++k)
+    for (int n = 0; n < 8; ++n)
+      c[static_cast<std::size_t>(k * 8 + n)] =
+          static_cast<float>((k == 0 ? std::sqrt(0.125) : 0.5) *
+                             std::cos((2 * n + 1) * k * 3.14159265358979323846 / 16));
+  float blk[64], tmp[64];
   for (int y = 0; y < h; y += 8)
     for (int x = 0; x < w; x += 8) {
-      cv::Mat roi = padded(cv::Rect(x, y, 8, 8));
-      cv::dct(roi, block);
-      for (int i = 0; i < 64; ++i) {
-        float& v = block.at<float>(i / 8, i % 8);
-        v = std::round(v / q[static_cast<std::size_t>(i)]) * q[static_cast<std::size_t>(i)];
+      for (int i = 0; i < 8; ++i) {
+        const float* row = padded.ptr<float>(y + i) + x;
+        for (int j = 0; j < 8; ++j) blk[i * 8 + j] = row[j] - 128.0f;
       }
-      cv::idct(block, roi);
+      // Forward: tmp = C blk, blk = tmp C^T; quantise; inverse: tmp = C^T blk, blk = tmp C.
+      for (int k = 0; k < 8; ++k)
+        for (int j = 0; j < 8; ++j) {
+          float acc = 0;
+          for (int n = 0; n < 8; ++n)
+            acc += c[static_cast<std::size_t>(k * 8 + n)] * blk[n * 8 + j];
+          tmp[k * 8 + j] = acc;
+        }
+      for (int i = 0; i < 8; ++i)
+        for (int k = 0; k < 8; ++k) {
+          float acc = 0;
+          for (int n = 0; n < 8; ++n)
+            acc += tmp[i * 8 + n] * c[static_cast<std::size_t>(k * 8 + n)];
+          const float qq = q[static_cast<std::size_t>(i * 8 + k)];
+          blk[i * 8 + k] = std::round(acc / qq) * qq;
+        }
+      for (int n = 0; n < 8; ++n)
+        for (int j = 0; j < 8; ++j) {
+          float acc = 0;
+          for (int k = 0; k < 8; ++k)
+            acc += c[static_cast<std::size_t>(k * 8 + n)] * blk[k * 8 + j];
+          tmp[n * 8 + j] = acc;
+        }
+      for (int i = 0; i < 8; ++i) {
+        float* row = padded.ptr<float>(y + i) + x;
+        for (int n = 0; n < 8; ++n) {
+          float acc = 0;
+          for (int k = 0; k < 8; ++k)
+            acc += tmp[i * 8 + k] * c[static_cast<std::size_t>(k * 8 + n)];
+          row[n] = acc + 128.0f;
+        }
+      }
     }
-  padded += 128.0;
   padded(cv::Rect(0, 0, plane.cols, plane.rows)).copyTo(plane);
 }
 } // namespace internal
@@ -412,21 +457,22 @@ inline void apply_camera(const DomainSample& d, const cv::Mat& surface, std::uin
           cv::Point2f(static_cast<float>(m.m10 / m.m00), static_cast<float>(m.m01 / m.m00));
     }
   }
-  // Sensor noise: Gaussian read noise + signal-dependent shot noise, per channel.
+  // Sensor noise: Gaussian read noise + signal-dependent shot noise, per channel. Each row
+  // reads a window of a fixed table of N(0, 1) samples at a random offset (one draw per row).
   {
+    const std::vector<float>& table = internal::normal_table();
+    const std::size_t row = 3 * static_cast<std::size_t>(size.width);
+    detail::require(table.size() > row, "apply_camera: frame too wide for the noise table");
     Rng rng(derive_seed(seed, 0x5E45));
-    const float r0 = static_cast<float>(d.read_noise[0] * d.read_noise[0]),
-                r1 = static_cast<float>(d.read_noise[1] * d.read_noise[1]),
-                r2 = static_cast<float>(d.read_noise[2] * d.read_noise[2]);
+    const float r[3] = {static_cast<float>(d.read_noise[0] * d.read_noise[0]),
+                        static_cast<float>(d.read_noise[1] * d.read_noise[1]),
+                        static_cast<float>(d.read_noise[2] * d.read_noise[2])};
     const float shot = static_cast<float>(d.shot_noise);
     for (int y = 0; y < size.height; ++y) {
-      auto* p = img.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < size.width; ++x) {
-        cv::Vec3f& v = p[x];
-        v[0] += std::sqrt(r0 + shot * std::max(v[0], 0.0f)) * static_cast<float>(rng.normal());
-        v[1] += std::sqrt(r1 + shot * std::max(v[1], 0.0f)) * static_cast<float>(rng.normal());
-        v[2] += std::sqrt(r2 + shot * std::max(v[2], 0.0f)) * static_cast<float>(rng.normal());
-      }
+      float* p = img.ptr<float>(y);
+      const float* nz = table.data() + rng.next() % (table.size() - row);
+      for (std::size_t i = 0; i < row; ++i)
+        p[i] += std::sqrt(r[i % 3] + shot * std::max(p[i], 0.0f)) * nz[i];
     }
     cv::max(img, 0.0, img);
     cv::min(img, 255.0, img);
