@@ -6,8 +6,13 @@
 //                 [--users 0,1] [--lightings night] [--epochs 20] [--lighting-normalise]
 //                 [--fine-tune] [--seed S] [--threads N]
 //
+// DIR: a dataset folder with metadata.csv (docs/dataset_format.md), or a plain class-per-folder
+// tree DIR/<class>/**/*.png (no metadata: user and lighting unknown, path order is the
+// collection order, the model's dark-frame rule decides dark frames).
 // Validation: the last 30% (by timestamp) of every session x class block. --fine-tune starts
-// from the model's own classifier instead of a fresh one (same classes required).
+// from the model's own classifier instead of a fresh one (same classes required). The new
+// model keeps the base model's preprocessing; --lighting-normalise (for version-1 base models)
+// is recorded in it.
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
@@ -87,9 +92,11 @@ int main(int argc, char** argv) try {
   // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
   auto set = [&] {
     try {
-      return ss::load_gesture_samples(data, model.class_names);
+      return ss::load_gesture_folder(data, model.class_names);
     } catch (const ss::DatasetError&) {
       if (fine_tune) throw;
+      if (!std::filesystem::exists(std::filesystem::path(data) / "metadata.csv"))
+        return ss::load_class_folders(data, {});
       const auto md = ss::read_metadata(std::filesystem::path(data) / "metadata.csv");
       std::set<std::string> names;
       for (const auto& r : md.rows) names.insert(r.label);
@@ -127,7 +134,9 @@ int main(int argc, char** argv) try {
                 e.best ? "  best" : "");
     std::fflush(stdout);
   });
-  ss::save_model_file(ss::model_with_head(model, result.head, set.class_names), out);
+  auto trained = ss::model_with_head(model, result.head, set.class_names);
+  if (normalise) trained.preprocess.lighting_normalise = true; // recorded for the Classifier
+  ss::save_model_file(trained, out);
   std::cout << "best epoch " << result.best_epoch << "; wrote " << out << "\n";
   return 0;
 } catch (const std::exception& e) {
