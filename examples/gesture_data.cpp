@@ -4,7 +4,10 @@
 // ss_train_head and ss_eval_classify; the training data of the shipped model comes from it.
 //
 //   ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F]
-//                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--scale X]
+//                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--randomise]
+//
+// --randomise: domain randomisation (include/shadowsense/sim/randomise.hpp, ranges in
+// docs/scene_generator.md): fabric, light, camera, lens, noise, compression, body, occluders.
 //
 // Users get ids K..K+N-1 and their body from the id and the seed, so disjoint id ranges give
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
@@ -49,6 +52,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> levels{"daylight", "dusk", "night"};
     int users = 4, first_user = 0, frames = 20;
     std::uint64_t seed = 1;
+    bool randomise = false;
     cli::Parser p("ss_gesture_data",
                   "Writes a gesture-classification dataset (six classes on the robot rig): "
                   "DIR/<class>/<session>_<frame>.png and DIR/metadata.csv.");
@@ -58,6 +62,8 @@ int main(int argc, char** argv) {
     p.option("--frames", "F", "frames per gesture and session", frames).range(1, 100000);
     p.list("--lightings", "LIST", "lightings: daylight, dusk, night or levels in [0, 1]", levels);
     p.option("--seed", "S", "random seed", seed).range(0, std::uint64_t{1} << 30);
+    p.flag("--randomise", "domain randomisation (fabric, light, camera, lens, noise, body)",
+           randomise);
     p.parse(argc, argv);
     for (const auto& l : levels) level_of(l); // check every lighting before writing anything
     fs::create_directories(out);
@@ -73,6 +79,7 @@ int main(int argc, char** argv) {
     ss::sim::Frame frame;
     ss::sim::GestureSessionConfig cfg;
     cfg.frames_per_gesture = frames;
+    cfg.randomise = randomise;
     int written = 0;
     for (int u = first_user; u < first_user + users; ++u) {
       ss::sim::Rng urng(ss::sim::derive_seed(seed, 0x05E40000ull + static_cast<std::uint64_t>(u)));

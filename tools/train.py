@@ -322,6 +322,22 @@ def augment(x, gen):
     return (x + sigma * torch.randn(x.shape, generator=gen)).clamp(0, 1)
 
 
+def augment_geometry(x, gen):
+    """Geometric augmentation (--augment-geometry): random horizontal and vertical flips
+    (people stand on either side of the robot) and a random scale 0.85-1.15 and shift of up to
+    8% of the frame (other lenses, mounting heights and hand sizes), per image."""
+    n = x.shape[0]
+    sx = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    sy = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    scale = torch.empty(n).uniform_(0.85, 1.15, generator=gen)
+    theta = torch.zeros(n, 2, 3)
+    theta[:, 0, 0] = sx / scale
+    theta[:, 1, 1] = sy / scale
+    theta[:, :, 2] = torch.empty(n, 2).uniform_(-0.16, 0.16, generator=gen)
+    grid = F.affine_grid(theta, list(x.shape), align_corners=False)
+    return F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
+
+
 def cache(rows, pre, normalised, classes, label):
     xs, ys, dark = [], [], []
     t0 = time.time()
@@ -408,6 +424,8 @@ def main(argv=None):
                     help="dark-frame rule recorded in the model (mean luminance below it: "
                          "dark); 0 = never")
     ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
+    ap.add_argument("--augment-geometry", action="store_true",
+                    help="flips, scale and shift augmentation (scratch)")
     ap.add_argument("--users"), ap.add_argument("--exclude-users")
     ap.add_argument("--lightings"), ap.add_argument("--exclude-lightings")
     ap.add_argument("--holdout", type=float, default=0.0)
@@ -507,6 +525,8 @@ def main(argv=None):
             x = xt[idx]
             if args.augment:
                 x = augment(x, gen)
+            if args.augment_geometry:
+                x = augment_geometry(x, gen)
             return model(photometric(x, dt[idx], pre, args.lighting_normalise)), yt[idx]
 
         def val_fn():
