@@ -13,6 +13,7 @@
 #include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -225,6 +226,23 @@ TEST_CASE("the encoder refuses what TUIO cannot carry, naming it") {
                        InvalidArgument);
   small.max_packet_bytes = 64;
   CHECK_THROWS_AS(TuioEncoder{small}, InvalidArgument);
+  // At the default 1472 bytes: 268 cursor ids fit with one set message, 269 do not.
+  OutputFrame many;
+  many.frame_size = {100, 100};
+  for (int i = 1; i <= 268; ++i) many.contacts.push_back({i, cv::Point2f(1, 1)});
+  TuioEncoder::Config cursors_only;
+  cursors_only.blobs = false;
+  TuioEncoder def(cursors_only);
+  std::size_t largest = 0, bundles = 0;
+  def.encode(many, [&](std::span<const std::uint8_t> b) {
+    largest = std::max(largest, b.size());
+    ++bundles;
+  });
+  CHECK(largest <= 1472);
+  CHECK(bundles == 268);
+  many.contacts.push_back({269, cv::Point2f(1, 1)});
+  CHECK_THROWS_WITH_AS(encode(def, many), doctest::Contains("269 alive ids in /tuio/2Dcur"),
+                       InvalidArgument);
 }
 
 TEST_CASE("host:port parsing and unresolvable hosts") {

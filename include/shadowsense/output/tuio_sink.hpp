@@ -35,7 +35,8 @@
 //   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles); the
 //             span is valid only during the call.
 //   throws:   InvalidArgument for a broken requirement or an alive list too long for one packet
-//             (about (max_packet_bytes - 60) / 4 ids); nothing is sent then. What send throws.
+//             (5 bytes per id: 268 cursors or 262 blobs at the default); nothing is sent then.
+//             What send throws.
 //   Threading: one thread per instance. No allocation after warm-up (buffers are reused).
 // TuioSink(host = "127.0.0.1", port = 3333, config = {}): an EventSink; write(frame) encodes
 //   the frame and sends each bundle as one UDP datagram.
@@ -190,8 +191,8 @@ private:
           fail("shadow id " + std::to_string(s.id) +
                " appears twice in one frame; expected unique session ids");
     }
-    check_fits(cursor_profile, f.contacts.size(), 5);
-    check_fits(blob_profile, f.shadows.size(), 11);
+    if (config_.cursors) check_fits(cursor_profile, f.contacts.size(), 5);
+    if (config_.blobs) check_fits(blob_profile, f.shadows.size(), 11);
   }
 
   std::size_t bundle_overhead(std::string_view profile, std::size_t alive) const {
