@@ -279,3 +279,12 @@ TEST_CASE("load_calibration refuses devices and FIFOs before reading") {
     CHECK_THROWS_WITH_AS(load_calibration(fifo), doctest::Contains("not a regular file"),
                          IoError); // would hang if it were opened
 }
+
+TEST_CASE("a light level at the top of the reference range (luminance up to 256) is valid") {
+  // Frame references are quarter-unit bins up to 256: a very bright skin reaches 255.875.
+  SegmenterCalibration c;
+  c.by_light = {{50.f, 0.3f, 0.5f, 0.f}, {255.875f, 0.4f, 0.45f, 0.f}};
+  CHECK(calibration_from_string(calibration_to_string(c)) == c);
+  c.by_light[1].luminance = 256.5f;
+  CHECK_THROWS_AS(calibration_to_string(c), InvalidArgument);
+}

@@ -162,8 +162,8 @@ inline void validate_calibration(const SegmenterCalibration& c, const std::strin
   for (std::size_t i = 0; i < c.by_light.size(); ++i) {
     const LightThresholds& t = c.by_light[i];
     const std::string row = where + ": by_light[" + std::to_string(i) + "]";
-    require(std::isfinite(t.luminance) && t.luminance >= 0 && t.luminance <= 255,
-            row + ".luminance must be in [0, 255]");
+    require(std::isfinite(t.luminance) && t.luminance >= 0 && t.luminance <= 256,
+            row + ".luminance must be in [0, 256]"); // references reach 256
     require(i == 0 || t.luminance > c.by_light[i - 1].luminance,
             row + ".luminance must be greater than the previous row's (sorted, no repeats)");
     require(in01(t.shadow_darkness) && in01(t.contact_darkness),
