@@ -1,12 +1,33 @@
 // The backend concept with a user-defined backend, the log-sum-exp softmax on extreme logits,
-// and the DenseNet reference classifier end to end on images.
+// the one-instance-per-thread check, and the DenseNet reference classifier end to end on
+// images (the whole frame encoding taken from the model file).
 #include <shadowsense/classify/classifier.hpp>
+
+// classify/classifier.hpp alone must not declare the DenseNet backend (a user backend does not
+// drag in the GEMM and thread pool): if it did, DenseNet and ModelFile below would be ambiguous
+// and this file would not compile.
+namespace include_probe_names {
+struct DenseNet;
+struct ModelFile;
+struct ThreadPool;
+} // namespace include_probe_names
+namespace include_probe {
+using namespace shadowsense;
+using namespace shadowsense::detail;
+using namespace include_probe_names;
+static_assert(sizeof(DenseNet*) + sizeof(ModelFile*) + sizeof(ThreadPool*) > 0);
+} // namespace include_probe
+
+#include <shadowsense/backends/densenet/classifier.hpp>
+#include <shadowsense/classify/lighting_normalise.hpp>
 
 #include <doctest/doctest.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <thread>
 
 using namespace shadowsense;
 
@@ -44,6 +65,7 @@ struct BrokenBackend {
 
 } // namespace
 
+static_assert(ClassifierBackend<ClassifierBackendArchetype>);
 static_assert(ClassifierBackend<MeanBrightnessBackend>);
 static_assert(ClassifierBackend<BrokenBackend>);
 static_assert(!ClassifierBackend<NoLogits>);
@@ -145,4 +167,96 @@ TEST_CASE("the DenseNet classifier: preprocessing from the model file, softmax o
       }
       CHECK(sum == doctest::Approx(1.0).epsilon(1e-6));
     }
+}
+
+namespace {
+// Blocks inside logits() until released, so a second thread's call overlaps the first.
+struct BlockingBackend {
+  std::vector<std::string> names{"x", "y"};
+  std::atomic<bool>* entered = nullptr;
+  std::atomic<bool>* release = nullptr;
+  std::vector<float> out{0.0f, 1.0f};
+  std::span<const std::string> class_names() const { return names; }
+  std::span<const float> logits(const Tensor&) {
+    entered->store(true);
+    while (!release->load()) std::this_thread::yield();
+    return out;
+  }
+};
+} // namespace
+
+TEST_CASE("one Classifier used from two threads at once throws instead of mixing results") {
+  std::atomic<bool> entered{false}, release{false};
+  Classifier<BlockingBackend> clf(BlockingBackend{{"x", "y"}, &entered, &release});
+  const Tensor input(1, 3, 4, 4);
+  std::string first_label;
+  std::thread first([&] { first_label = clf.classify(input).label; });
+  while (!entered.load()) std::this_thread::yield();
+  // The first call is inside the backend: a concurrent call is refused, naming the contract.
+  CHECK_THROWS_WITH_AS(clf.classify(input), doctest::Contains("one instance per thread"), Error);
+  CHECK_THROWS_WITH_AS(clf.classify_batch(input), doctest::Contains("two threads at once"), Error);
+  CHECK_THROWS_AS(clf.classify(cv::Mat(8, 8, CV_8UC3, cv::Scalar::all(9))), Error);
+  release.store(true);
+  first.join();
+  CHECK(first_label == "y");
+  // Sequential use (from any thread) is fine once the first call has returned.
+  CHECK(clf.classify(input).label == "y");
+  std::string other;
+  std::thread([&] { other = clf.classify(input).label; }).join();
+  CHECK(other == "y");
+  // A moved-to classifier starts unlocked.
+  Classifier<BlockingBackend> moved = std::move(clf);
+  CHECK(moved.classify(input).index == 1);
+}
+
+TEST_CASE("the Classifier applies the model's lighting normalisation and dark-frame rule") {
+  auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  REQUIRE(model.format_version == 1);
+  CHECK_FALSE(model.preprocess.lighting_normalise);
+  CHECK(model.preprocess.dark_luminance_threshold == 0.0f); // version 1: no frame is dark
+  cv::Mat frame(60, 80, CV_8UC3);
+  cv::randu(frame, cv::Scalar::all(0), cv::Scalar::all(60)); // luminance about 0.12
+  DenseNet net(model, {.run_self_test = false});
+  auto probabilities = [&](const Tensor& t) {
+    const auto logits = net.logits(t);
+    std::vector<float> p(logits.size());
+    softmax(logits, p);
+    return p;
+  };
+  Preprocessor pre({.params = model.preprocess, .input_order = ChannelOrder::bgr});
+  {
+    auto clf = make_densenet_classifier(model);
+    CHECK(clf.classify(frame).probabilities == probabilities(pre(frame, false)));
+  }
+  model.preprocess.dark_luminance_threshold = 0.2f; // the frame is dark by this rule
+  {
+    auto clf = make_densenet_classifier(model);
+    CHECK(clf.encoder().is_dark(frame));
+    CHECK(clf.classify(frame).probabilities == probabilities(pre(frame, true)));
+    CHECK(clf.classify(frame, false).probabilities == probabilities(pre(frame, false)));
+    const cv::Mat bright = frame + cv::Scalar::all(120);
+    CHECK_FALSE(clf.encoder().is_dark(bright));
+    CHECK(clf.classify(bright).probabilities == probabilities(pre(bright, false)));
+  }
+  model.preprocess.lighting_normalise = true; // normalised, never brightened
+  {
+    auto clf = make_densenet_classifier(model);
+    cv::Mat normalised;
+    LightingNormaliser().run(frame, normalised);
+    const auto expected = probabilities(pre(normalised, false));
+    CHECK(clf.classify(frame).probabilities == expected);
+    CHECK(clf.classify(frame, true).probabilities == expected);
+  }
+}
+
+TEST_CASE("a float image in 0..255 instead of 0..1 is rejected, not clipped") {
+  const auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  auto clf = make_densenet_classifier(model);
+  cv::Mat bytes(60, 80, CV_8UC3, cv::Scalar(10, 200, 90)), f;
+  bytes.convertTo(f, CV_32FC3); // 0..255 floats: the common mistake
+  CHECK_THROWS_WITH_AS(clf.classify(f), doctest::Contains("expected 0..1"), InvalidArgument);
+  bytes.convertTo(f, CV_32FC3, 1.0 / 255.0);
+  CHECK(clf.classify(f).probabilities == clf.classify(bytes).probabilities);
+  f.at<cv::Vec3f>(3, 4)[1] = -0.01f;
+  CHECK_THROWS_WITH_AS(clf.classify(f), doctest::Contains("expected 0..1"), InvalidArgument);
 }

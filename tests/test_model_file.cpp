@@ -4,10 +4,18 @@
 
 #include <doctest/doctest.h>
 
+#include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 using namespace shadowsense;
 
@@ -71,7 +79,7 @@ std::string load_error(const std::vector<std::uint8_t>& bytes) {
 std::size_t tensors_offset(const ModelFile& m) {
   std::size_t at = 8 + 4;                                       // magic, version
   at += 4 * 4 + 4 + 4 + 4 * m.architecture.block_config.size(); // architecture
-  at += 4 * 4 + 4 + 4 + 6 * 4 + 4;                              // preprocessing
+  at += 4 * 4 + 4 + 4 + 6 * 4 + 4 + 3 * 4;                      // preprocessing (v2)
   at += 4;                                                      // class count
   for (const auto& n : m.class_names) at += 4 + n.size();
   return at + 4; // tensor count
@@ -123,7 +131,7 @@ TEST_CASE("truncation at every byte is rejected, naming the section it happened 
   const ModelFile m = tiny_model(true);
   const auto bytes = m.to_bytes();
   const std::size_t arch_start = 12, pre_start = arch_start + 6 * 4 + 2 * 4;
-  const std::size_t names_start = pre_start + 4 * 4 + 2 * 4 + 6 * 4 + 4;
+  const std::size_t names_start = pre_start + 4 * 4 + 2 * 4 + 6 * 4 + 4 + 3 * 4;
   const std::size_t tensors_start = tensors_offset(m) - 4;
   for (std::size_t len = 0; len < bytes.size(); ++len) {
     const std::vector<std::uint8_t> cut(bytes.begin(), bytes.begin() + static_cast<long>(len));
@@ -243,4 +251,179 @@ TEST_CASE("NaN/Inf weights and negative variances are rejected on save and on lo
 TEST_CASE("loading a missing path is an IoError naming the path") {
   CHECK_THROWS_WITH_AS(ModelFile::load("/nonexistent/model.ssdn"),
                        doctest::Contains("/nonexistent/model.ssdn"), IoError);
+}
+
+namespace {
+// The version-1 bytes of a model: the version-2 bytes without the three preprocessing fields
+// version 2 added (lighting flag, lighting target, dark threshold), version 1, CRC fixed.
+std::vector<std::uint8_t> as_version_1(const ModelFile& m) {
+  auto b = m.to_bytes();
+  const std::size_t extra = tensors_offset(m) - 4 - 4;
+  std::size_t at = 4; // the class count and names precede the tensor count
+  for (const auto& n : m.class_names) at += 4 + n.size();
+  const std::size_t v2_fields = extra - at - 12 + 4; // start of the 12 added bytes
+  b.erase(b.begin() + static_cast<long>(v2_fields), b.begin() + static_cast<long>(v2_fields + 12));
+  write_u32(b, 8, 1);
+  fix_crc(b);
+  return b;
+}
+
+std::filesystem::path tmp_dir(const std::string& name) {
+  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / name;
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+std::vector<std::uint8_t> file_bytes(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+}
+
+std::string load_path_error(const std::filesystem::path& p) {
+  try {
+    (void)ModelFile::load(p);
+  } catch (const IoError& e) {
+    return std::string("IoError: ") + e.what();
+  } catch (const ModelFileError& e) {
+    return std::string("ModelFileError: ") + e.what();
+  }
+  return "(no error)";
+}
+} // namespace
+
+TEST_CASE("version 2 records lighting normalisation and the dark-frame rule") {
+  ModelFile m = tiny_model(true);
+  m.preprocess.lighting_normalise = true;
+  m.preprocess.lighting_target = 0.4f;
+  m.preprocess.dark_luminance_threshold = 0.125f;
+  const auto bytes = m.to_bytes();
+  CHECK(read_u32(bytes, 8) == 2);
+  const ModelFile back = ModelFile::from_bytes(bytes);
+  CHECK(back.format_version == 2);
+  CHECK(back.preprocess.lighting_normalise);
+  CHECK(back.preprocess.lighting_target == 0.4f);
+  CHECK(back.preprocess.dark_luminance_threshold == 0.125f);
+  CHECK(back.to_bytes() == bytes);
+  // The three fields sit right before the class count.
+  const std::size_t flag = tensors_offset(m) - 4 - 4 - (4 + 4) - (4 + 4) - 12;
+  REQUIRE(read_u32(bytes, flag) == 1);
+  auto bad = bytes;
+  write_u32(bad, flag, 2);
+  fix_crc(bad);
+  CHECK(load_error(bad).find("lighting normalisation flag is 2, expected 0..1") !=
+        std::string::npos);
+  bad = bytes;
+  write_u32(bad, flag + 8, std::bit_cast<std::uint32_t>(1.5f));
+  fix_crc(bad);
+  CHECK(load_error(bad).find("dark luminance threshold 1.5") != std::string::npos);
+  bad = bytes;
+  write_u32(bad, flag + 4, std::bit_cast<std::uint32_t>(0.0f));
+  fix_crc(bad);
+  CHECK(load_error(bad).find("lighting target 0.0") != std::string::npos);
+}
+
+TEST_CASE("version-1 files still load, with the documented defaults, and save as version 2") {
+  ModelFile m = tiny_model(true);
+  m.preprocess.lighting_normalise = true; // not representable in version 1
+  m.preprocess.dark_luminance_threshold = 0.3f;
+  const auto v1 = as_version_1(m);
+  CHECK(v1.size() + 12 == m.to_bytes().size());
+  const ModelFile old = ModelFile::from_bytes(v1);
+  CHECK(old.format_version == 1);
+  CHECK_FALSE(old.preprocess.lighting_normalise);
+  CHECK(old.preprocess.dark_luminance_threshold == 0.0f);
+  CHECK(old.preprocess.resize_width == m.preprocess.resize_width);
+  CHECK(old.tensors[0].values == m.tensors[0].values);
+  // Upgrading in C++: set the options, save (always the current version).
+  ModelFile up = old;
+  up.preprocess.lighting_normalise = true;
+  up.preprocess.dark_luminance_threshold = 0.3f;
+  CHECK(up.to_bytes() == m.to_bytes());
+  // The committed version-1 fixture (tools/make_densenet_fixture.py) loads as version 1.
+  CHECK(ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn").format_version == 1);
+}
+
+TEST_CASE("a resize or crop beyond 4096 per side is rejected before any image is made") {
+  ModelFile m = tiny_model(false);
+  m.preprocess.resize_width = m.preprocess.resize_height = 65536;
+  CHECK_THROWS_WITH_AS(m.to_bytes(), doctest::Contains("both in 1..4096"), ModelFileError);
+  auto bytes = tiny_model(false).to_bytes();
+  write_u32(bytes, 12 + 6 * 4 + 2 * 4, 65536); // resize width
+  write_u32(bytes, 12 + 6 * 4 + 2 * 4 + 4, 65536);
+  fix_crc(bytes);
+  CHECK(load_error(bytes).find("resize width is 65536, expected 0..4096") != std::string::npos);
+  PreprocessParams p;
+  p.crop_width = p.crop_height = 5000;
+  CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("both in 1..4096"), InvalidArgument);
+}
+
+TEST_CASE("directories, devices and FIFOs as model paths are IoErrors, never a hang") {
+  const auto dir = tmp_dir("model_paths");
+  CHECK(load_path_error(dir).starts_with("IoError: "));
+  CHECK(load_path_error(dir).find("is a directory") != std::string::npos);
+  CHECK(load_path_error("/dev/zero")
+            .find("IoError: model file '/dev/zero' is not a regular "
+                  "file") != std::string::npos);
+  const auto fifo = dir / "model.fifo";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  CHECK(load_path_error(fifo).find("not a regular file") != std::string::npos);
+  CHECK_THROWS_WITH_AS(tiny_model(false).save(dir), doctest::Contains("is a directory"), IoError);
+}
+
+TEST_CASE("a huge file is rejected from its header, before the body is read") {
+  const auto dir = tmp_dir("model_huge");
+  // 1 GB sparse file with a wrong magic: only the header is read.
+  const auto junk = dir / "junk.ssm";
+  { std::ofstream(junk, std::ios::binary) << "NOTAMODEL"; }
+  std::filesystem::resize_file(junk, std::uintmax_t(1) << 30);
+  CHECK(load_path_error(junk).find("ModelFileError: " + junk.string() +
+                                   ": not a shadowsense "
+                                   "model file: wrong magic") != std::string::npos);
+  // A valid header followed by 1 GB: larger than any model of that architecture can be.
+  const auto big = dir / "big.ssm";
+  tiny_model(false).save(big);
+  std::filesystem::resize_file(big, std::uintmax_t(1) << 30);
+  const auto msg = load_path_error(big);
+  CHECK(msg.find("ModelFileError") == 0);
+  CHECK(msg.find("model file has 1073741824 bytes, expected at most") != std::string::npos);
+  std::filesystem::remove(junk);
+  std::filesystem::remove(big);
+}
+
+TEST_CASE("save is atomic: a failed write leaves the old file and no temporary file") {
+  const auto dir = tmp_dir("model_atomic");
+  const auto path = dir / "model.ssm";
+  const ModelFile small = tiny_model(false);
+  small.save(path);
+  const auto good = file_bytes(path);
+  CHECK(ModelFile::load(path).to_bytes() == good);
+  // A file-size limit below the new model's size (as on a full disk): the write fails.
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    const rlimit lim{static_cast<rlim_t>(good.size()), static_cast<rlim_t>(good.size())};
+    ::setrlimit(RLIMIT_FSIZE, &lim);
+    try {
+      tiny_model(true).save(path); // larger: holds a self-test
+    } catch (const IoError& e) {
+      _exit(std::string(e.what()).find("unchanged") != std::string::npos ? 0 : 3);
+    } catch (...) {
+      _exit(4);
+    }
+    _exit(5);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 0);
+  CHECK(file_bytes(path) == good);
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
+  CHECK(files == 1); // no temporary file left
+  CHECK_THROWS_WITH_AS(small.save(dir / "missing" / "model.ssm"),
+                       doctest::Contains("cannot create a temporary file"), IoError);
+  tiny_model(true).save(path); // and a successful save replaces it
+  CHECK(ModelFile::load(path).self_test.has_value());
 }

@@ -103,3 +103,21 @@ TEST_CASE("bad timestamps, positions and configs are rejected") {
   CHECK_THROWS_AS(ContactTracker({.hits_to_confirm = 0}), InvalidArgument);
   CHECK_THROWS_AS(ContactTracker({.velocity_smoothing = 0}), InvalidArgument);
 }
+
+TEST_CASE("two detections 0.1 ms apart with 0.5 px jitter keep their track id") {
+  ContactTracker tracker;
+  const Detection a{{100.f, 100.f}, {}};
+  const Detection b{{100.5f, 100.f}, {}};
+  tracker.update(std::vector<Detection>{a}, 0.0);
+  tracker.update(std::vector<Detection>{b}, 0.1); // a near-duplicate frame
+  const auto& t = tracker.update(std::vector<Detection>{a}, 33.4);
+  REQUIRE(t.size() == 1);
+  CHECK(t[0].id == 1);
+  CHECK(t[0].hits == 3);
+  // Steps of normal length still estimate the velocity: -0.5 px over 33.3 ms, then 10 px over
+  // 10 ms, smoothed with weight 0.5.
+  CHECK(t[0].velocity.x == doctest::Approx(-0.5 / 33.3));
+  tracker.update(std::vector<Detection>{Detection{{110.f, 100.f}, {}}}, 43.4);
+  CHECK(tracker.tracks()[0].velocity.x == doctest::Approx(0.5 * (-0.5 / 33.3) + 0.5 * 1.0));
+  CHECK_THROWS_AS(ContactTracker({.min_velocity_dt_ms = -1}), InvalidArgument);
+}

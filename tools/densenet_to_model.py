@@ -14,19 +14,42 @@ Architecture: --arch densenet121|161|169|201, or --growth-rate/--block-config/
 --self-test N embeds N random inputs and torchvision's logits for them, which the C++ loader
 re-runs at load time.
 
+Preprocessing recorded in the file (format version 2): --resize, --crop, --contrast,
+--brightness, --mean, --std, --lighting-normalise (the model was trained on lighting-normalised
+images; the C++ Classifier then normalises every frame), --lighting-target, --dark-threshold X
+(the dark-frame rule: a frame whose mean luminance 0.2989 R + 0.587 G + 0.114 B, in 0..1, is
+below X gets the brightness factor; 0 = never; default 0.165).
+
+Upgrading a version-1 file (what the library read before lighting normalisation and the dark
+rule were recorded) to version 2, weights and self-test unchanged:
+  /usr/bin/python3 tools/densenet_to_model.py --upgrade OLD.ssm -o NEW.ssm \
+      [--lighting-normalise] [--lighting-target T] [--dark-threshold X]
+Without --dark-threshold an upgraded file keeps version 1's behaviour (threshold 0: no frame is
+dark by the rule). -o may name OLD.ssm itself: the write is atomic.
+
+Bad values (a zero std, a NaN factor, an empty or zero block config, ...) are rejected with a
+message and exit status 2, before anything is written; every file is written atomically (a
+temporary file in the same folder, fsync, rename; removed on failure).
+
 Run with Debian's python: /usr/bin/python3 tools/densenet_to_model.py ...
 """
 import argparse
+import math
+import os
 import re
 import struct
 import sys
+import tempfile
 import zlib
 
 import torch
 import torchvision
 
 MAGIC = b"SSDNMOD\n"
-VERSION = 1
+VERSION = 2
+MAX_SIDE = 4096  # preprocess_max_side in include/shadowsense/classify/preprocess_params.hpp
+DEFAULT_DARK_THRESHOLD = 0.165  # default_dark_luminance_threshold (same header)
+DEFAULT_LIGHTING_TARGET = 0.35  # LightingNormaliser::Config::target
 ARCHS = {
     "densenet121": (32, (6, 12, 24, 16), 64),
     "densenet161": (48, (6, 12, 36, 24), 96),
@@ -183,6 +206,9 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
     for v in list(pre["mean"]) + list(pre["std"]):
         f32(v)
     u32(0)  # the network expects RGB
+    u32(1 if pre.get("lighting_normalise") else 0)  # version 2
+    f32(pre.get("lighting_target", DEFAULT_LIGHTING_TARGET))
+    f32(pre.get("dark_threshold", DEFAULT_DARK_THRESHOLD))
     if len(class_names) != classes:
         raise SystemExit(f"{len(class_names)} class names for {classes} classes")
     u32(classes)
@@ -214,13 +240,115 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
         out.extend(logits.contiguous().numpy().astype("<f4").tobytes())
         f32(tol)
     out.extend(struct.pack("<I", checksum(out)))
-    with open(path, "wb") as f:
-        f.write(out)
+    write_atomically(path, out)
+
+
+def write_atomically(path, data):
+    """Write data to path via a temporary file in the same folder (fsync, rename): the old file
+    is replaced completely or left untouched; the temporary file never outlives a failure."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix="." + os.path.basename(path) + ".tmp-")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def upgrade(data, lighting_normalise, lighting_target, dark_threshold, path="model file"):
+    """Version-1 bytes -> version-2 bytes with the given preprocessing options; weights,
+    names and self-test unchanged. Raises ValueError with a message on a bad file."""
+    if len(data) < 12 or data[:8] != MAGIC:
+        raise ValueError(f"{path}: not a shadowsense model file (wrong magic number)")
+    if checksum(data[:-4]) != struct.unpack("<I", data[-4:])[0]:
+        raise ValueError(f"{path}: checksum mismatch (corrupt or truncated)")
+    version = struct.unpack_from("<I", data, 8)[0]
+    if version == VERSION:
+        raise ValueError(f"{path}: already version {VERSION}; nothing to upgrade")
+    if version != 1:
+        raise ValueError(f"{path}: format version {version}, expected 1 to upgrade")
+    if len(data) < 40:
+        raise ValueError(f"{path}: truncated header")
+    blocks = struct.unpack_from("<I", data, 8 + 4 + 5 * 4)[0]
+    if not 1 <= blocks <= 16:
+        raise ValueError(f"{path}: {blocks} dense blocks, expected 1..16")
+    # magic, version, 5 architecture fields, block count + blocks, then the 13 version-1
+    # preprocessing fields (4 sizes, 2 factors, 6 mean/std, channel order).
+    at = 8 + 4 + 5 * 4 + 4 + 4 * blocks + 13 * 4
+    if len(data) < at + 8:
+        raise ValueError(f"{path}: truncated before the class names")
+    extra = struct.pack("<Iff", 1 if lighting_normalise else 0, lighting_target, dark_threshold)
+    out = bytearray(data[:8]) + struct.pack("<I", VERSION) + data[12:at] + extra + data[at:-4]
+    out.extend(struct.pack("<I", checksum(out)))
+    return bytes(out)
 
 
 def checksum(data):
     """CRC-32 (zlib) of every byte before the checksum."""
     return zlib.crc32(bytes(data)) & 0xFFFFFFFF
+
+
+def finite(v):
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+def check_preprocessing(error, resize, crop, contrast, brightness, mean, std,
+                        lighting_target=DEFAULT_LIGHTING_TARGET, dark_threshold=0.0):
+    """The ranges PreprocessParams::validate accepts; error(message) for the first violation."""
+    for name, (w, h) in (("--resize", resize), ("--crop", crop)):
+        if not (0 <= w <= MAX_SIDE and 0 <= h <= MAX_SIDE and (w == 0) == (h == 0)):
+            error(f"{name} {w} {h}: expected both 0 (skip) or both in 1..{MAX_SIDE}")
+    if not (finite(contrast) and contrast >= 0):
+        error(f"--contrast {contrast}: expected a finite value >= 0")
+    if not (finite(brightness) and brightness >= 0):
+        error(f"--brightness {brightness}: expected a finite value >= 0")
+    if not all(finite(v) for v in mean):
+        error(f"--mean {' '.join(map(str, mean))}: expected finite values")
+    if not all(finite(v) and v > 0 for v in std):
+        error(f"--std {' '.join(map(str, std))}: expected finite values > 0")
+    if not (finite(lighting_target) and 0 < lighting_target <= 1):
+        error(f"--lighting-target {lighting_target}: expected a value in (0, 1]")
+    if not (finite(dark_threshold) and 0 <= dark_threshold <= 1):
+        error(f"--dark-threshold {dark_threshold}: expected a value in [0, 1]")
+
+
+def check_architecture(error, growth, blocks, init, bn_size):
+    """The ranges DenseNetArchitecture::validate accepts."""
+    if not 1 <= growth <= 4096:
+        error(f"--growth-rate {growth}: expected 1..4096")
+    if not 1 <= len(blocks) <= 16 or not all(1 <= b <= 1024 for b in blocks):
+        error(f"--block-config {' '.join(map(str, blocks))}: expected 1..16 blocks of "
+              "1..1024 layers each")
+    if not 1 <= init <= 65536:
+        error(f"--init-features {init}: expected 1..65536")
+    if not 1 <= bn_size <= 64:
+        error(f"--bn-size {bn_size}: expected 1..64")
+
+
+def check_args(ap, args):
+    """Reject what the C++ loader would reject, before any work: argparse's error() prints
+    the usage and the message and exits with status 2 (no traceback)."""
+    check_preprocessing(ap.error, args.resize, args.crop, args.contrast, args.brightness,
+                        args.mean, args.std, args.lighting_target,
+                        0.0 if args.dark_threshold is None else args.dark_threshold)
+    check_architecture(ap.error, args.growth_rate, args.block_config, args.init_features,
+                       args.bn_size)
+    if not 0 <= args.num_classes <= (1 << 20):
+        ap.error(f"--num-classes {args.num_classes}: expected 1..1048576 (0: from the weights)")
+    if not 0 <= args.self_test <= 64:
+        ap.error(f"--self-test {args.self_test}: expected 0..64")
+    if not (finite(args.self_test_tolerance) and args.self_test_tolerance > 0):
+        ap.error(f"--self-test-tolerance {args.self_test_tolerance}: expected a finite value > 0")
+    if args.class_names and any(len(n.encode("utf-8")) > 1024 for n in args.class_names):
+        ap.error("--class-names: a name longer than 1024 bytes")
 
 
 def main(argv=None):
@@ -229,6 +357,8 @@ def main(argv=None):
     src.add_argument("--torchvision", choices=sorted(ARCHS))
     src.add_argument("--state-dict")
     src.add_argument("--random-init", action="store_true")
+    src.add_argument("--upgrade", metavar="OLD",
+                     help="rewrite a version-1 model file as version 2 (see above)")
     ap.add_argument("--extreme-bn", action="store_true",
                     help="with --random-init: running_var 0, 1e-9 and x1e6 in channels 0-2")
     ap.add_argument("--pretrained", action="store_true", help="torchvision ImageNet weights")
@@ -249,15 +379,39 @@ def main(argv=None):
     ap.add_argument("--self-test", type=int, default=0, metavar="N",
                     help="embed N random inputs (crop size) and torchvision's logits")
     ap.add_argument("--self-test-tolerance", type=float, default=1e-4)
+    ap.add_argument("--lighting-normalise", action="store_true",
+                    help="the model expects lighting-normalised frames (recorded in the file)")
+    ap.add_argument("--lighting-target", type=float, default=DEFAULT_LIGHTING_TARGET)
+    ap.add_argument("--dark-threshold", type=float, default=None,
+                    help=f"dark-frame rule threshold in 0..1 (default {DEFAULT_DARK_THRESHOLD}; "
+                         "with --upgrade: 0, version 1's behaviour)")
     ap.add_argument("-o", "--output", required=True)
     args = ap.parse_args(argv)
+    check_args(ap, args)
+    if args.upgrade:
+        try:
+            with open(args.upgrade, "rb") as f:
+                data = f.read()
+            out = upgrade(data, args.lighting_normalise, args.lighting_target,
+                          args.dark_threshold if args.dark_threshold is not None else 0.0,
+                          args.upgrade)
+            write_atomically(args.output, out)
+        except (OSError, ValueError) as e:
+            print(f"densenet_to_model.py: {e}", file=sys.stderr)
+            sys.exit(2 if isinstance(e, ValueError) else 1)
+        print(f"wrote {args.output}: version {VERSION}, lighting normalisation "
+              f"{'on' if args.lighting_normalise else 'off'}")
+        return
 
     model, growth, blocks, init = build_model(args)
     classes = model.classifier.out_features
     names = args.class_names or [f"class{i}" for i in range(classes)]
     pre = dict(resize_width=args.resize[0], resize_height=args.resize[1],
                crop_width=args.crop[0], crop_height=args.crop[1], contrast=args.contrast,
-               brightness=args.brightness, mean=args.mean, std=args.std)
+               brightness=args.brightness, mean=args.mean, std=args.std,
+               lighting_normalise=args.lighting_normalise, lighting_target=args.lighting_target,
+               dark_threshold=(DEFAULT_DARK_THRESHOLD if args.dark_threshold is None
+                               else args.dark_threshold))
     st = None
     if args.self_test > 0:
         gen = torch.Generator().manual_seed(args.seed + 1)
@@ -266,7 +420,11 @@ def main(argv=None):
         with torch.no_grad():
             logits = model(x)
         st = (x, logits, args.self_test_tolerance)
-    write_model(args.output, model, growth, blocks, init, args.bn_size, names, pre, st)
+    try:
+        write_model(args.output, model, growth, blocks, init, args.bn_size, names, pre, st)
+    except OSError as e:
+        print(f"densenet_to_model.py: cannot write {args.output}: {e}", file=sys.stderr)
+        sys.exit(1)
     print(f"wrote {args.output}: growth {growth}, blocks {list(blocks)}, init {init}, "
           f"bn_size {args.bn_size}, {classes} classes")
 

@@ -17,20 +17,28 @@ Modes
                     linear classifier trained on its pooled features (computed once)
 
 Data: a folder in the library's dataset format (root/<class>/*.png + root/metadata.csv with
-file_name, class, user, lighting, session, timestamp_ms, ...). Split selection by metadata:
+file_name, class, user, lighting, session, timestamp_ms, ...), or a plain class-per-folder tree
+without metadata.csv: root/<class>/**/*.{png,jpg,jpeg,bmp} (recursive, sorted by path; user and
+lighting absent, the frames of a class in path order stand for its collection order, and the
+dark-frame rule decides which frames get the brightness factor). Split selection by metadata:
   --users / --exclude-users, --lightings / --exclude-lightings   which rows may be used at all
   --holdout 0.3      drop the last 30% (by timestamp) of every session x class block: the
                      test part of the paper's Table 1 split, never seen here
   --val-fraction 0.3 validation = the last 30% (by timestamp) of every session x class block
                      of what remains (the paper's 70/30 train/validation split)
   --val-users / --val-lightings   validation = those rows instead (leave-out experiments)
-Dark images (brightness factor): lighting 'night', or a lighting_level below 0.25.
+Dark images (brightness factor): lighting 'night', or a lighting_level below 0.25; in a plain
+tree, a mean luminance below --dark-threshold (the rule the model file records for inference).
+The model file records the preprocessing, --lighting-normalise and --dark-threshold included,
+so the C++ Classifier encodes frames the same way without flags. The output (and
+--save-state-dict) are written atomically: no partial or temporary file is left behind.
 
   /usr/bin/python3 tools/train.py DATA -o model.ssm --mode scratch --resize 160 88 --crop 0 0
   /usr/bin/python3 tools/train.py DATA -o model.ssm --mode transfer --backbone base.ssm
 """
 import argparse
 import csv
+import io
 import os
 import random
 import struct
@@ -44,6 +52,7 @@ import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import dataset_reader  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
 
 MEAN = [0.485, 0.456, 0.406]
@@ -78,8 +87,8 @@ def read_model_file(path):
         return v
 
     version = u32()
-    if version != d2m.VERSION:
-        raise SystemExit(f"{path}: format version {version}, expected {d2m.VERSION}")
+    if version not in (1, d2m.VERSION):
+        raise SystemExit(f"{path}: format version {version}, expected 1 or {d2m.VERSION}")
     growth, bn_size, init, classes = u32(), u32(), u32(), u32()
     eps = f32()
     blocks = tuple(u32() for _ in range(u32()))
@@ -90,6 +99,10 @@ def read_model_file(path):
     order = u32()
     if order != 0:
         raise SystemExit(f"{path}: network channel order BGR is not supported by train.py")
+    if version >= 2:
+        normalise, target, dark_threshold = u32() == 1, f32(), f32()
+    else:  # version 1's behaviour
+        normalise, target, dark_threshold = False, d2m.DEFAULT_LIGHTING_TARGET, 0.0
     names = []
     for _ in range(u32()):
         n = u32()
@@ -109,7 +122,9 @@ def read_model_file(path):
         sd[name] = t.reshape(shape).clone()
     arch = dict(growth=growth, blocks=blocks, init=init, bn_size=bn_size, classes=classes, eps=eps)
     pre = dict(resize_width=rw, resize_height=rh, crop_width=cw, crop_height=ch,
-               contrast=contrast, brightness=brightness, mean=mean, std=std)
+               contrast=contrast, brightness=brightness, mean=mean, std=std,
+               lighting_normalise=normalise, lighting_target=target,
+               dark_threshold=dark_threshold)
     return arch, pre, names, sd
 
 
@@ -147,10 +162,37 @@ def load_backbone(path):
 
 
 # -------------------------------------------------------------------------------- data + split
+IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp")
+
+
+def read_class_folders(root):
+    """A plain class-per-folder tree: root/<class>/**/<image>, recursive, sorted by path."""
+    if not os.path.isdir(root):
+        raise SystemExit(f"{root}: not a folder")
+    rows = []
+    for cls in sorted(os.listdir(root)):
+        top = os.path.join(root, cls)
+        if not os.path.isdir(top) or cls.startswith("."):
+            continue
+        files = []
+        for folder, dirs, names in os.walk(top):
+            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+            files += [os.path.join(folder, n) for n in names
+                      if n.lower().endswith(IMAGE_EXTENSIONS) and not n.startswith(".")]
+        for i, path in enumerate(sorted(files)):
+            rows.append({"file_name": os.path.relpath(path, root), "class": cls, "user": "",
+                         "lighting": "", "lighting_level": float("nan"), "session": cls,
+                         "timestamp_ms": float(i), "path": path})
+    if not rows:
+        raise SystemExit(f"{root}: no metadata.csv and no images in class sub-folders "
+                         f"(expected root/<class>/*.png)")
+    return rows
+
+
 def read_metadata(root):
     path = os.path.join(root, "metadata.csv")
     if not os.path.isfile(path):
-        raise SystemExit(f"{path}: missing (expected a dataset folder in the library's format)")
+        return read_class_folders(root)
     rows = []
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
@@ -171,7 +213,15 @@ def read_metadata(root):
     return rows
 
 
-def is_dark(row):
+def mean_luminance(x):
+    """x: RGB 3 x H x W in [0, 1] -> mean of 0.2989 R + 0.587 G + 0.114 B (FrameEncoder)."""
+    return float((0.2989 * x[0] + 0.587 * x[1] + 0.114 * x[2]).mean())
+
+
+def is_dark(row, x=None, threshold=0.0):
+    """The metadata's lighting when there is one, else the dark-frame rule on the image."""
+    if not row["lighting"] and x is not None:
+        return threshold > 0 and mean_luminance(x) < threshold
     if row["lighting"] == "night":
         return True
     lv = row.get("lighting_level")
@@ -272,11 +322,28 @@ def augment(x, gen):
     return (x + sigma * torch.randn(x.shape, generator=gen)).clamp(0, 1)
 
 
+def augment_geometry(x, gen):
+    """Geometric augmentation (--augment-geometry): random horizontal and vertical flips
+    (people stand on either side of the robot) and a random scale 0.85-1.15 and shift of up to
+    8% of the frame (other lenses, mounting heights and hand sizes), per image."""
+    n = x.shape[0]
+    sx = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    sy = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    scale = torch.empty(n).uniform_(0.85, 1.15, generator=gen)
+    theta = torch.zeros(n, 2, 3)
+    theta[:, 0, 0] = sx / scale
+    theta[:, 1, 1] = sy / scale
+    theta[:, :, 2] = torch.empty(n, 2).uniform_(-0.16, 0.16, generator=gen)
+    grid = F.affine_grid(theta, list(x.shape), align_corners=False)
+    return F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
+
+
 def cache(rows, pre, normalised, classes, label):
     xs, ys, dark = [], [], []
     t0 = time.time()
     for i, r in enumerate(rows):
         x = load_image(r["path"])
+        dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)))
         if normalised:
             x = normalise_lighting(x)
         xs.append(geometry(x, pre))
@@ -284,7 +351,6 @@ def cache(rows, pre, normalised, classes, label):
             raise SystemExit(f"{r['path']}: class '{r['class']}' is not among the model's "
                              f"classes {classes}")
         ys.append(classes.index(r["class"]))
-        dark.append(is_dark(r))
         if (i + 1) % 500 == 0:
             print(f"  {label}: loaded {i + 1}/{len(rows)} images ({time.time() - t0:.0f} s)",
                   flush=True)
@@ -337,7 +403,8 @@ def train_loop(model, params, forward, n_train, val_fn, args, gen):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("data", help="dataset folder (root/<class>/*.png + metadata.csv)")
+    ap.add_argument("data", help="dataset folder (root/<class>/*.png + metadata.csv), or a "
+                                 "plain class-per-folder tree")
     ap.add_argument("-o", "--output", required=True, help="model file to write")
     ap.add_argument("--mode", choices=["scratch", "transfer"], default="scratch")
     ap.add_argument("--backbone", help="transfer: model file or state_dict of a DenseNet")
@@ -353,7 +420,12 @@ def main(argv=None):
                     help="normalise every image's channel means before preprocessing (and "
                          "skip the dark-image brightness factor); the classifier must do the "
                          "same at inference (ss_eval_classify --lighting-normalise)")
+    ap.add_argument("--dark-threshold", type=float, default=d2m.DEFAULT_DARK_THRESHOLD,
+                    help="dark-frame rule recorded in the model (mean luminance below it: "
+                         "dark); 0 = never")
     ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
+    ap.add_argument("--augment-geometry", action="store_true",
+                    help="flips, scale and shift augmentation (scratch)")
     ap.add_argument("--users"), ap.add_argument("--exclude-users")
     ap.add_argument("--lightings"), ap.add_argument("--exclude-lightings")
     ap.add_argument("--holdout", type=float, default=0.0)
@@ -367,12 +439,25 @@ def main(argv=None):
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
     args = ap.parse_args(argv)
+    d2m.check_preprocessing(ap.error, args.resize, args.crop, args.contrast, args.brightness,
+                            MEAN, STD, d2m.DEFAULT_LIGHTING_TARGET, args.dark_threshold)
+    d2m.check_architecture(ap.error, args.growth_rate, args.block_config, args.init_features,
+                           args.bn_size)
+    for name, v, lo in (("--epochs", args.epochs, 1), ("--batch-size", args.batch_size, 1),
+                        ("--threads", args.threads, 1)):
+        if v < lo:
+            ap.error(f"{name} {v}: expected at least {lo}")
+    if not (d2m.finite(args.lr) and args.lr > 0):
+        ap.error(f"--lr {args.lr}: expected a finite value > 0")
+    for name, v in (("--holdout", args.holdout), ("--val-fraction", args.val_fraction)):
+        if not (d2m.finite(v) and 0 <= v < 1):
+            ap.error(f"{name} {v}: expected a value in [0, 1)")
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
     random.seed(args.seed)
     gen = torch.Generator().manual_seed(args.seed)
 
-    rows = read_metadata(args.data)
+    rows = dataset_reader.rows_for_training(args.data)
     classes = csv_list(args.classes) or sorted({r["class"] for r in rows})
     train_rows, val_rows = select(rows, args)
     print(f"{len(train_rows)} training and {len(val_rows)} validation images, classes "
@@ -380,13 +465,16 @@ def main(argv=None):
 
     pre = dict(resize_width=args.resize[0], resize_height=args.resize[1],
                crop_width=args.crop[0], crop_height=args.crop[1], contrast=args.contrast,
-               brightness=args.brightness, mean=MEAN, std=STD)
+               brightness=args.brightness, mean=MEAN, std=STD,
+               lighting_normalise=args.lighting_normalise,
+               lighting_target=d2m.DEFAULT_LIGHTING_TARGET, dark_threshold=args.dark_threshold)
     if args.mode == "transfer":
         if not args.backbone:
             raise SystemExit("--mode transfer needs --backbone")
         model, growth, blocks, init, bn_size, bpre = load_backbone(args.backbone)
         if bpre is not None:  # keep the backbone's input geometry and photometrics
-            pre = bpre
+            pre = dict(bpre, lighting_normalise=args.lighting_normalise,
+                       dark_threshold=args.dark_threshold)
         model.classifier = torch.nn.Linear(model.classifier.in_features, len(classes))
     else:
         growth, blocks, init, bn_size = (args.growth_rate, tuple(args.block_config),
@@ -437,6 +525,8 @@ def main(argv=None):
             x = xt[idx]
             if args.augment:
                 x = augment(x, gen)
+            if args.augment_geometry:
+                x = augment_geometry(x, gen)
             return model(photometric(x, dt[idx], pre, args.lighting_normalise)), yt[idx]
 
         def val_fn():
@@ -449,11 +539,15 @@ def main(argv=None):
     x = torch.randn(1, 3, xt.shape[2], xt.shape[3], generator=st_gen)
     with torch.no_grad():
         logits = model(x)
-    tmp = args.output + ".tmp"
-    d2m.write_model(tmp, model, growth, blocks, init, bn_size, classes, pre, (x, logits, 1e-4))
-    os.replace(tmp, args.output)  # never leave a half-written model under the real name
-    if args.save_state_dict:
-        torch.save(model.state_dict(), args.save_state_dict)
+    try:  # atomic: never a half-written model (or a temporary file) left behind
+        d2m.write_model(args.output, model, growth, blocks, init, bn_size, classes, pre,
+                        (x, logits, 1e-4))
+        if args.save_state_dict:
+            buf = io.BytesIO()
+            torch.save(model.state_dict(), buf)
+            d2m.write_atomically(args.save_state_dict, buf.getvalue())
+    except OSError as e:
+        raise SystemExit(f"train.py: cannot write the output: {e}")
     print(f"wrote {args.output} ({os.path.getsize(args.output)} bytes)", flush=True)
 
 

@@ -1,14 +1,32 @@
-// Gesture classification over any inference backend. A backend is any type with
-//   class_names() const  -> something convertible to std::span<const std::string>
-//   logits(const Tensor&) -> something convertible to std::span<const float>
-//                            (n x classes values for an n x 3 x h x w tensor)
-// e.g. the DenseNet reference below, or a user's wrapper of OpenCV DNN, ONNX Runtime or
-// TensorRT. Classifier<Backend> adds preprocessing, a numerically safe softmax and the label.
+// Gesture classification over any inference backend (classify/backend.hpp: the
+// ClassifierBackend concept and its archetype). Classifier<Backend> owns the whole encoding of
+// a frame (FrameEncoder: lighting normalisation, the dark-frame rule, preprocessing), runs the
+// backend, and turns logits into probabilities with a numerically safe softmax and a label.
+// This header includes no backend: the DenseNet one is backends/densenet/classifier.hpp
+// (make_densenet_classifier).
+//
+// softmax(logits, probabilities)
+//   requires: logits non-empty and finite; probabilities.size() == logits.size().
+//   ensures: probabilities = softmax(logits), summing to 1 up to rounding; else InvalidArgument.
+// Classifier(backend, config)
+//   requires: the backend has at least one class; config.preprocess valid (InvalidArgument).
+// classify(frame)        encodes frame (the dark-frame rule decides the brightness factor),
+//                        infers, returns label, index and one probability per class.
+// classify(frame, dark)  the same with the caller's dark flag (evaluation protocols).
+// classify(tensor), classify_batch(tensor)
+//                        an already encoded 1 x 3 x h x w / n x 3 x h x w tensor.
+//   throws: InvalidArgument for a bad frame or tensor; Error when the backend returns the
+//           wrong number of logits or NaN/Inf.
+// Threading: ONE INSTANCE PER THREAD. classify() reuses the encoder's buffers and the
+//   backend's; a cheap check (one atomic flag) throws Error when two threads call into the
+//   same instance at once, instead of returning another thread's probabilities. Movable
+//   (not while in use), not copyable.
 #pragma once
 
-#include <shadowsense/backends/densenet/densenet.hpp>
-#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/classify/backend.hpp>
+#include <shadowsense/classify/frame_encoder.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -16,6 +34,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <concepts>
 #include <span>
@@ -25,13 +44,37 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-template <class B>
-concept ClassifierBackend = requires(B& backend, const B& cbackend, const Tensor& input) {
-  { cbackend.class_names() } -> std::convertible_to<std::span<const std::string>>;
-  { backend.logits(input) } -> std::convertible_to<std::span<const float>>;
-};
+namespace detail {
+// Detects two threads inside one object at once: enter() sets a flag and throws if it was
+// already set; the returned guard clears it. Moving yields a fresh, unset flag.
+class ConcurrentUseCheck {
+public:
+  ConcurrentUseCheck() = default;
+  ConcurrentUseCheck(ConcurrentUseCheck&&) noexcept {}
+  ConcurrentUseCheck& operator=(ConcurrentUseCheck&&) noexcept { return *this; }
 
-static_assert(ClassifierBackend<DenseNet>, "the reference backend satisfies the concept");
+  class Guard {
+  public:
+    explicit Guard(std::atomic<bool>& f) : f_(f) {}
+    Guard(const Guard&) = delete;
+    Guard& operator=(const Guard&) = delete;
+    ~Guard() { f_.store(false, std::memory_order_release); }
+
+  private:
+    std::atomic<bool>& f_;
+  };
+  [[nodiscard]] Guard enter(const char* who) {
+    if (busy_.exchange(true, std::memory_order_acquire))
+      throw Error(std::string(who) +
+                  ": called from two threads at once; an instance is not thread-safe, use one "
+                  "instance per thread");
+    return Guard(busy_);
+  }
+
+private:
+  std::atomic<bool> busy_{false};
+};
+} // namespace detail
 
 // Softmax through log-sum-exp in double: exp never overflows (logits of +-1e4 or more are
 // fine) and the probabilities sum to 1 up to rounding. Throws on NaN/Inf logits.
@@ -68,7 +111,7 @@ public:
 
   explicit Classifier(Backend backend, Config config = {})
       : backend_(std::move(backend)),
-        preprocessor_(Preprocessor::Config{config.preprocess, config.input_order}) {
+        encoder_(FrameEncoder::Config{config.preprocess, config.input_order}) {
     detail::require(!class_names().empty(),
                     "Classifier: the backend has no classes, expected at least one");
   }
@@ -76,22 +119,41 @@ public:
   Backend& backend() { return backend_; }
   const Backend& backend() const { return backend_; }
   std::span<const std::string> class_names() const { return backend_.class_names(); }
-  const Preprocessor& preprocessor() const { return preprocessor_; }
+  const FrameEncoder& encoder() const { return encoder_; }
+  const Preprocessor& preprocessor() const { return encoder_.preprocessor(); }
 
-  // One frame: preprocess (dark applies the brightness factor), infer, softmax.
-  Classification classify(const cv::Mat& image, bool dark = false) {
-    preprocessor_.run(image, dark, input_);
-    return classify(input_);
+  // One frame, encoded by the model's own rules (lighting normalisation, dark-frame rule).
+  Classification classify(const cv::Mat& frame) {
+    const auto in_use = busy_.enter("Classifier::classify");
+    encoder_.run(frame, input_);
+    return classify_unchecked(input_);
+  }
+  // One frame with the caller's dark flag (ignored when the model normalises lighting).
+  Classification classify(const cv::Mat& frame, bool dark) {
+    const auto in_use = busy_.enter("Classifier::classify");
+    encoder_.run(frame, dark, input_);
+    return classify_unchecked(input_);
   }
 
   // A preprocessed 1 x 3 x h x w tensor.
   Classification classify(const Tensor& input) {
-    detail::require(input.n() == 1, "Classifier::classify: batch of " + std::to_string(input.n()) +
-                                        ", expected 1 (use classify_batch)");
-    return std::move(classify_batch(input).front());
+    const auto in_use = busy_.enter("Classifier::classify");
+    return classify_unchecked(input);
   }
 
   std::vector<Classification> classify_batch(const Tensor& input) {
+    const auto in_use = busy_.enter("Classifier::classify_batch");
+    return classify_batch_unchecked(input);
+  }
+
+private:
+  Classification classify_unchecked(const Tensor& input) {
+    detail::require(input.n() == 1, "Classifier::classify: batch of " + std::to_string(input.n()) +
+                                        ", expected 1 (use classify_batch)");
+    return std::move(classify_batch_unchecked(input).front());
+  }
+
+  std::vector<Classification> classify_batch_unchecked(const Tensor& input) {
     detail::require(!input.empty(), "Classifier: input tensor is empty, expected n x 3 x h x w");
     const auto names = class_names();
     const std::size_t classes = names.size();
@@ -118,17 +180,10 @@ public:
     return out;
   }
 
-private:
   Backend backend_;
-  Preprocessor preprocessor_;
+  FrameEncoder encoder_;
   Tensor input_;
+  detail::ConcurrentUseCheck busy_;
 };
-
-// The reference classifier: DenseNet over a model file, preprocessing from the same file.
-inline Classifier<DenseNet> make_densenet_classifier(const ModelFile& model,
-                                                     DenseNet::Config config = {},
-                                                     ChannelOrder input_order = ChannelOrder::bgr) {
-  return Classifier<DenseNet>(DenseNet(model, config), {model.preprocess, input_order});
-}
 
 SHADOWSENSE_NAMESPACE_END

@@ -36,18 +36,31 @@ struct LightingNormaliser {
   // bgr: CV_8UC3 (0..255). out: CV_32FC3 in [0, 1], same channel order, ready for
   // Preprocessor::run (call it with dark = false).
   void run(const cv::Mat& image, cv::Mat& out) const {
-    detail::require(!image.empty() && image.type() == CV_8UC3,
+    detail::require(!image.empty() && image.dims == 2 &&
+                        (image.type() == CV_8UC3 || image.type() == CV_32FC3),
                     "LightingNormaliser: image is " +
                         (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
-                        ", expected CV_8UC3");
+                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)");
+    if (image.type() == CV_32FC3) {
+      double lo = 0, hi = 0;
+      detail::require(cv::checkRange(image), "LightingNormaliser: float image holds NaN or Inf, "
+                                             "expected finite values in 0..1");
+      cv::minMaxIdx(image.reshape(1), &lo, &hi);
+      detail::require(lo >= 0.0 && hi <= 1.0, "LightingNormaliser: float image values span " +
+                                                  std::to_string(lo) + ".." + std::to_string(hi) +
+                                                  ", expected 0..1");
+    }
+    cv::Mat src = image; // out may alias image
+    if (image.data == out.data) src = image.clone();
     out.create(image.rows, image.cols, CV_32FC3);
     double sum[3] = {0, 0, 0};
-    for (int y = 0; y < image.rows; ++y) {
-      const auto* s = image.ptr<unsigned char>(y);
+    const bool bytes = src.type() == CV_8UC3;
+    for (int y = 0; y < src.rows; ++y) {
       auto* d = out.ptr<float>(y);
-      for (int x = 0; x < image.cols; ++x)
+      for (int x = 0; x < src.cols; ++x)
         for (int c = 0; c < 3; ++c) {
-          const float v = static_cast<float>(s[3 * x + c]) / 255.0f; // ToTensor
+          const float v = bytes ? static_cast<float>(src.ptr<unsigned char>(y)[3 * x + c]) / 255.0f
+                                : src.ptr<float>(y)[3 * x + c]; // ToTensor
           d[3 * x + c] = v;
           sum[c] += v;
         }

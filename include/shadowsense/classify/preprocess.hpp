@@ -10,9 +10,18 @@
 // (integer grayscale, uint8 rounding after every step) differs by up to a few 1/255 steps; the
 // golden tests (tools/make_preprocess_fixture.py) come from the tensor path.
 // OpenCV images are BGR: the input channel order is a required, explicit choice.
+//
+// Preprocessor(Config)
+//   throws InvalidArgument naming the field when config.params.validate() fails (sizes above
+//   preprocess_max_side included) or the input order is not rgb/bgr.
+// run(image, dark, out)
+//   requires: image CV_8UC3 (0..255) or CV_32FC3 with every value in 0..1 (a float image in
+//             0..255 is rejected, not clipped); crop inside the (resized) image.
+//   ensures: out is the 1 x 3 x h x w network input; throws InvalidArgument otherwise.
+// Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
-#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -39,7 +48,7 @@ public:
   explicit Preprocessor(Config config) : config_(config) {
     try {
       config_.params.validate();
-    } catch (const ModelFileError& e) {
+    } catch (const InvalidArgument& e) {
       throw InvalidArgument(std::string("Preprocessor config: ") + e.what());
     }
     detail::require(config_.input_order == ChannelOrder::rgb ||
@@ -47,7 +56,9 @@ public:
                     "Preprocessor config: input_order must be rgb or bgr");
   }
   // The model's parameters, optionally overridden field by field afterwards by the caller.
-  static Preprocessor for_model(const ModelFile& model, ChannelOrder input_order) {
+  // Model: any type with a PreprocessParams member named preprocess (e.g. ModelFile).
+  template <class Model>
+  static Preprocessor for_model(const Model& model, ChannelOrder input_order) {
     return Preprocessor(Config{.params = model.preprocess, .input_order = input_order});
   }
 
@@ -81,6 +92,12 @@ public:
     } else {
       detail::require(cv::checkRange(image),
                       "Preprocessor: float image holds NaN or Inf, expected finite values in 0..1");
+      double lo = 0, hi = 0;
+      cv::minMaxIdx(image.reshape(1), &lo, &hi);
+      detail::require(lo >= 0.0 && hi <= 1.0,
+                      "Preprocessor: float image values span " + std::to_string(lo) + ".." +
+                          std::to_string(hi) +
+                          ", expected 0..1 (divide a 0..255 float image by 255, or pass CV_8UC3)");
       image.copyTo(float_);
     }
     // Resize: bilinear, half-pixel centres, no antialias, with torch's own arithmetic for

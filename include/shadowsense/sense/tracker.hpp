@@ -2,9 +2,19 @@
 // A small stateful class with one update(detections, timestamp) call, in the spirit of norfair:
 // constant-velocity prediction, greedy nearest-neighbour association inside a distance gate,
 // a hit counter before a track is confirmed and a time-out before it is dropped.
+//
+// update(detections, timestamp_ms)
+//   requires: a finite timestamp greater than the previous one; finite detection positions.
+//   ensures:  see below; a step shorter than Config::min_velocity_dt_ms moves the track but does
+//             not change its velocity (0.5 px of jitter over 0.1 ms would otherwise be 5 px/ms and
+//             throw the next prediction far outside the gate).
+//   throws:   InvalidArgument.
+// Threading: one instance per thread; an owner check (thread_owner.hpp) throws InvalidArgument
+// when one instance is updated from two threads at once.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/thread_owner.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -31,9 +41,10 @@ struct Track {
   int hits = 0;           // frames matched so far
   double first_seen_ms = 0;
   double last_seen_ms = 0;
-  bool confirmed = false;   // hits >= Config::hits_to_confirm (once true, stays true)
-  bool matched = false;     // matched in the latest update
-  int detection_index = -1; // index of the matched detection in the latest update, else -1
+  bool confirmed = false;    // hits >= Config::hits_to_confirm (once true, stays true)
+  bool matched = false;      // matched in the latest update
+  int detection_index = -1;  // index of the matched detection in the latest update, else -1
+  bool has_velocity = false; // velocity estimated from a step >= Config::min_velocity_dt_ms
 };
 
 class ContactTracker {
@@ -43,6 +54,7 @@ public:
     int hits_to_confirm = 1;         // matched frames before a track is reported as confirmed
     double max_missing_ms = 150.0;   // a track unseen this long (inclusive) is dropped
     double velocity_smoothing = 0.5; // weight of the new velocity estimate, (0, 1]
+    double min_velocity_dt_ms = 5.0; // shorter steps do not update the velocity
   };
 
   ContactTracker() : ContactTracker(Config{}) {}
@@ -54,12 +66,15 @@ public:
                     "ContactTracker: max_missing_ms must be finite and >= 0");
     detail::require(c.velocity_smoothing > 0 && c.velocity_smoothing <= 1,
                     "ContactTracker: velocity_smoothing must be in (0, 1]");
+    detail::require(std::isfinite(c.min_velocity_dt_ms) && c.min_velocity_dt_ms >= 0,
+                    "ContactTracker: min_velocity_dt_ms must be finite and >= 0");
   }
 
   // Associates this frame's detections with the live tracks and returns all live tracks (matched
   // or coasting), ordered by id. Unmatched detections start new tracks. Throws InvalidArgument for
   // a non-finite or non-increasing timestamp or a non-finite detection position.
   const std::vector<Track>& update(std::span<const Detection> detections, double timestamp_ms) {
+    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
     detail::require(std::isfinite(timestamp_ms),
                     "ContactTracker::update: timestamp_ms is not finite");
     if (last_t_)
@@ -101,9 +116,12 @@ public:
       if (tr.matched || det_used_[p.det]) continue;
       const Detection& d = detections[p.det];
       const double dt = timestamp_ms - tr.last_seen_ms;
-      const cv::Point2f v = (d.position - tr.position) * static_cast<float>(1.0 / dt);
-      const float a = static_cast<float>(config_.velocity_smoothing);
-      tr.velocity = tr.hits == 1 ? v : tr.velocity * (1 - a) + v * a;
+      if (dt >= config_.min_velocity_dt_ms) {
+        const cv::Point2f v = (d.position - tr.position) * static_cast<float>(1.0 / dt);
+        const float a = static_cast<float>(config_.velocity_smoothing);
+        tr.velocity = tr.has_velocity ? tr.velocity * (1 - a) + v * a : v;
+        tr.has_velocity = true;
+      }
       tr.position = d.position;
       tr.box = d.box;
       tr.last_seen_ms = timestamp_ms;
@@ -142,7 +160,20 @@ public:
       if (t.id == id) return t;
     return std::nullopt;
   }
-  void reset() { *this = ContactTracker(config_); }
+  // Drops every track and forgets the previous timestamp (a new stream) but keeps the ids
+  // growing, so an id is never reused.
+  void clear_tracks() {
+    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    tracks_.clear();
+    last_t_.reset();
+  }
+  // Back to the initial state (ids start at 1 again).
+  void reset() {
+    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    tracks_.clear();
+    last_t_.reset();
+    next_id_ = 1;
+  }
   const Config& config() const { return config_; }
 
 private:
@@ -156,6 +187,7 @@ private:
   std::vector<unsigned char> det_used_;
   std::optional<double> last_t_;
   int next_id_ = 1;
+  detail::OwnerCheck owner_;
 };
 
 SHADOWSENSE_NAMESPACE_END

@@ -1,12 +1,11 @@
 // Labelled gesture frames for training and evaluation: a dataset folder (docs/dataset_format.md)
 // read into frames with a class index, the paper's metadata splits (by user, lighting and
-// collection time), and the frame encoder every classifier entry point shares (optional
-// lighting normalisation, then the Preprocessor), so ss_train_head, ss_eval_classify, ss_demo
-// and tools/train.py see identical tensors.
+// collection time), and feature extraction through the FrameEncoder every classifier entry
+// point shares (classify/frame_encoder.hpp), so ss_train_head, ss_eval_classify, ss_classify,
+// ss_demo and tools/train.py see identical tensors.
 #pragma once
 
-#include <shadowsense/classify/lighting_normalise.hpp>
-#include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/classify/frame_encoder.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/io/dataset.hpp>
@@ -15,8 +14,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <span>
 #include <string>
@@ -33,6 +34,9 @@ struct GestureSample {
   double lighting_level = 1.0;
   std::string session;
   double timestamp_ms = 0;
+  // false for a plain class-per-folder tree: user and lighting unknown, 'dark' is then decided
+  // by the model's dark-frame rule (FrameEncoder::run without a flag).
+  bool from_metadata = true;
 };
 
 struct GestureSamples {
@@ -67,6 +71,93 @@ inline GestureSamples load_gesture_samples(const std::filesystem::path& folder,
                           r.lighting, r.lighting_level, r.session, r.timestamp_ms});
   }
   return out;
+}
+
+// Image files under folder, recursively, sorted by path (byte order): extensions .png .jpg
+// .jpeg .bmp .tif .tiff .webp .ppm .pgm (any case); names starting with '.' are skipped.
+// Throws IoError if folder is not a directory or cannot be listed.
+inline std::vector<std::filesystem::path> find_images(const std::filesystem::path& folder) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  detail::require<IoError>(fs::is_directory(folder, ec),
+                           folder.string() + ": not a folder, expected a folder of images");
+  std::vector<fs::path> out;
+  try {
+    for (auto it = fs::recursive_directory_iterator(folder);
+         it != fs::recursive_directory_iterator(); ++it) {
+      const auto name = it->path().filename().string();
+      if (!name.empty() && name[0] == '.') {
+        if (it->is_directory()) it.disable_recursion_pending();
+        continue;
+      }
+      if (!it->is_regular_file()) continue;
+      std::string ext = it->path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      for (const char* e :
+           {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm"})
+        if (ext == e) {
+          out.push_back(it->path());
+          break;
+        }
+    }
+  } catch (const fs::filesystem_error& e) {
+    throw IoError(folder.string() + ": cannot list the folder: " + e.what());
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// A plain class-per-folder tree without metadata.csv: folder/<class>/**/<image>. The class of
+// an image is the name of the first folder below `folder` on its path. class_names: the
+// model's order (every class found must be one of them), or empty for the sorted folder
+// names. Frames of a class keep path order as their collection order (session = class,
+// timestamp_ms = index), user 0, from_metadata false. Throws DatasetError when no image is
+// found or a class is unknown.
+inline GestureSamples load_class_folders(const std::filesystem::path& folder,
+                                         std::vector<std::string> class_names) {
+  const auto images = find_images(folder);
+  std::vector<std::pair<std::string, std::filesystem::path>> labelled;
+  for (const auto& p : images) {
+    const auto rel = std::filesystem::relative(p, folder);
+    if (std::distance(rel.begin(), rel.end()) < 2) continue; // an image directly in folder
+    labelled.emplace_back(rel.begin()->string(), p);
+  }
+  detail::require<DatasetError>(!labelled.empty(),
+                                folder.string() + ": no metadata.csv and no images in class "
+                                                  "sub-folders, expected folder/<class>/*.png");
+  if (class_names.empty()) {
+    for (const auto& [c, p] : labelled)
+      if (std::find(class_names.begin(), class_names.end(), c) == class_names.end())
+        class_names.push_back(c);
+    std::sort(class_names.begin(), class_names.end());
+  }
+  GestureSamples out;
+  out.class_names = std::move(class_names);
+  std::map<std::string, int> index_in_class;
+  for (const auto& [c, p] : labelled) {
+    const auto it = std::find(out.class_names.begin(), out.class_names.end(), c);
+    detail::require<DatasetError>(it != out.class_names.end(),
+                                  p.string() + ": class folder '" + c +
+                                      "' is not one of the model's classes");
+    GestureSample f;
+    f.path = p;
+    f.label = static_cast<int>(it - out.class_names.begin());
+    f.session = c;
+    f.timestamp_ms = index_in_class[c]++;
+    f.from_metadata = false;
+    out.frames.push_back(std::move(f));
+  }
+  return out;
+}
+
+// folder/metadata.csv when it exists (load_gesture_samples), else a plain class-per-folder
+// tree (load_class_folders).
+inline GestureSamples load_gesture_folder(const std::filesystem::path& folder,
+                                          std::vector<std::string> class_names) {
+  if (std::filesystem::exists(folder / "metadata.csv"))
+    return load_gesture_samples(folder, std::move(class_names));
+  return load_class_folders(folder, std::move(class_names));
 }
 
 // Indices of the frames passing `keep`.
@@ -111,31 +202,6 @@ inline cv::Mat read_colour_image(const std::filesystem::path& path) {
   return img;
 }
 
-// BGR frame -> network input: optional lighting normalisation (then no brightness factor),
-// then the Preprocessor with the model's parameters.
-class FrameEncoder {
-public:
-  FrameEncoder(const PreprocessParams& params, bool lighting_normalise)
-      : normalise_(lighting_normalise), pre_(Preprocessor::Config{params, ChannelOrder::bgr}) {}
-  bool lighting_normalise() const { return normalise_; }
-  const Preprocessor& preprocessor() const { return pre_; }
-
-  void run(const cv::Mat& bgr, bool dark, Tensor& out) {
-    if (normalise_) {
-      norm_.run(bgr, float_);
-      pre_.run(float_, false, out);
-    } else {
-      pre_.run(bgr, dark, out);
-    }
-  }
-
-private:
-  bool normalise_;
-  Preprocessor pre_;
-  LightingNormaliser norm_;
-  cv::Mat float_;
-};
-
 // Pooled features of the given frames (row per index, in order). progress(done, total) is
 // called every 100 frames.
 inline Eigen::MatrixXd
@@ -148,7 +214,12 @@ extract_features(FeatureExtractor& fx, FrameEncoder& enc, const GestureSamples& 
     const auto& f = set.frames[indices[k]];
     std::span<const float> v;
     try {
-      enc.run(read_colour_image(f.path), is_dark(f), t);
+      const cv::Mat image = read_colour_image(f.path);
+      if (f.from_metadata)
+        enc.run(image, is_dark(f), t);
+      else
+        enc.run(image, t); // the model's dark-frame rule
+
       v = fx.extract(t);
     } catch (const IoError&) {
       throw;

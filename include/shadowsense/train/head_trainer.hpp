@@ -5,9 +5,10 @@
 // with the best validation accuracy kept. A robot re-calibrates to its own skin and lighting
 // from a few dozen labelled frames; the result is a new model file.
 //
-//   FeatureExtractor fx(model);                 // frozen backbone
-//   Eigen::MatrixXd X = ...;                    // one row of fx.extract(...) per image
-//   auto r = train_head(X, y, Xv, yv, classes); // HeadTrainer::Config for the recipe
+//   FeatureExtractor fx(model);                          // frozen backbone
+//   Eigen::MatrixXd X = ...;                             // one row of fx.extract(...) per image
+//   auto init = LinearHead::random(classes, fx.dim(), seed); // or the model's own head
+//   auto r = HeadTrainer(HeadTrainer::Config{}).train(init, X, y, Xv, yv);
 //   save_model_file(model_with_head(model, r.head, names), "robot.ssm");
 #pragma once
 
@@ -309,19 +310,10 @@ inline ModelFile model_with_head(const ModelFile& base, const LinearHead& head,
   return m;
 }
 
-// Writes the model next to `path` and renames it into place: an existing file is either
-// replaced completely or left untouched.
+// Writes the model atomically (ModelFile::save): an existing file is either replaced
+// completely or left untouched.
 inline void save_model_file(const ModelFile& model, const std::filesystem::path& path) {
-  std::filesystem::path tmp = path;
-  tmp += ".tmp";
-  try {
-    model.save(tmp);
-    std::filesystem::rename(tmp, path);
-  } catch (...) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw;
-  }
+  model.save(path);
 }
 
 SHADOWSENSE_NAMESPACE_END

@@ -1,12 +1,40 @@
 // The flat, little-endian binary model file of a DenseNet classifier: architecture,
-// preprocessing parameters, class names, the weights in torchvision's state_dict order and an
-// optional self-test (input + torchvision logits), closed by a CRC-32 checksum.
-// The byte layout is documented in docs/model_format.md; tools/densenet_to_model.py writes it.
-// Loading validates everything (magic, version, every size against the architecture, shapes,
-// NaN/Inf, checksum, truncation) and throws ModelFileError naming what was wrong and what was
-// expected, so a bad file is rejected before it reaches the forward pass.
+// preprocessing options (classify/preprocess_params.hpp: resize, crop, contrast, brightness,
+// normalisation, lighting normalisation and the dark-frame rule), class names, the weights in
+// torchvision's state_dict order and an optional self-test (input + torchvision logits),
+// closed by a CRC-32 checksum. The byte layout is in docs/model_format.md;
+// tools/densenet_to_model.py and tools/train.py write it.
+//
+// Versions: this library writes version 2 and reads versions 1 and 2. Version 1 files hold no
+// lighting-normalisation flag and no dark-frame rule; they load with lighting_normalise = false
+// and dark_luminance_threshold = 0 (no frame is dark by the rule: the caller decides, as with
+// version 1), and ModelFile::format_version says 1. Upgrade one with
+//   /usr/bin/python3 tools/densenet_to_model.py --upgrade OLD.ssm -o NEW.ssm [--lighting-normalise]
+//       [--dark-threshold X]
+// or in C++: ModelFile m = ModelFile::load(old); set m.preprocess's fields; m.save(new).
+//
+// ModelFile::validate() const
+//   ensures: returns when the model is consistent (architecture, preprocessing, names, every
+//            tensor's name, shape and finite values, the self-test); throws ModelFileError
+//            naming what was wrong and what was expected otherwise.
+// ModelFile::to_bytes() const / save(path) const
+//   requires: validate() passes (else ModelFileError).
+//   ensures: save writes the version-2 bytes atomically: a temporary file in path's folder,
+//            every write checked, fsync, then rename over path. On any failure (full disk,
+//            file size limit, missing folder) it throws IoError, removes the temporary file and
+//            leaves an existing file at path untouched.
+// ModelFile::load(path) / from_bytes(bytes)
+//   ensures: the model, validated. load checks before reading the body that path is a regular
+//            file (a directory, FIFO or device such as /dev/zero is an IoError, never a hang),
+//            reads the header only (magic, version, architecture), and rejects a file larger
+//            than the most a model of that architecture can take (or than model_file_max_bytes)
+//            with ModelFileError, so a huge file with a wrong magic costs 100 bytes of reading.
+//            Every OS-level failure is an IoError naming the path; every format error a
+//            ModelFileError naming the path, the section and what was expected.
+// Threading: ModelFile is a plain value; const use from several threads is safe.
 #pragma once
 
+#include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -14,6 +42,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cerrno>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -29,6 +58,10 @@
 #include <utility>
 #include <vector>
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 SHADOWSENSE_NAMESPACE_BEGIN
 
 static_assert(std::endian::native == std::endian::little || std::endian::native == std::endian::big,
@@ -38,8 +71,13 @@ static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559,
 
 // The 8 bytes every model file starts with.
 inline constexpr std::array<char, 8> model_file_magic = {'S', 'S', 'D', 'N', 'M', 'O', 'D', '\n'};
-// The format version this library reads and writes.
-inline constexpr std::uint32_t model_file_version = 1;
+// The format version this library writes; it reads model_file_min_version..model_file_version.
+inline constexpr std::uint32_t model_file_version = 2;
+inline constexpr std::uint32_t model_file_min_version = 1;
+// The largest model file load() reads (2 GiB; densenet201 takes 80 MB).
+inline constexpr std::uint64_t model_file_max_bytes = std::uint64_t(1) << 31;
+// The most float values a self-test input may hold (64 MB).
+inline constexpr std::uint64_t model_self_test_max_values = std::uint64_t(1) << 24;
 
 // The DenseNet hyper-parameters (torchvision.models.DenseNet's constructor arguments).
 struct DenseNetArchitecture {
@@ -151,55 +189,6 @@ struct DenseNetArchitecture {
   }
 };
 
-// Channel order of an image (the network's own order is RGB for torchvision models).
-enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
-
-// Preprocessing the network was trained with (paper 5.1.2). A zero resize or crop size means
-// "skip that step". The brightness factor is applied only to images flagged dark.
-struct PreprocessParams {
-  int resize_width = 318;
-  int resize_height = 235;
-  int crop_width = 220;
-  int crop_height = 150;
-  float contrast_factor = 3.0f;
-  float dark_brightness_factor = 2.0f;
-  std::array<float, 3> mean = {0.485f, 0.456f, 0.406f};
-  std::array<float, 3> std = {0.229f, 0.224f, 0.225f};
-  ChannelOrder network_channel_order = ChannelOrder::rgb;
-
-  void validate() const {
-    auto sz = [](int v) { return v >= 0 && v <= 65536; };
-    detail::require<ModelFileError>(
-        sz(resize_width) && sz(resize_height) && (resize_width == 0) == (resize_height == 0),
-        "preprocessing: resize " + std::to_string(resize_width) + "x" +
-            std::to_string(resize_height) + ", expected both 0 (no resize) or both in 1..65536");
-    detail::require<ModelFileError>(
-        sz(crop_width) && sz(crop_height) && (crop_width == 0) == (crop_height == 0),
-        "preprocessing: crop " + std::to_string(crop_width) + "x" + std::to_string(crop_height) +
-            ", expected both 0 (no crop) or both in 1..65536");
-    detail::require<ModelFileError>(std::isfinite(contrast_factor) && contrast_factor >= 0.0f,
-                                    "preprocessing: contrast factor " +
-                                        std::to_string(contrast_factor) +
-                                        ", expected a finite value >= 0");
-    detail::require<ModelFileError>(
-        std::isfinite(dark_brightness_factor) && dark_brightness_factor >= 0.0f,
-        "preprocessing: brightness factor " + std::to_string(dark_brightness_factor) +
-            ", expected a finite value >= 0");
-    for (int i = 0; i < 3; ++i) {
-      detail::require<ModelFileError>(std::isfinite(mean[i]),
-                                      "preprocessing: mean is not finite, expected finite");
-      detail::require<ModelFileError>(std::isfinite(std[i]) && std[i] > 0.0f,
-                                      "preprocessing: std " + std::to_string(std[i]) +
-                                          ", expected a finite value > 0");
-    }
-    detail::require<ModelFileError>(
-        network_channel_order == ChannelOrder::rgb || network_channel_order == ChannelOrder::bgr,
-        "preprocessing: channel order code " +
-            std::to_string(static_cast<std::uint32_t>(network_channel_order)) +
-            ", expected 0 (RGB) or 1 (BGR)");
-  }
-};
-
 struct NamedTensor {
   std::string name;
   std::vector<int> shape;
@@ -215,6 +204,9 @@ struct ModelSelfTest {
 };
 
 struct ModelFile {
+  // The version the file was read from (load/from_bytes); save() always writes
+  // model_file_version. A 1 here means the preprocessing options are version-1 defaults.
+  std::uint32_t format_version = model_file_version;
   DenseNetArchitecture architecture;
   PreprocessParams preprocess;
   std::vector<std::string> class_names;
@@ -367,7 +359,7 @@ inline bool is_running_var(const std::string& name) {
 
 inline void ModelFile::validate() const {
   architecture.validate();
-  preprocess.validate();
+  preprocess.validate<ModelFileError>();
   const auto n_classes = static_cast<std::size_t>(architecture.num_classes);
   detail::require<ModelFileError>(class_names.size() == n_classes,
                                   "model file: " + std::to_string(class_names.size()) +
@@ -412,6 +404,12 @@ inline void ModelFile::validate() const {
     detail::require<ModelFileError>(!st.input.empty() && st.input.c() == 3,
                                     "model file self-test: input " + st.input.shape_string() +
                                         ", expected n x 3 x h x w");
+    detail::require<ModelFileError>(st.input.n() <= 64 && st.input.h() <= 4096 &&
+                                        st.input.w() <= 4096 &&
+                                        st.input.values().size() <= model_self_test_max_values,
+                                    "model file self-test: input " + st.input.shape_string() +
+                                        ", expected n <= 64, h and w <= 4096 and at most " +
+                                        std::to_string(model_self_test_max_values) + " values");
     detail::require<ModelFileError>(st.input.all_finite(),
                                     "model file self-test: input holds NaN/Inf, expected finite");
     detail::require<ModelFileError>(
@@ -454,6 +452,9 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
   w.floats(p.mean);
   w.floats(p.std);
   w.u32(static_cast<std::uint32_t>(p.network_channel_order));
+  w.u32(p.lighting_normalise ? 1u : 0u); // version 2
+  w.f32(p.lighting_target);
+  w.f32(p.dark_luminance_threshold);
   // class names
   w.u32(static_cast<std::uint32_t>(class_names.size()));
   for (const auto& n : class_names) w.str(n);
@@ -478,48 +479,78 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
   return std::move(w.out);
 }
 
-inline void ModelFile::save(const std::filesystem::path& path) const {
-  const auto bytes = to_bytes();
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw IoError("cannot open model file '" + path.string() + "' for writing");
-  f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-  if (!f) throw IoError("writing model file '" + path.string() + "' failed");
-}
+namespace detail {
 
-inline ModelFile ModelFile::load(const std::filesystem::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw IoError("cannot open model file '" + path.string() + "' for reading");
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)),
-                                  std::istreambuf_iterator<char>());
-  if (f.bad()) throw IoError("reading model file '" + path.string() + "' failed");
-  try {
-    return from_bytes(bytes);
-  } catch (const ModelFileError& e) {
-    throw ModelFileError(path.string() + ": " + e.what());
+// Writes bytes to path atomically: a fresh temporary file in path's folder (O_EXCL), every
+// write checked, fsync, close, rename over path. On failure the temporary file is removed, an
+// existing file at path is untouched and IoError names the path and the OS error.
+inline void write_bytes_atomically(const std::filesystem::path& path,
+                                   std::span<const std::uint8_t> bytes, const char* what) {
+  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw IoError(std::string(what) + " '" + path.string() +
+                  "' is a directory, expected a file path to write");
+  std::string tmpl = (dir / ("." + path.filename().string() + ".tmp-XXXXXX")).string();
+  const int fd = ::mkstemp(tmpl.data());
+  if (fd < 0)
+    throw IoError("cannot create a temporary file next to " + std::string(what) + " '" +
+                  path.string() + "': " + std::strerror(errno));
+  auto fail = [&](const std::string& step) {
+    const std::string err = std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmpl.c_str());
+    throw IoError(step + " " + std::string(what) + " '" + path.string() + "' failed: " + err +
+                  " (the previous file, if any, is unchanged)");
+  };
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ::ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n == 0) errno = ENOSPC;
+      fail("writing");
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fchmod(fd, 0644) != 0) fail("setting permissions of");
+  if (::fsync(fd) != 0) fail("flushing");
+  if (::close(fd) != 0) {
+    const std::string err = std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    throw IoError("closing " + std::string(what) + " '" + path.string() + "' failed: " + err);
+  }
+  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
+    const std::string err = std::strerror(errno);
+    ::unlink(tmpl.c_str());
+    throw IoError("renaming the temporary file onto " + std::string(what) + " '" + path.string() +
+                  "' failed: " + err + " (the previous file, if any, is unchanged)");
   }
 }
 
-inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
-  detail::ModelReader r(bytes);
-  ModelFile m;
-  // header
+// Magic, version and architecture (the header: at most model_header_max_bytes bytes).
+inline constexpr std::size_t model_header_max_bytes = 8 + 4 + 6 * 4 + 16 * 4;
+
+inline void read_model_header(ModelReader& r, ModelFile& m) {
   r.section = "header";
   r.need(model_file_magic.size(), "the magic number");
-  if (std::memcmp(bytes.data(), model_file_magic.data(), model_file_magic.size()) != 0)
+  if (std::memcmp(r.bytes.data(), model_file_magic.data(), model_file_magic.size()) != 0)
     throw ModelFileError("not a shadowsense model file: wrong magic number, expected the "
                          "8 bytes \"SSDNMOD\\n\" at the start");
   r.pos = model_file_magic.size();
   const std::uint32_t version = r.u32("the format version");
-  if (version < model_file_version)
+  if (version < model_file_min_version)
     throw ModelFileError("model file format version " + std::to_string(version) +
-                         " is too old, this library reads version " +
+                         " is too old, this library reads versions " +
+                         std::to_string(model_file_min_version) + ".." +
                          std::to_string(model_file_version) +
                          ": regenerate it with tools/densenet_to_model.py");
   if (version > model_file_version)
     throw ModelFileError("model file format version " + std::to_string(version) +
-                         " is newer than this library (reads version " +
+                         " is newer than this library (reads versions " +
+                         std::to_string(model_file_min_version) + ".." +
                          std::to_string(model_file_version) + "): update shadowsense");
-  // architecture
+  m.format_version = version;
   r.section = "architecture";
   auto& a = m.architecture;
   a.growth_rate = r.count("growth_rate", 1, 4096);
@@ -535,19 +566,109 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
   a.block_config.resize(static_cast<std::size_t>(blocks));
   for (auto& l : a.block_config) l = r.count("layers of a dense block", 1, 1024);
   a.validate();
+}
+
+// The most bytes a model file of this architecture can hold (longest names, largest
+// self-test), saturating at UINT64_MAX.
+inline std::uint64_t model_max_bytes(const DenseNetArchitecture& a) {
+  constexpr std::uint64_t cap = std::numeric_limits<std::uint64_t>::max() / 4;
+  std::uint64_t n = model_header_max_bytes + 4 * 4 + 2 * 4 + 6 * 4 + 4 + 3 * 4; // + preprocessing
+  const auto classes = static_cast<std::uint64_t>(a.num_classes);
+  n += 4 + classes * (4 + model_max_name_bytes);
+  n += 4;
+  for (const auto& t : a.expected_tensors()) {
+    std::uint64_t e = 1;
+    for (int d : t.shape) e = std::min(cap, e * static_cast<std::uint64_t>(d));
+    n = std::min(cap, n + 4 + model_max_name_bytes + 4 + 4 * 4 + 4 * e);
+  }
+  n += 4 + 4 * 4 + 4 * model_self_test_max_values + 4 * 64 * classes + 4; // self-test
+  return std::min(cap, n + 4);                                            // checksum
+}
+
+} // namespace detail
+
+inline void ModelFile::save(const std::filesystem::path& path) const {
+  const auto bytes = to_bytes();
+  detail::write_bytes_atomically(path, bytes, "model file");
+}
+
+inline ModelFile ModelFile::load(const std::filesystem::path& path) {
+  const std::string name = path.string();
+  std::error_code ec;
+  const auto st = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(st))
+    throw IoError("cannot open model file '" + name +
+                  "' for reading: " + (ec ? ec.message() : std::string("no such file")));
+  if (std::filesystem::is_directory(st))
+    throw IoError("model file '" + name + "' is a directory, expected a model file");
+  if (!std::filesystem::is_regular_file(st))
+    throw IoError("model file '" + name +
+                  "' is not a regular file (a FIFO, socket or device), expected a model file");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) throw IoError("cannot read the size of model file '" + name + "': " + ec.message());
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw IoError("cannot open model file '" + name + "' for reading");
+  auto read = [&](std::vector<std::uint8_t>& into, std::size_t from, std::size_t n) {
+    into.resize(from + n);
+    f.read(reinterpret_cast<char*>(into.data() + from), static_cast<std::streamsize>(n));
+    if (f.bad() || static_cast<std::size_t>(f.gcount()) != n)
+      throw IoError("reading model file '" + name + "' failed after " +
+                    std::to_string(from + static_cast<std::size_t>(f.gcount())) + " of " +
+                    std::to_string(size) + " bytes");
+  };
+  try {
+    // The header alone first: a wrong magic, version or architecture, or a size no model of
+    // this architecture can have, is rejected before the body is read.
+    std::vector<std::uint8_t> bytes;
+    const auto head =
+        static_cast<std::size_t>(std::min<std::uintmax_t>(size, detail::model_header_max_bytes));
+    read(bytes, 0, head);
+    {
+      detail::ModelReader r(bytes);
+      ModelFile m;
+      detail::read_model_header(r, m); // a file shorter than the header was read whole
+      const std::uint64_t limit =
+          std::min(model_file_max_bytes, detail::model_max_bytes(m.architecture));
+      if (size > limit)
+        throw ModelFileError("model file has " + std::to_string(size) +
+                             " bytes, expected at most " + std::to_string(limit) +
+                             " for its architecture (the file is not a model file or has data "
+                             "appended)");
+    }
+    read(bytes, head, static_cast<std::size_t>(size - head));
+    return from_bytes(bytes);
+  } catch (const ModelFileError& e) {
+    throw ModelFileError(name + ": " + e.what());
+  }
+}
+
+inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
+  detail::ModelReader r(bytes);
+  ModelFile m;
+  detail::read_model_header(r, m);
+  const auto& a = m.architecture;
   // preprocessing
   r.section = "preprocessing";
   auto& p = m.preprocess;
-  p.resize_width = r.count("resize width", 0, 65536);
-  p.resize_height = r.count("resize height", 0, 65536);
-  p.crop_width = r.count("crop width", 0, 65536);
-  p.crop_height = r.count("crop height", 0, 65536);
+  constexpr auto max_side = static_cast<std::uint32_t>(preprocess_max_side);
+  p.resize_width = r.count("resize width", 0, max_side);
+  p.resize_height = r.count("resize height", 0, max_side);
+  p.crop_width = r.count("crop width", 0, max_side);
+  p.crop_height = r.count("crop height", 0, max_side);
   p.contrast_factor = r.f32("contrast factor");
   p.dark_brightness_factor = r.f32("brightness factor");
   for (auto& v : p.mean) v = r.f32("mean");
   for (auto& v : p.std) v = r.f32("std");
   p.network_channel_order = static_cast<ChannelOrder>(r.count("channel order", 0, 1));
-  p.validate();
+  if (m.format_version >= 2) {
+    p.lighting_normalise = r.count("the lighting normalisation flag", 0, 1) == 1;
+    p.lighting_target = r.f32("lighting target");
+    p.dark_luminance_threshold = r.f32("dark luminance threshold");
+  } else { // version 1: the behaviour of version-1 readers
+    p.lighting_normalise = false;
+    p.dark_luminance_threshold = 0.0f;
+  }
+  p.validate<ModelFileError>();
   // class names
   r.section = "class names";
   const auto n_classes = static_cast<std::uint32_t>(a.num_classes);
@@ -585,6 +706,10 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     const int h = r.count("self-test height", 1, 4096);
     const int w = r.count("self-test width", 1, 4096);
     const std::size_t count = static_cast<std::size_t>(n) * c * h * w;
+    if (count > model_self_test_max_values)
+      throw ModelFileError("model file self-test section: input of " + std::to_string(count) +
+                           " values, expected at most " +
+                           std::to_string(model_self_test_max_values));
     r.need(count * 4, "self-test input");
     st.input.resize(n, c, h, w);
     std::vector<float> tmp;

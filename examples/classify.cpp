@@ -1,0 +1,340 @@
+// ss_classify: classify every frame of a folder of images or of a video file with a model
+// file, the frame encoding (lighting normalisation, dark-frame rule, preprocessing) taken from
+// the model file itself.
+//
+//   ss_classify [--model FILE] [--format csv|json] [--truth] [--threads N]
+//               [--lighting-normalise] INPUT
+//
+// INPUT: a folder (images found recursively: .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm,
+// sorted by path, names starting with '.' skipped) or a video file (when built with OpenCV
+// videoio). --model defaults to the shipped models/default.ssm.
+// stdout: one line per frame.
+//   csv (default): header "frame,source,dark,label,<class 1>,...,<class n>", then the frame
+//                  number (from 0), the image path or "VIDEO#k", whether the dark-frame rule
+//                  applied the brightness factor (0/1), the label and one probability per class.
+//   json: one JSON object per line: {"frame":0,"source":"...","dark":false,"label":"palm",
+//         "index":2,"probabilities":{"nothing":0.01,...}}.
+// --truth (folders only): the true class of an image is the name of the first folder below
+//   INPUT on its path (INPUT/<class>/.../x.png; an image directly in INPUT takes INPUT's own
+//   name). Every true class must be one of the model's. After the frames, the accuracy and the
+//   confusion matrix (rows: true class, columns: predicted) go to stderr, so stdout stays
+//   machine-readable.
+// --lighting-normalise: switch lighting normalisation on for version-1 model files, which do
+//   not record it (version-2 files apply what they record).
+// Exit status: 0 on success; 2 on any error (message on stderr); --help (stdout) and
+// --version exit 0.
+#include <shadowsense/shadowsense.hpp>
+#include <shadowsense/train/gesture_samples.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+#include <opencv2/videoio.hpp>
+#endif
+
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#ifndef SHADOWSENSE_DEFAULT_MODEL
+#define SHADOWSENSE_DEFAULT_MODEL "models/default.ssm"
+#endif
+
+namespace ss = shadowsense;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* usage =
+    "usage: ss_classify [--model FILE] [--format csv|json] [--truth] [--threads N]\n"
+    "                   [--lighting-normalise] INPUT\n"
+    "\n"
+    "Classifies every frame of INPUT (a folder of images, searched recursively and sorted by\n"
+    "path, or a video file) with a shadowsense model file and prints one line per frame.\n"
+    "\n"
+    "  --model FILE          model file (default: " SHADOWSENSE_DEFAULT_MODEL ")\n"
+    "  --format csv|json     csv (default): frame,source,dark,label,<one column per class>;\n"
+    "                        json: one object per line with frame, source, dark, label,\n"
+    "                        index and probabilities {class: p}\n"
+    "  --truth               folders only: the true class is the first folder below INPUT\n"
+    "                        (INPUT/<class>/...); accuracy and confusion matrix (rows true,\n"
+    "                        columns predicted) are printed to stderr after the frames\n"
+    "  --threads N           inference threads, 1..64 (default 1)\n"
+    "  --lighting-normalise  normalise lighting for version-1 model files, which do not\n"
+    "                        record it (version-2 files apply what they record)\n"
+    "  --help                this text;  --version  the library version\n"
+    "\n"
+    "Exit status 0 on success, 2 on an error (message on stderr).\n";
+
+struct Options {
+  std::string model = SHADOWSENSE_DEFAULT_MODEL;
+  std::string input;
+  bool json = false, truth = false, force_normalise = false;
+  int threads = 1;
+};
+
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+int parse_int(const std::string& flag, const std::string& v, int lo, int hi) {
+  int x = 0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
+  if (v.empty() || r.ec != std::errc() || r.ptr != v.data() + v.size() || x < lo || x > hi)
+    throw UsageError(flag + " '" + v + "': expected a whole number in " + std::to_string(lo) +
+                     ".." + std::to_string(hi));
+  return x;
+}
+
+// nullopt: --help or --version was printed.
+std::optional<Options> parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw UsageError(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::cout << usage;
+      return std::nullopt;
+    } else if (a == "--version") {
+      std::cout << "ss_classify (shadowsense) " << ss::version_string << "\n";
+      return std::nullopt;
+    } else if (a == "--model") {
+      o.model = value();
+    } else if (a == "--format") {
+      const std::string f = value();
+      if (f != "csv" && f != "json") throw UsageError("--format '" + f + "': expected csv or json");
+      o.json = f == "json";
+    } else if (a == "--truth") {
+      o.truth = true;
+    } else if (a == "--threads") {
+      o.threads = parse_int(a, value(), 1, 64);
+    } else if (a == "--lighting-normalise") {
+      o.force_normalise = true;
+    } else if (a.size() > 1 && a[0] == '-') {
+      throw UsageError("unknown option '" + a + "' (see --help)");
+    } else if (o.input.empty()) {
+      o.input = a;
+    } else {
+      throw UsageError("more than one INPUT ('" + o.input + "' and '" + a + "')");
+    }
+  }
+  if (o.input.empty()) throw UsageError("INPUT is required: a folder of images or a video file");
+  return o;
+}
+
+std::string json_string(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", c);
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\r\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (const char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return out + "\"";
+}
+
+std::string number(float v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", static_cast<double>(v));
+  return buf;
+}
+
+// Frames from a folder (sorted images) or a video file.
+class FrameSource {
+public:
+  explicit FrameSource(const std::string& input) : input_(input) {
+    std::error_code ec;
+    if (fs::is_directory(input, ec)) {
+      images_ = ss::find_images(input);
+      if (images_.empty())
+        throw ss::IoError(input + ": no images found (looked for .png .jpg .jpeg .bmp .tif "
+                                  ".tiff .webp .ppm .pgm, recursively)");
+      return;
+    }
+    if (!fs::is_regular_file(input, ec))
+      throw ss::IoError(input + ": no such folder or file, expected a folder of images or a "
+                                "video file");
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+    if (!video_.open(input) || !video_.isOpened())
+      throw ss::IoError(input + ": cannot open as a video (not a format OpenCV videoio reads)");
+    is_video_ = true;
+#else
+    throw ss::IoError(input + ": is a file; reading video needs OpenCV videoio, which this "
+                              "build lacks (pass a folder of images)");
+#endif
+  }
+  bool is_video() const {
+    return is_video_;
+  }
+  const std::vector<fs::path>& images() const {
+    return images_;
+  }
+
+  // Next frame (BGR) and its source name; false at the end.
+  bool next(cv::Mat& frame, std::string& source) {
+    if (!is_video_) {
+      if (index_ >= images_.size()) return false;
+      const auto& p = images_[index_++];
+      frame = ss::read_colour_image(p);
+      source = p.string();
+      return true;
+    }
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+    if (!video_.read(frame) || frame.empty()) return false;
+    source = input_ + "#" + std::to_string(index_++);
+    if (frame.type() == CV_8UC1) cv::cvtColor(frame, frame, cv::COLOR_GRAY2BGR);
+    if (frame.type() == CV_8UC4) cv::cvtColor(frame, frame, cv::COLOR_BGRA2BGR);
+    return true;
+#else
+    return false;
+#endif
+  }
+
+private:
+  std::string input_;
+  std::vector<fs::path> images_;
+  std::size_t index_ = 0;
+  bool is_video_ = false;
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+  cv::VideoCapture video_;
+#endif
+};
+
+// The true class index of every image (--truth), checked before anything is classified.
+std::vector<int> truth_labels(const FrameSource& src, const fs::path& root,
+                              const std::vector<std::string>& classes) {
+  if (src.is_video()) throw UsageError("--truth needs a folder of images, not a video");
+  std::vector<int> out;
+  for (const auto& p : src.images()) {
+    const auto rel = fs::relative(p, root);
+    const std::string cls = std::distance(rel.begin(), rel.end()) >= 2
+                                ? rel.begin()->string()
+                                : fs::absolute(root).lexically_normal().filename().string();
+    const auto it = std::find(classes.begin(), classes.end(), cls);
+    if (it == classes.end())
+      throw ss::DatasetError(p.string() + ": true class '" + cls +
+                             "' (its folder) is not one of the model's classes");
+    out.push_back(static_cast<int>(it - classes.begin()));
+  }
+  return out;
+}
+
+void print_header(const Options& o, const std::vector<std::string>& classes) {
+  if (o.json) return;
+  std::string line = "frame,source,dark,label";
+  for (const auto& c : classes) line += "," + csv_field(c);
+  std::cout << line << "\n";
+}
+
+void print_frame(const Options& o, std::size_t frame, const std::string& source, bool dark,
+                 const ss::Classification& r, const std::vector<std::string>& classes) {
+  std::string line;
+  if (o.json) {
+    line = "{\"frame\":" + std::to_string(frame) + ",\"source\":" + json_string(source) +
+           ",\"dark\":" + (dark ? "true" : "false") + ",\"label\":" + json_string(r.label) +
+           ",\"index\":" + std::to_string(r.index) + ",\"probabilities\":{";
+    for (std::size_t k = 0; k < classes.size(); ++k)
+      line += (k ? "," : "") + json_string(classes[k]) + ":" + number(r.probabilities[k]);
+    line += "}}";
+  } else {
+    line = std::to_string(frame) + "," + csv_field(source) + "," + (dark ? "1" : "0") + "," +
+           csv_field(r.label);
+    for (float p : r.probabilities) line += "," + number(p);
+  }
+  std::cout << line << "\n";
+}
+
+void print_confusion(const std::vector<std::vector<int>>& m,
+                     const std::vector<std::string>& classes) {
+  long long total = 0, correct = 0;
+  std::size_t width = 9;
+  for (const auto& c : classes) width = std::max(width, c.size() + 1);
+  for (std::size_t t = 0; t < m.size(); ++t)
+    for (std::size_t p = 0; p < m.size(); ++p) {
+      total += m[t][p];
+      if (t == p) correct += m[t][p];
+    }
+  std::fprintf(stderr, "accuracy %.2f%% (%lld of %lld frames)\n",
+               total ? 100.0 * double(correct) / double(total) : 0.0, correct, total);
+  std::fprintf(stderr, "confusion matrix (rows: true class, columns: predicted)\n%*s", int(width),
+               "");
+  for (const auto& c : classes) std::fprintf(stderr, "%*s", int(width), c.c_str());
+  std::fprintf(stderr, "\n");
+  for (std::size_t t = 0; t < m.size(); ++t) {
+    std::fprintf(stderr, "%*s", int(width), classes[t].c_str());
+    for (std::size_t p = 0; p < m.size(); ++p) std::fprintf(stderr, "%*d", int(width), m[t][p]);
+    std::fprintf(stderr, "\n");
+  }
+}
+
+int run(const Options& o) {
+  auto model = ss::ModelFile::load(o.model);
+  if (model.format_version < ss::model_file_version)
+    std::cerr << "ss_classify: note: " << o.model << " is model format version "
+              << model.format_version
+              << " (no recorded lighting normalisation or dark-frame rule); upgrade it with\n"
+                 "  /usr/bin/python3 tools/densenet_to_model.py --upgrade "
+              << o.model << " -o NEW.ssm [--lighting-normalise] [--dark-threshold X]\n";
+  if (o.force_normalise) model.preprocess.lighting_normalise = true;
+  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
+  const auto& classes = model.class_names;
+
+  FrameSource src(o.input);
+  std::vector<int> truth;
+  if (o.truth) truth = truth_labels(src, o.input, classes);
+  std::vector<std::vector<int>> confusion(classes.size(), std::vector<int>(classes.size(), 0));
+
+  print_header(o, classes);
+  cv::Mat frame;
+  std::string source;
+  std::size_t n = 0;
+  for (; src.next(frame, source); ++n) {
+    const bool dark = !clf.encoder().lighting_normalise() && clf.encoder().is_dark(frame);
+    ss::Classification r;
+    try {
+      r = clf.classify(frame);
+    } catch (const ss::InvalidArgument& e) {
+      throw ss::Error(source + ": " + e.what());
+    }
+    print_frame(o, n, source, dark, r, classes);
+    if (o.truth) ++confusion[static_cast<std::size_t>(truth[n])][static_cast<std::size_t>(r.index)];
+  }
+  std::cout.flush();
+  if (!std::cout) throw ss::IoError("writing to stdout failed");
+  if (n == 0) throw ss::IoError(o.input + ": no frames could be read");
+  if (o.truth) print_confusion(confusion, classes);
+  return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const auto options = parse(argc, argv);
+    return options ? run(*options) : 0;
+  } catch (const std::exception& e) {
+    std::cerr << "ss_classify: " << e.what() << "\n";
+    return 2;
+  }
+}

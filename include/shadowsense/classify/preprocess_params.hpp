@@ -1,0 +1,114 @@
+// What a classifier does to a camera frame before the network sees it (paper 5.1.2, plus the
+// lighting normalisation and the dark-frame rule), as plain values: a model file records them
+// (backends/densenet/model_file.hpp, docs/model_format.md) and FrameEncoder applies them.
+//
+// ChannelOrder
+//   The order of the three colour channels of an image or of the network's input.
+//
+// PreprocessParams
+//   resize_width/height   bilinear resize target; 0x0 = no resize; else both in 1..4096
+//   crop_width/height     centre crop; 0x0 = no crop; else both in 1..4096
+//   contrast_factor       torchvision adjust_contrast factor, finite, >= 0
+//   dark_brightness_factor adjust_brightness factor for dark frames, finite, >= 0
+//   mean, std             Normalize, per network channel; std > 0
+//   network_channel_order the network's channel order (torchvision: RGB)
+//   lighting_normalise    scale every channel's mean to lighting_target first (and never
+//                         apply the brightness factor: the normalisation replaces it)
+//   lighting_target       the channel mean after normalisation, in (0, 1]
+//   dark_luminance_threshold
+//                         the dark-frame rule: a frame is dark (gets the brightness factor)
+//                         exactly when the mean of 0.2989 R + 0.587 G + 0.114 B over the whole
+//                         input frame, in 0..1, is below this value. 0 = no frame is dark by the
+//                         rule. In [0, 1]. Ignored when lighting_normalise is on.
+//   Defaults: the paper's values, no lighting normalisation, dark rule threshold
+//   default_dark_luminance_threshold.
+//
+//   template <class E = InvalidArgument> void validate() const
+//     ensures: returns when every value is in the range above; throws E naming the field, its
+//              value and the expected range otherwise (the model file loader passes
+//              ModelFileError).
+//
+// preprocess_max_side (4096): the largest resize or crop side accepted, so a malformed model
+// cannot ask for a 65536 x 65536 intermediate image (51 GB per frame); 4096 x 4096 float
+// RGB is 201 MB.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <string>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// Channel order of an image (the network's own order is RGB for torchvision models).
+enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
+
+inline constexpr int preprocess_max_side = 4096;
+
+// Mean luminance (0..1) below which a frame counts as dark under the default rule: midway
+// between the generator's night frames (0.104..0.134) and its dusk frames (0.201..0.269;
+// daylight 0.323..0.462), measured on every fifth frame of
+// `ss_gesture_data --users 6 --frames 20 --seed 1` (docs/model_format.md, "The dark-frame rule").
+inline constexpr float default_dark_luminance_threshold = 0.165f;
+
+struct PreprocessParams {
+  int resize_width = 318;
+  int resize_height = 235;
+  int crop_width = 220;
+  int crop_height = 150;
+  float contrast_factor = 3.0f;
+  float dark_brightness_factor = 2.0f;
+  std::array<float, 3> mean = {0.485f, 0.456f, 0.406f};
+  std::array<float, 3> std = {0.229f, 0.224f, 0.225f};
+  ChannelOrder network_channel_order = ChannelOrder::rgb;
+  bool lighting_normalise = false;
+  float lighting_target = 0.35f;
+  float dark_luminance_threshold = default_dark_luminance_threshold;
+
+  template <class E = InvalidArgument>
+  void validate() const {
+    auto sz = [](int v) { return v >= 0 && v <= preprocess_max_side; };
+    const std::string range = "1.." + std::to_string(preprocess_max_side);
+    detail::require<E>(
+        sz(resize_width) && sz(resize_height) && (resize_width == 0) == (resize_height == 0),
+        "preprocessing: resize " + std::to_string(resize_width) + "x" +
+            std::to_string(resize_height) + ", expected both 0 (no resize) or both in " + range);
+    detail::require<E>(sz(crop_width) && sz(crop_height) && (crop_width == 0) == (crop_height == 0),
+                       "preprocessing: crop " + std::to_string(crop_width) + "x" +
+                           std::to_string(crop_height) + ", expected both 0 (no crop) or both in " +
+                           range);
+    detail::require<E>(std::isfinite(contrast_factor) && contrast_factor >= 0.0f,
+                       "preprocessing: contrast factor " + std::to_string(contrast_factor) +
+                           ", expected a finite value >= 0");
+    detail::require<E>(std::isfinite(dark_brightness_factor) && dark_brightness_factor >= 0.0f,
+                       "preprocessing: brightness factor " +
+                           std::to_string(dark_brightness_factor) +
+                           ", expected a finite value >= 0");
+    for (int i = 0; i < 3; ++i) {
+      detail::require<E>(std::isfinite(mean[static_cast<std::size_t>(i)]),
+                         "preprocessing: mean is not finite, expected finite");
+      const float s = std[static_cast<std::size_t>(i)];
+      detail::require<E>(std::isfinite(s) && s > 0.0f, "preprocessing: std " + std::to_string(s) +
+                                                           ", expected a finite value > 0");
+    }
+    detail::require<E>(network_channel_order == ChannelOrder::rgb ||
+                           network_channel_order == ChannelOrder::bgr,
+                       "preprocessing: channel order code " +
+                           std::to_string(static_cast<std::uint32_t>(network_channel_order)) +
+                           ", expected 0 (RGB) or 1 (BGR)");
+    detail::require<E>(std::isfinite(lighting_target) && lighting_target > 0.0f &&
+                           lighting_target <= 1.0f,
+                       "preprocessing: lighting target " + std::to_string(lighting_target) +
+                           ", expected a value in (0, 1]");
+    detail::require<E>(std::isfinite(dark_luminance_threshold) &&
+                           dark_luminance_threshold >= 0.0f && dark_luminance_threshold <= 1.0f,
+                       "preprocessing: dark luminance threshold " +
+                           std::to_string(dark_luminance_threshold) +
+                           ", expected a value in [0, 1] (0 = no frame is dark)");
+  }
+};
+
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,376 @@
+// How a pixel is classified shadow / contact: the PixelRule concept and its two models.
+//
+// A pixel rule turns one (optionally pre-blurred) BGR frame into two binary masks, shadow and
+// contact, and may also report per-pixel darkness/warmth features. Segmenter (segmenter.hpp) owns
+// everything around it (empty-skin model, per-frame reference, mask clean-up, blobs), so a new
+// segmentation method is one new type, with no edit of the library:
+//
+//   template <class R> concept PixelRule = requires(const R& r, const PixelRuleInput& in,
+//                                                   PixelRuleOutput& out) { r.classify(in, out); };
+//
+//   classify(in, out)
+//     requires: in.bgr is CV_8UC3; in.skin is CV_8UC1 (255 on the skin) of the same size;
+//               in.inverse_model holds four CV_32F planes of that size: 1 / (empty-skin model) for
+//               B, G, R (all 1 without a model) and the skin weight (1 on the skin, 0 off it);
+//               in.reference is the frame's reference colour (BGR, 8-bit units; only computed
+//               when the rule's uses_reference() returns true, or when it has no such member).
+//               out.shadow_mask and out.contact_mask are allocated CV_8UC1 of the frame's size.
+//     ensures:  every pixel of both masks is 0 or 255; pixels off the skin (in.skin == 0) are 0;
+//               a contact pixel is also a shadow pixel. A rule with features fills out.darkness
+//               and out.warmth (CV_32F, frame size) and out.shadow_threshold (the darkness that
+//               means shadow in this frame, used for the blobs' opacity); a rule without them
+//               releases out.darkness (then blobs carry darkness 0 and the model does not adapt).
+//   Optional member `bool uses_reference() const`: false skips the per-frame reference.
+//
+// Models here:
+//  * RelativeRule (the default): each pixel over the lit, empty skin's colour there, q = I /
+//    (reference x model); darkness = 1 - mean(q) (0 off the skin), warmth = q_R - q_B. shadow:
+//    darkness >= shadow_darkness; contact: darkness >= contact_darkness and warmth >=
+//    contact_warmth, thresholds interpolated at the frame's reference luminance (by_light).
+//  * FixedRangeRule (the paper's method): a pixel is in a class when its B, G, R values each lie
+//    in that class's inclusive range. Cheap, breaks when the light changes.
+//  * CalibratedRule: one of the two chosen by SegmenterCalibration::mode (what calibration files
+//    store); the rule of Segmenter.
+// Rules are immutable during classify (const), so one rule may be shared by threads; the scratch
+// lives in the output.
+//
+// SegmenterCalibration holds the parameters of both rules, the reference percentile, and the
+// empty-skin model (empty_skin, may be empty) so that one calibration file carries everything the
+// segmenter needs. validate_calibration throws InvalidArgument naming the bad field.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/core/hal/intrin.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <concepts>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// Inclusive per-channel range in BGR order.
+struct ColourRange {
+  cv::Vec3b lower{0, 0, 0};
+  cv::Vec3b upper{0, 0, 0};
+  bool contains(const cv::Vec3b& p) const {
+    return p[0] >= lower[0] && p[0] <= upper[0] && p[1] >= lower[1] && p[1] <= upper[1] &&
+           p[2] >= lower[2] && p[2] <= upper[2];
+  }
+  bool operator==(const ColourRange&) const = default;
+};
+
+enum class SegmentMode { fixed_ranges, relative };
+
+// Relative-mode thresholds for frames whose reference luminance (mean of the B, G, R reference,
+// 8-bit units) is `luminance`.
+struct LightThresholds {
+  float luminance = 0;
+  float shadow_darkness = 0.2f;
+  float contact_darkness = 0.45f;
+  float contact_warmth = 0.08f;
+  bool operator==(const LightThresholds&) const = default;
+};
+
+struct SegmenterCalibration {
+  SegmentMode mode = SegmentMode::relative;
+  // fixed_ranges mode.
+  ColourRange shadow_range{{0, 0, 0}, {120, 120, 120}};
+  ColourRange contact_range{{0, 0, 40}, {90, 110, 160}};
+  // relative mode.
+  float shadow_darkness = 0.2f;
+  float contact_darkness = 0.45f;
+  float contact_warmth = 0.08f;
+  float reference_percentile = 0.9f; // per-frame reference: this percentile of each channel
+  // Optional thresholds per light level, sorted by strictly increasing luminance: when present,
+  // each frame uses the thresholds interpolated linearly at its reference luminance (clamped to
+  // the first/last row), since the diffuse part of the light, and with it the darkness of the
+  // half-penumbra line, changes with the light level. Empty: the three thresholds above.
+  std::vector<LightThresholds> by_light{};
+  // The empty-skin model (CV_32FC3, per pixel and channel the empty skin's brightness over its
+  // frame's reference, unsmoothed; see Segmenter::set_empty_skin and empty_skin_model()), or
+  // empty. A Segmenter built with a calibration that holds one starts with it set.
+  cv::Mat empty_skin{};
+
+  LightThresholds thresholds_at(float luminance) const {
+    if (by_light.empty()) return {luminance, shadow_darkness, contact_darkness, contact_warmth};
+    if (luminance <= by_light.front().luminance) return by_light.front();
+    if (luminance >= by_light.back().luminance) return by_light.back();
+    std::size_t i = 1;
+    while (by_light[i].luminance < luminance) ++i;
+    const LightThresholds &a = by_light[i - 1], &b = by_light[i];
+    const float t = (luminance - a.luminance) / (b.luminance - a.luminance);
+    auto mix = [t](float u, float v) { return u + (v - u) * t; };
+    return {luminance, mix(a.shadow_darkness, b.shadow_darkness),
+            mix(a.contact_darkness, b.contact_darkness), mix(a.contact_warmth, b.contact_warmth)};
+  }
+  // Equal when every field is equal and the empty-skin models hold the same values.
+  bool operator==(const SegmenterCalibration& o) const {
+    if (!(mode == o.mode && shadow_range == o.shadow_range && contact_range == o.contact_range &&
+          shadow_darkness == o.shadow_darkness && contact_darkness == o.contact_darkness &&
+          contact_warmth == o.contact_warmth && reference_percentile == o.reference_percentile &&
+          by_light == o.by_light))
+      return false;
+    if (empty_skin.empty() || o.empty_skin.empty())
+      return empty_skin.empty() && o.empty_skin.empty();
+    return empty_skin.size() == o.empty_skin.size() && empty_skin.type() == o.empty_skin.type() &&
+           cv::norm(empty_skin, o.empty_skin, cv::NORM_INF) == 0;
+  }
+};
+
+namespace detail {
+
+inline float luminance(const cv::Vec3f& bgr) {
+  return (bgr[0] + bgr[1] + bgr[2]) / 3.f;
+}
+
+// Largest empty-skin model value accepted: models are relative to the frame's reference
+// percentile, so real values stay near 1; a model built from 0..255 values is far above.
+constexpr float kMaxEmptySkinValue = 8.f;
+
+// Throws InvalidArgument unless `m` is a usable empty-skin model (see SegmenterCalibration).
+inline void validate_empty_skin(const cv::Mat& m, const std::string& where) {
+  require(!m.empty() && m.dims == 2 && m.type() == CV_32FC3,
+          where + ": the empty-skin model must be a non-empty CV_32FC3 image, got " +
+              (m.empty() ? std::string("an empty one") : cv::typeToString(m.type())));
+  require(cv::checkRange(m, true, nullptr, 0.0, kMaxEmptySkinValue),
+          where + ": the empty-skin model holds values outside [0, 8] or not finite; expected "
+                  "brightness relative to the frame's reference (about 1 on the skin) - was an "
+                  "image in 0..255 passed?");
+  cv::Mat lum;
+  cv::transform(m, lum, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+  const int skin = cv::countNonZero(lum >= 0.5f);
+  require(skin * 100 >= static_cast<int>(m.total()),
+          where + ": the empty-skin model shows skin on " + std::to_string(skin) + " of " +
+              std::to_string(m.total()) +
+              " pixels; expected at least 1% (a black or all-dark frame is not an empty skin)");
+}
+
+inline void validate_calibration(const SegmenterCalibration& c, const std::string& where) {
+  auto in01 = [](float v) { return std::isfinite(v) && v >= 0.f && v <= 1.f; };
+  require(in01(c.shadow_darkness), where + ": shadow_darkness must be in [0, 1]");
+  require(in01(c.contact_darkness), where + ": contact_darkness must be in [0, 1]");
+  require(std::isfinite(c.contact_warmth) && c.contact_warmth >= -1.f && c.contact_warmth <= 1.f,
+          where + ": contact_warmth must be in [-1, 1]");
+  require(std::isfinite(c.reference_percentile) && c.reference_percentile > 0.f &&
+              c.reference_percentile <= 1.f,
+          where + ": reference_percentile must be in (0, 1]");
+  for (std::size_t i = 0; i < c.by_light.size(); ++i) {
+    const LightThresholds& t = c.by_light[i];
+    const std::string row = where + ": by_light[" + std::to_string(i) + "]";
+    require(std::isfinite(t.luminance) && t.luminance >= 0 && t.luminance <= 255,
+            row + ".luminance must be in [0, 255]");
+    require(i == 0 || t.luminance > c.by_light[i - 1].luminance,
+            row + ".luminance must be greater than the previous row's (sorted, no repeats)");
+    require(in01(t.shadow_darkness) && in01(t.contact_darkness),
+            row + ": darkness thresholds must be in [0, 1]");
+    require(std::isfinite(t.contact_warmth) && t.contact_warmth >= -1.f && t.contact_warmth <= 1.f,
+            row + ".contact_warmth must be in [-1, 1]");
+  }
+  for (int k = 0; k < 3; ++k) {
+    require(c.shadow_range.lower[k] <= c.shadow_range.upper[k],
+            where + ": shadow_range lower exceeds upper in channel " + std::to_string(k));
+    require(c.contact_range.lower[k] <= c.contact_range.upper[k],
+            where + ": contact_range lower exceeds upper in channel " + std::to_string(k));
+  }
+  if (!c.empty_skin.empty()) validate_empty_skin(c.empty_skin, where);
+}
+
+} // namespace detail
+
+// What a rule sees (see the concept above).
+struct PixelRuleInput {
+  const cv::Mat& bgr;                          // CV_8UC3 frame (pre-blurred when configured)
+  const std::array<cv::Mat, 4>& inverse_model; // 1/model per channel (CV_32F) + skin weight
+  const cv::Mat& skin;                         // CV_8UC1, 255 on the skin
+  cv::Vec3f reference{1, 1, 1};                // the frame's reference colour (BGR, 8-bit units)
+};
+
+// What a rule writes (see the concept above).
+struct PixelRuleOutput {
+  cv::Mat& shadow_mask;       // CV_8UC1 0/255, allocated by the caller
+  cv::Mat& contact_mask;      // CV_8UC1 0/255, allocated by the caller
+  cv::Mat& darkness;          // CV_32F per-pixel darkness, or released
+  cv::Mat& warmth;            // CV_32F per-pixel warmth, or released with darkness
+  float shadow_threshold = 0; // darkness meaning shadow in this frame (0 without features)
+};
+
+template <class R>
+concept PixelRule = requires(const R& r, const PixelRuleInput& in, PixelRuleOutput& out) {
+  { r.classify(in, out) } -> std::same_as<void>;
+};
+
+namespace detail {
+template <class R>
+bool rule_uses_reference(const R& r) {
+  if constexpr (requires {
+                  { r.uses_reference() } -> std::convertible_to<bool>;
+                })
+    return r.uses_reference();
+  else
+    return true;
+}
+} // namespace detail
+
+// The paper's fixed per-channel colour ranges.
+struct FixedRangeRule {
+  ColourRange shadow_range{{0, 0, 0}, {120, 120, 120}};
+  ColourRange contact_range{{0, 0, 40}, {90, 110, 160}};
+
+  bool uses_reference() const { return false; }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    out.darkness.release();
+    out.warmth.release();
+    out.shadow_threshold = 0;
+    for (int y = 0; y < in.bgr.rows; ++y) {
+      const cv::Vec3b* px = in.bgr.ptr<cv::Vec3b>(y);
+      const uchar* v = in.skin.ptr<uchar>(y);
+      uchar* s = out.shadow_mask.ptr<uchar>(y);
+      uchar* c = out.contact_mask.ptr<uchar>(y);
+      for (int x = 0; x < in.bgr.cols; ++x) {
+        const bool skin = v[x] != 0;
+        const bool contact = skin && contact_range.contains(px[x]);
+        c[x] = contact ? 255 : 0;
+        s[x] = (contact || (skin && shadow_range.contains(px[x]))) ? 255 : 0;
+      }
+    }
+  }
+};
+
+// Darkness and warmth relative to the empty skin under the frame's own light.
+struct RelativeRule {
+  float shadow_darkness = 0.2f;
+  float contact_darkness = 0.45f;
+  float contact_warmth = 0.08f;
+  std::vector<LightThresholds> by_light{};
+
+  LightThresholds thresholds_at(float luminance) const {
+    SegmenterCalibration c;
+    c.shadow_darkness = shadow_darkness;
+    c.contact_darkness = contact_darkness;
+    c.contact_warmth = contact_warmth;
+    c.by_light = by_light;
+    return c.thresholds_at(luminance);
+  }
+
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    const cv::Size size = in.bgr.size();
+    out.darkness.create(size, CV_32F);
+    out.warmth.create(size, CV_32F);
+    const cv::Vec3f gain = in.reference;
+    const LightThresholds th =
+        by_light.empty() ? LightThresholds{0, shadow_darkness, contact_darkness, contact_warmth}
+                         : thresholds_at(detail::luminance(gain));
+    const float ts = th.shadow_darkness, tc = th.contact_darkness, tw = th.contact_warmth;
+    out.shadow_threshold = ts;
+    const float gb = 1.f / gain[0], gg = 1.f / gain[1], gr = 1.f / gain[2];
+    const std::array<cv::Mat, 4>& planes = in.inverse_model;
+    for (int y = 0; y < size.height; ++y) {
+      const uchar* src = in.bgr.ptr<uchar>(y);
+      const float* ipb = planes[0].ptr<float>(y);
+      const float* ipg = planes[1].ptr<float>(y);
+      const float* ipr = planes[2].ptr<float>(y);
+      const float* sk = planes[3].ptr<float>(y);
+      const uchar* v = in.skin.ptr<uchar>(y);
+      float* dk = out.darkness.ptr<float>(y);
+      float* wm = out.warmth.ptr<float>(y);
+      uchar* sm = out.shadow_mask.ptr<uchar>(y);
+      uchar* cm = out.contact_mask.ptr<uchar>(y);
+      int x = 0;
+#if CV_SIMD128
+      // 16 pixels at a time with OpenCV's universal intrinsics (same arithmetic as below).
+      const cv::v_float32x4 vgb = cv::v_setall_f32(gb), vgg = cv::v_setall_f32(gg),
+                            vgr = cv::v_setall_f32(gr), third = cv::v_setall_f32(1.f / 3.f),
+                            vts = cv::v_setall_f32(ts), vtc = cv::v_setall_f32(tc),
+                            vtw = cv::v_setall_f32(tw);
+      auto to_f32 = [](const cv::v_uint8x16& a, cv::v_float32x4* o) {
+        cv::v_uint16x8 lo, hi;
+        cv::v_expand(a, lo, hi);
+        cv::v_uint32x4 a0, a1, a2, a3;
+        cv::v_expand(lo, a0, a1);
+        cv::v_expand(hi, a2, a3);
+        o[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a0));
+        o[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a1));
+        o[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a2));
+        o[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a3));
+      };
+      for (; x + 16 <= size.width; x += 16) {
+        cv::v_uint8x16 b8, g8, r8;
+        cv::v_load_deinterleave(src + 3 * x, b8, g8, r8);
+        cv::v_float32x4 fb[4], fg[4], fr[4];
+        to_f32(b8, fb);
+        to_f32(g8, fg);
+        to_f32(r8, fr);
+        cv::v_int32x4 cmask[4], smask[4];
+        for (int j = 0; j < 4; ++j) {
+          const int o = x + 4 * j;
+          const cv::v_float32x4 qb = fb[j] * cv::v_load(ipb + o) * vgb;
+          const cv::v_float32x4 qg = fg[j] * cv::v_load(ipg + o) * vgg;
+          const cv::v_float32x4 qr = fr[j] * cv::v_load(ipr + o) * vgr;
+          const cv::v_float32x4 d = cv::v_load(sk + o) - (qb + qg + qr) * third;
+          const cv::v_float32x4 w = qr - qb;
+          cv::v_store(dk + o, d);
+          cv::v_store(wm + o, w);
+          cmask[j] = cv::v_reinterpret_as_s32((d >= vtc) & (w >= vtw));
+          smask[j] = cv::v_reinterpret_as_s32(d >= vts);
+        }
+        const cv::v_uint8x16 skin = cv::v_load(v + x);
+        const cv::v_uint8x16 c =
+            cv::v_reinterpret_as_u8(
+                cv::v_pack(cv::v_pack(cmask[0], cmask[1]), cv::v_pack(cmask[2], cmask[3]))) &
+            skin;
+        const cv::v_uint8x16 sh =
+            (cv::v_reinterpret_as_u8(
+                 cv::v_pack(cv::v_pack(smask[0], smask[1]), cv::v_pack(smask[2], smask[3]))) &
+             skin) |
+            c;
+        cv::v_store(cm + x, c);
+        cv::v_store(sm + x, sh);
+      }
+#endif
+      for (; x < size.width; ++x) {
+        const float qb = static_cast<float>(src[3 * x]) * ipb[x] * gb;
+        const float qg = static_cast<float>(src[3 * x + 1]) * ipg[x] * gg;
+        const float qr = static_cast<float>(src[3 * x + 2]) * ipr[x] * gr;
+        const float d = sk[x] - (qb + qg + qr) * (1.f / 3.f);
+        const float w = qr - qb;
+        dk[x] = d;
+        wm[x] = w;
+        const uchar contact = (d >= tc && w >= tw) ? v[x] : uchar(0);
+        cm[x] = contact;
+        sm[x] = static_cast<uchar>((d >= ts ? v[x] : uchar(0)) | contact);
+      }
+    }
+  }
+};
+
+// The rule a SegmenterCalibration selects (mode): what calibration files describe.
+class CalibratedRule {
+public:
+  CalibratedRule() : CalibratedRule(SegmenterCalibration{}) {}
+  explicit CalibratedRule(const SegmenterCalibration& c)
+      : mode_(c.mode), fixed_{c.shadow_range, c.contact_range}, relative_{c.shadow_darkness,
+                                                                          c.contact_darkness,
+                                                                          c.contact_warmth,
+                                                                          c.by_light} {}
+  bool uses_reference() const { return mode_ == SegmentMode::relative; }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    if (mode_ == SegmentMode::fixed_ranges)
+      fixed_.classify(in, out);
+    else
+      relative_.classify(in, out);
+  }
+
+private:
+  SegmentMode mode_;
+  FixedRangeRule fixed_;
+  RelativeRule relative_;
+};
+
+static_assert(PixelRule<FixedRangeRule> && PixelRule<RelativeRule> && PixelRule<CalibratedRule>);
+
+SHADOWSENSE_NAMESPACE_END

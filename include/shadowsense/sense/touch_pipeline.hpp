@@ -1,0 +1,203 @@
+// TouchPipeline: segmenter + multi-touch tracker + one touch state machine per track, one call
+// per frame.
+//
+// Each frame: the Segmenter finds shadow blobs (one per hand or arm) and contact blobs; every
+// shadow blob is one Detection (its centroid and box) for the ContactTracker, which gives it a
+// stable id; every contact blob belongs to the shadow blob its box overlaps most (the segmenter
+// guarantees each contact lies in a shadow blob), and the track's contact point is the
+// area-weighted centroid of its contact blobs (several fingers of one hand are one touch). The
+// TouchStateMachine of each track is fed {shadow: track matched this frame, contact: that point}.
+// A track the tracker no longer reports keeps its machine, fed "nothing seen", until that machine
+// is back in `none` (so every touch ends with lift and disappear after the hysteresis), then the
+// machine is dropped. Events are reported per track, in increasing track id.
+//
+// BasicTouchPipeline<Rule>(segmenter, tracker_config, touch_config)
+//   requires: valid configs (see ContactTracker, TouchStateMachine).
+//   ensures:  the pipeline owns a copy of `segmenter` (with its empty-skin model).
+// update(frame, timestamp_ms) -> const TouchFrame&
+//   requires: a frame the segmenter accepts; a finite timestamp greater than the previous one.
+//   ensures:  the frame's tracks (live ones, matched or coasting), shadow boxes, contact points,
+//             the events this frame caused and the blob counts the segmenter's cap dropped. The
+//             reference stays valid until the next update/flush.
+//   throws:   InvalidArgument (bad frame or timestamp), with nothing changed for a bad timestamp.
+// flush(timestamp_ms) -> const TouchFrame&
+//   requires: a finite timestamp greater than the last frame's.
+//   ensures:  ends the stream: every machine sees "nothing" at timestamp_ms and, if still not in
+//             none, again at timestamp_ms + hysteresis_ms, so every pending lift / disappear is
+//             reported (with those timestamps); then tracks and machines are cleared and the next
+//             update starts a new stream (track ids continue to grow; the segmenter keeps its
+//             model).
+// Threading: one instance per thread; an owner check (thread_owner.hpp) throws InvalidArgument
+// when one instance is used from two threads at once.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/thread_owner.hpp>
+#include <shadowsense/sense/touch_state_machine.hpp>
+#include <shadowsense/sense/tracker.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// One tracked hand in one frame.
+struct TouchTrack {
+  int id = 0;                           // ContactTracker id (stable, never reused)
+  bool matched = false;                 // seen in this frame (else coasting)
+  cv::Rect shadow_box{};                // its shadow blob's box (last seen)
+  cv::Point2f position{};               // its shadow blob's centroid (last seen)
+  std::optional<cv::Point2f> contact{}; // contact point this frame, if touching
+  TouchState state = TouchState::none;  // its state machine after this frame
+};
+
+// One event with the track it belongs to.
+struct TrackEvent {
+  int track_id = 0;
+  TouchEvent event{};
+};
+
+// Everything one frame produced. A plain struct: sinks read it.
+struct TouchFrame {
+  double timestamp_ms = 0;
+  std::vector<TouchTrack> tracks;          // increasing id
+  std::vector<cv::Rect> shadow_boxes;      // every shadow blob (segmenter order: largest first)
+  std::vector<cv::Point2f> contact_points; // every contact blob's centroid (largest first)
+  std::vector<TrackEvent> events;          // increasing track id, then order of occurrence
+  std::size_t dropped_shadow_blobs = 0;    // see Segmentation
+  std::size_t dropped_contact_blobs = 0;
+};
+
+template <PixelRule Rule>
+class BasicTouchPipeline {
+public:
+  explicit BasicTouchPipeline(BasicSegmenter<Rule> segmenter,
+                              const ContactTracker::Config& tracker = {},
+                              const TouchStateMachine::Config& touch = {})
+      : segmenter_(std::move(segmenter)), tracker_(tracker), touch_config_(touch) {
+    TouchStateMachine check(touch); // validates the config now
+    (void)check;
+  }
+
+  const TouchFrame& update(const cv::Mat& frame, double timestamp_ms) {
+    detail::OwnerCheck::Scope scope(owner_, "TouchPipeline");
+    require_time(timestamp_ms, "TouchPipeline::update");
+    segmenter_.segment(frame, seg_);
+    result_ = {};
+    result_.timestamp_ms = timestamp_ms;
+    result_.dropped_shadow_blobs = seg_.dropped_shadow_blobs;
+    result_.dropped_contact_blobs = seg_.dropped_contact_blobs;
+    detections_.clear();
+    for (const Blob& s : seg_.shadows) {
+      detections_.push_back({s.centroid, s.box});
+      result_.shadow_boxes.push_back(s.box);
+    }
+    for (const Blob& c : seg_.contacts) result_.contact_points.push_back(c.centroid);
+    const std::vector<std::optional<cv::Point2f>> contact_of = contacts_per_shadow();
+    const std::vector<Track>& tracks = tracker_.update(detections_, timestamp_ms);
+    last_t_ = timestamp_ms;
+    for (const Track& t : tracks) machines_.try_emplace(t.id, touch_config_);
+    for (auto it = machines_.begin(); it != machines_.end();) {
+      const Track* t = find_track(tracks, it->first);
+      TouchObservation obs;
+      if (t && t->matched) {
+        obs.shadow = true;
+        obs.contact = contact_of[static_cast<std::size_t>(t->detection_index)];
+      }
+      for (const TouchEvent& e : it->second.update(timestamp_ms, obs))
+        result_.events.push_back({it->first, e});
+      if (t) {
+        result_.tracks.push_back(
+            {t->id, t->matched, t->box, t->position, obs.contact, it->second.state()});
+        ++it;
+      } else if (it->second.state() == TouchState::none) {
+        it = machines_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    return result_;
+  }
+
+  const TouchFrame& flush(double timestamp_ms) {
+    detail::OwnerCheck::Scope scope(owner_, "TouchPipeline");
+    require_time(timestamp_ms, "TouchPipeline::flush");
+    result_ = {};
+    result_.timestamp_ms = timestamp_ms;
+    for (auto& [id, m] : machines_) {
+      for (const TouchEvent& e : m.update(timestamp_ms, {})) result_.events.push_back({id, e});
+      if (m.state() != TouchState::none)
+        for (const TouchEvent& e : m.update(timestamp_ms + touch_config_.hysteresis_ms, {}))
+          result_.events.push_back({id, e});
+    }
+    machines_.clear();
+    tracker_.clear_tracks(); // a new stream; ids keep growing
+    last_t_ = timestamp_ms;
+    return result_;
+  }
+
+  // The last frame's segmentation (masks, blobs).
+  const Segmentation& segmentation() const { return seg_; }
+  BasicSegmenter<Rule>& segmenter() { return segmenter_; }
+  const ContactTracker& tracker() const { return tracker_; }
+
+private:
+  void require_time(double t, const char* where) const {
+    detail::require(std::isfinite(t), std::string(where) + ": timestamp_ms is not finite");
+    if (last_t_)
+      detail::require(t > *last_t_, std::string(where) + ": timestamp " + std::to_string(t) +
+                                        " ms is not after the previous one (" +
+                                        std::to_string(*last_t_) +
+                                        " ms); timestamps must be strictly increasing");
+  }
+
+  // For each shadow blob, the area-weighted centroid of the contact blobs that overlap it most.
+  std::vector<std::optional<cv::Point2f>> contacts_per_shadow() const {
+    const std::size_t n = seg_.shadows.size();
+    std::vector<double> sx(n, 0), sy(n, 0), sa(n, 0);
+    for (const Blob& c : seg_.contacts) {
+      int best = -1, best_area = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        const int a = (seg_.shadows[i].box & c.box).area();
+        if (a > best_area) best_area = a, best = static_cast<int>(i);
+      }
+      if (best < 0) continue;
+      const auto b = static_cast<std::size_t>(best);
+      sx[b] += c.centroid.x * c.area;
+      sy[b] += c.centroid.y * c.area;
+      sa[b] += c.area;
+    }
+    std::vector<std::optional<cv::Point2f>> out(n);
+    for (std::size_t i = 0; i < n; ++i)
+      if (sa[i] > 0)
+        out[i] = cv::Point2f(static_cast<float>(sx[i] / sa[i]), static_cast<float>(sy[i] / sa[i]));
+    return out;
+  }
+
+  static const Track* find_track(const std::vector<Track>& tracks, int id) {
+    for (const Track& t : tracks)
+      if (t.id == id) return &t;
+    return nullptr;
+  }
+
+  BasicSegmenter<Rule> segmenter_;
+  ContactTracker tracker_;
+  TouchStateMachine::Config touch_config_;
+  std::map<int, TouchStateMachine> machines_;
+  Segmentation seg_;
+  std::vector<Detection> detections_;
+  TouchFrame result_;
+  std::optional<double> last_t_;
+  detail::OwnerCheck owner_;
+};
+
+// The pipeline users have: with the Segmenter (calibrated rule).
+using TouchPipeline = BasicTouchPipeline<CalibratedRule>;
+
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,243 @@
+// TouchPipeline on sequences rendered by the scene generator: the events, their frames and their
+// tracks are known from the script of the sequence (the generator's ground truth). Calibration
+// frames use another seed.
+#include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
+
+#include <doctest/doctest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace shadowsense;
+
+namespace {
+
+sim::Renderer& renderer() {
+  static sim::Renderer r(sim::Rig::tracking_box());
+  return r;
+}
+
+const SimCalibration& calibration() {
+  static const SimCalibration c = calibrate_on_sim(renderer(), 0xCA11B, 60);
+  return c;
+}
+
+sim::HandPose finger(double x_cm, double y_cm, double height_cm, double rotation_deg = -90) {
+  sim::HandPose p;
+  p.shape = sim::HandShape::point;
+  p.position_cm = {x_cm, y_cm};
+  p.rotation_deg = rotation_deg;
+  p.height_cm = height_cm;
+  p.arm_elevation_deg = 40;
+  return p;
+}
+
+sim::Frame render(const std::vector<sim::HandPose>& hands, std::uint64_t seed) {
+  sim::Scene scene;
+  sim::User user;
+  for (const auto& h : hands) sim::add_hand(scene.parts, user, h);
+  return renderer().render(scene, sim::preset(sim::Lighting::dusk), seed);
+}
+
+struct Expected {
+  int frame;
+  int track;
+  TouchState from, to;
+  Direction direction = Direction::none;
+};
+
+std::string describe(const TrackEvent& e) {
+  return "track " + std::to_string(e.track_id) + " " + to_string(e.event.from) + "->" +
+         to_string(e.event.to) + " " + std::string(to_string(e.event.direction)) + " at " +
+         std::to_string(e.event.timestamp_ms);
+}
+
+} // namespace
+
+TEST_CASE("one finger: appear, touch, slide right, lift, disappear - on the scripted frames") {
+  // The script, one frame every 77 ms: 0-1 empty skin, 2-3 hovering 1.5 cm above (0, 0), 4-5
+  // touching (0, 0), 6-8 sliding right 1.2 cm per frame, 9-10 hovering again, 11-13 empty.
+  std::vector<std::vector<sim::HandPose>> script;
+  script.push_back({});
+  script.push_back({});
+  script.push_back({finger(0, 0, 1.5)});
+  script.push_back({finger(0, 0, 1.5)});
+  script.push_back({finger(0, 0, 0)});
+  script.push_back({finger(0, 0, 0)});
+  for (int k = 1; k <= 3; ++k) script.push_back({finger(1.2 * k, 0, 0)});
+  script.push_back({finger(3.6, 0, 1.5)});
+  script.push_back({finger(3.6, 0, 1.5)});
+  for (int k = 0; k < 3; ++k) script.push_back({});
+  // Expected from the script and the machine's rules (hysteresis 150 ms = two frames).
+  const std::vector<Expected> expected{
+      {2, 1, TouchState::none, TouchState::appear},
+      {4, 1, TouchState::appear, TouchState::touch},
+      {6, 1, TouchState::touch, TouchState::move, Direction::right},
+      {11, 1, TouchState::move, TouchState::lift}, // contact lost at 9: 154 ms later
+      {13, 1, TouchState::lift, TouchState::none}, // shadow lost at 11: 154 ms later
+  };
+  TouchPipeline pipeline(segmenter_from(calibration()), {.max_distance_px = 60});
+  std::vector<TrackEvent> events;
+  std::vector<int> frame_of;
+  for (std::size_t i = 0; i < script.size(); ++i) {
+    const sim::Frame f = render(script[i], 500 + i);
+    const TouchFrame& r = pipeline.update(f.image, 77.0 * static_cast<double>(i));
+    CHECK(r.timestamp_ms == 77.0 * static_cast<double>(i));
+    CHECK(r.shadow_boxes.size() == (f.gt.shadow_box ? 1u : 0u));
+    CHECK(r.contact_points.size() == (f.gt.contact_box ? 1u : 0u));
+    for (const TouchTrack& t : r.tracks) {
+      CHECK(t.id == 1);
+      CHECK(t.contact.has_value() == (t.matched && f.gt.contact_box.has_value()));
+      if (t.contact) { // the contact point is the true contact region's centroid
+        const cv::Moments m = cv::moments(f.gt.contact_mask, true);
+        CHECK(std::hypot(t.contact->x - m.m10 / m.m00, t.contact->y - m.m01 / m.m00) < 1.0);
+      }
+    }
+    for (const TrackEvent& e : r.events) {
+      events.push_back(e);
+      frame_of.push_back(static_cast<int>(i));
+    }
+  }
+  CHECK(pipeline.flush(77.0 * 14).events.empty()); // everything had ended
+  std::string got;
+  for (const TrackEvent& e : events) got += describe(e) + "\n";
+  INFO(got);
+  REQUIRE(events.size() == expected.size());
+  for (std::size_t k = 0; k < expected.size(); ++k) {
+    CHECK(frame_of[k] == expected[k].frame);
+    CHECK(events[k].track_id == expected[k].track);
+    CHECK(events[k].event.from == expected[k].from);
+    CHECK(events[k].event.to == expected[k].to);
+    CHECK(events[k].event.direction == expected[k].direction);
+    CHECK(events[k].event.timestamp_ms == 77.0 * expected[k].frame);
+  }
+}
+
+TEST_CASE("two hands touching at once: two tracks, two touches; flush ends both") {
+  TouchPipeline pipeline(segmenter_from(calibration()));
+  const std::vector<sim::HandPose> hands{finger(-3, 0, 0, 0), finger(3, 0, 0, 180)}; // arms apart
+  for (int i = 0; i < 3; ++i) {
+    const sim::Frame f = render(hands, 900 + static_cast<std::uint64_t>(i));
+    const TouchFrame& r = pipeline.update(f.image, 50.0 * i);
+    REQUIRE(r.tracks.size() == 2);
+    CHECK(r.tracks[0].id == 1);
+    CHECK(r.tracks[1].id == 2);
+    CHECK(r.tracks[0].contact.has_value());
+    CHECK(r.tracks[1].contact.has_value());
+    CHECK(r.tracks[0].state == TouchState::touch);
+    CHECK(r.tracks[1].state == TouchState::touch);
+    if (i == 0) {
+      REQUIRE(r.events.size() == 4); // appear + touch per track
+      CHECK(r.events[0].track_id == 1);
+      CHECK(r.events[1].track_id == 1);
+      CHECK(r.events[2].track_id == 2);
+      CHECK(r.events[1].event.to == TouchState::touch);
+      CHECK(r.events[3].event.to == TouchState::touch);
+    } else {
+      CHECK(r.events.empty());
+    }
+  }
+  // The stream ends while both touch: lift at the flush time, disappear one hysteresis later.
+  const TouchFrame& end = pipeline.flush(200);
+  REQUIRE(end.events.size() == 4);
+  for (int k = 0; k < 2; ++k) {
+    const TrackEvent& lift = end.events[static_cast<std::size_t>(2 * k)];
+    const TrackEvent& gone = end.events[static_cast<std::size_t>(2 * k + 1)];
+    CHECK(lift.track_id == k + 1);
+    CHECK(lift.event.to == TouchState::lift);
+    CHECK(lift.event.timestamp_ms == 350); // 200 + hysteresis 150: loss starts at the flush
+    CHECK(gone.event.to == TouchState::none);
+    CHECK(gone.event.timestamp_ms == 350);
+  }
+  // A new stream after the flush: ids keep growing.
+  const sim::Frame f = render({hands[0]}, 999);
+  const TouchFrame& r = pipeline.update(f.image, 201);
+  REQUIRE(r.tracks.size() == 1);
+  CHECK(r.tracks[0].id == 3);
+}
+
+TEST_CASE("bad timestamps and frames are refused with the pipeline unchanged") {
+  TouchPipeline pipeline(segmenter_from(calibration()));
+  const sim::Frame f = render({}, 1);
+  pipeline.update(f.image, 10);
+  CHECK_THROWS_WITH_AS(pipeline.update(f.image, 10), doctest::Contains("strictly increasing"),
+                       InvalidArgument);
+  CHECK_THROWS_AS(pipeline.update(f.image, std::nan("")), InvalidArgument);
+  CHECK_THROWS_AS(pipeline.update(cv::Mat(10, 10, CV_8UC3), 20), InvalidArgument);
+  CHECK_THROWS_AS(pipeline.flush(5), InvalidArgument);
+  CHECK(pipeline.update(f.image, 30).events.empty());
+}
+
+namespace {
+
+namespace ss = shadowsense;
+
+// The README's tracking loop, verbatim between the markers (a test below compares the text).
+template <class Camera, class Log>
+void readme_tracking_loop(const Camera& camera, Log log) {
+  // README-BEGIN
+  ss::TouchPipeline touch{ss::Segmenter({.calibration = ss::load_calibration("skin.calib")})};
+  double t_end = 0;
+  for (const auto& [frame, t_ms] : camera) { // cv::Mat BGR, timestamp in ms
+    for (const ss::TrackEvent& e : touch.update(frame, t_ms).events) log(e); // e.track_id, e.event
+    t_end = t_ms;
+  }
+  for (const ss::TrackEvent& e : touch.flush(t_end + 33).events) log(e); // the stream ended
+  // README-END
+}
+
+std::vector<std::string> trimmed_lines(const std::string& text, const std::string& from,
+                                       const std::string& to) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    const auto first = line.find_first_not_of(' ');
+    const std::string t = first == std::string::npos ? "" : line.substr(first);
+    if (t.rfind(from, 0) == 0) inside = true;
+    if (inside && t != "// README-BEGIN" && t != "// README-END") out.push_back(t);
+    if (inside && t.find(to) != std::string::npos) break;
+  }
+  return out;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+} // namespace
+
+TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
+  const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
+  const auto readme =
+      trimmed_lines(read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
+  const auto here = trimmed_lines(
+      read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"), first,
+      last);
+  REQUIRE(readme.size() == 7);
+  CHECK(readme == here);
+  // Run it: a calibration file in the working folder, a short touch.
+  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_loop";
+  std::filesystem::create_directories(dir);
+  const auto old = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  save_calibration(calibration().config.calibration, "skin.calib");
+  std::vector<std::pair<cv::Mat, double>> camera;
+  camera.emplace_back(render({}, 1).image, 0.0);
+  camera.emplace_back(render({finger(0, 0, 0)}, 2).image, 33.0);
+  camera.emplace_back(render({finger(0, 0, 0)}, 3).image, 66.0);
+  std::vector<TrackEvent> logged;
+  readme_tracking_loop(camera, [&](const TrackEvent& e) { logged.push_back(e); });
+  std::filesystem::current_path(old);
+  REQUIRE(logged.size() == 4); // appear + touch at 33 ms; lift + disappear at the flush
+  CHECK(logged[1].event.to == TouchState::touch);
+  CHECK(logged[1].event.timestamp_ms == 33.0);
+  CHECK(logged[2].event.to == TouchState::lift);
+  CHECK(logged[3].event.to == TouchState::none);
+}

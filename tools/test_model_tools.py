@@ -1,0 +1,143 @@
+#!/usr/bin/python3
+"""Tests of the model-file tools: densenet_to_model.py rejects bad values with exit status 2
+and no traceback, writes version 2 atomically and upgrades version-1 files; train.py accepts a
+plain class-per-folder tree and leaves no temporary file.
+
+  /usr/bin/python3 tools/test_model_tools.py        (run by .ci/steps/model_tools.sh)
+"""
+import os
+import resource
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import unittest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+sys.path.insert(0, HERE)
+import densenet_to_model as d2m  # noqa: E402
+
+FIXTURE_V1 = os.path.join(ROOT, "tests", "data", "densenet_tiny.ssdn")
+TINY = ["--random-init", "--growth-rate", "2", "--block-config", "1", "1", "--init-features",
+        "4", "--num-classes", "3", "--resize", "0", "0", "--crop", "0", "0"]
+
+
+def read_bytes(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def run(script, *args, **kw):
+    return subprocess.run([sys.executable, os.path.join(HERE, script), *args],
+                          capture_output=True, text=True, **kw)
+
+
+class DenseNetToModel(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.mkdtemp()
+
+    def tearDown(self):
+        shutil.rmtree(self.dir)
+
+    def out(self, name="m.ssm"):
+        return os.path.join(self.dir, name)
+
+    def test_bad_values_exit_2_without_traceback_or_file(self):
+        for bad, needle in ((["--std", "0", "0", "0"], "--std 0.0 0.0 0.0: expected finite"),
+                            (["--contrast", "nan"], "--contrast nan: expected a finite"),
+                            (["--block-config", "0"], "--block-config 0: expected 1..16"),
+                            (["--resize", "65536", "65536"], "expected both 0 (skip) or both"),
+                            (["--dark-threshold", "-1"], "--dark-threshold -1.0"),
+                            (["--brightness", "inf"], "--brightness inf")):
+            r = run("densenet_to_model.py", *TINY, *bad, "-o", self.out())
+            self.assertEqual(r.returncode, 2, bad)
+            self.assertIn(needle, r.stderr)
+            self.assertNotIn("Traceback", r.stderr)
+            self.assertEqual(os.listdir(self.dir), [], bad)
+
+    def test_writes_version_2_with_the_options(self):
+        r = run("densenet_to_model.py", *TINY, "--lighting-normalise", "--dark-threshold", "0.25",
+                "-o", self.out())
+        self.assertEqual(r.returncode, 0, r.stderr)
+        data = read_bytes(self.out())
+        self.assertEqual(struct.unpack_from("<I", data, 8)[0], 2)
+        at = 8 + 4 + 5 * 4 + 4 + 4 * 2 + 13 * 4  # two dense blocks
+        flag, target, dark = struct.unpack_from("<Iff", data, at)
+        self.assertEqual((flag, dark), (1, 0.25))
+        self.assertAlmostEqual(target, 0.35, places=6)
+        self.assertEqual(os.listdir(self.dir), ["m.ssm"])
+
+    def test_upgrade_inserts_the_fields_and_keeps_everything_else(self):
+        v1 = read_bytes(FIXTURE_V1)
+        self.assertEqual(struct.unpack_from("<I", v1, 8)[0], 1)
+        r = run("densenet_to_model.py", "--upgrade", FIXTURE_V1, "--lighting-normalise",
+                "-o", self.out())
+        self.assertEqual(r.returncode, 0, r.stderr)
+        v2 = read_bytes(self.out())
+        blocks = struct.unpack_from("<I", v1, 8 + 4 + 5 * 4)[0]
+        at = 8 + 4 + 5 * 4 + 4 + 4 * blocks + 13 * 4
+        self.assertEqual(len(v2), len(v1) + 12)
+        self.assertEqual(v2[12:at], v1[12:at])
+        self.assertEqual(struct.unpack_from("<Iff", v2, at)[0], 1)
+        self.assertEqual(struct.unpack_from("<Iff", v2, at)[2], 0.0)  # version 1's rule
+        self.assertEqual(v2[at + 12:-4], v1[at:-4])
+        self.assertEqual(d2m.checksum(v2[:-4]), struct.unpack("<I", v2[-4:])[0])
+        # Upgrading again, or a file that is not a model, is a clear error (status 2).
+        for src, needle in ((self.out(), "already version 2"), (__file__, "wrong magic")):
+            r = run("densenet_to_model.py", "--upgrade", src, "-o", self.out("again.ssm"))
+            self.assertEqual(r.returncode, 2)
+            self.assertIn(needle, r.stderr)
+            self.assertNotIn("Traceback", r.stderr)
+
+    def test_a_failed_write_keeps_the_old_file_and_leaves_no_temporary(self):
+        good = read_bytes(FIXTURE_V1)
+        with open(self.out(), "wb") as f:
+            f.write(good)
+        limit = len(good) // 2
+
+        def small_files():
+            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+            import signal
+            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+
+        r = run("densenet_to_model.py", "--upgrade", FIXTURE_V1, "-o", self.out(),
+                preexec_fn=small_files)
+        self.assertNotEqual(r.returncode, 0)
+        self.assertNotIn("Traceback", r.stderr)
+        self.assertEqual(read_bytes(self.out()), good)
+        self.assertEqual(os.listdir(self.dir), ["m.ssm"])
+
+
+class TrainOnAPlainTree(unittest.TestCase):
+    def test_class_per_folder_tree_and_no_temporary_files(self):
+        from PIL import Image
+        work = tempfile.mkdtemp()
+        try:
+            tree = os.path.join(work, "tree")
+            for k, cls in enumerate(("dim", "lit")):
+                for i in range(6):
+                    sub = os.path.join(tree, cls, "nested" if i % 2 else "")
+                    os.makedirs(sub, exist_ok=True)
+                    v = 40 + 150 * k + i
+                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(sub, f"{i}.png"))
+            out = os.path.join(work, "out")
+            os.makedirs(out)
+            r = run("train.py", tree, "-o", os.path.join(out, "m.ssm"), "--growth-rate", "2",
+                    "--block-config", "1", "--init-features", "4", "--resize", "32", "24",
+                    "--epochs", "1", "--save-state-dict", os.path.join(out, "m.pt"))
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertIn("8 training and 4 validation images", r.stdout)
+            self.assertEqual(sorted(os.listdir(out)), ["m.pt", "m.ssm"])
+            data = read_bytes(os.path.join(out, "m.ssm"))
+            self.assertEqual(struct.unpack_from("<I", data, 8)[0], 2)
+            r = run("train.py", tree, "-o", os.path.join(out, "x.ssm"), "--epochs", "0")
+            self.assertEqual(r.returncode, 2)
+            self.assertNotIn("Traceback", r.stderr)
+        finally:
+            shutil.rmtree(work)
+
+
+if __name__ == "__main__":
+    unittest.main()
