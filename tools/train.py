@@ -52,6 +52,7 @@ import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import dataset_reader  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
 
 MEAN = [0.485, 0.456, 0.406]
@@ -321,6 +322,22 @@ def augment(x, gen):
     return (x + sigma * torch.randn(x.shape, generator=gen)).clamp(0, 1)
 
 
+def augment_geometry(x, gen):
+    """Geometric augmentation (--augment-geometry): random horizontal and vertical flips
+    (people stand on either side of the robot) and a random scale 0.85-1.15 and shift of up to
+    8% of the frame (other lenses, mounting heights and hand sizes), per image."""
+    n = x.shape[0]
+    sx = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    sy = torch.where(torch.rand(n, generator=gen) < 0.5, -1.0, 1.0)
+    scale = torch.empty(n).uniform_(0.85, 1.15, generator=gen)
+    theta = torch.zeros(n, 2, 3)
+    theta[:, 0, 0] = sx / scale
+    theta[:, 1, 1] = sy / scale
+    theta[:, :, 2] = torch.empty(n, 2).uniform_(-0.16, 0.16, generator=gen)
+    grid = F.affine_grid(theta, list(x.shape), align_corners=False)
+    return F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
+
+
 def cache(rows, pre, normalised, classes, label):
     xs, ys, dark = [], [], []
     t0 = time.time()
@@ -407,6 +424,8 @@ def main(argv=None):
                     help="dark-frame rule recorded in the model (mean luminance below it: "
                          "dark); 0 = never")
     ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
+    ap.add_argument("--augment-geometry", action="store_true",
+                    help="flips, scale and shift augmentation (scratch)")
     ap.add_argument("--users"), ap.add_argument("--exclude-users")
     ap.add_argument("--lightings"), ap.add_argument("--exclude-lightings")
     ap.add_argument("--holdout", type=float, default=0.0)
@@ -438,7 +457,7 @@ def main(argv=None):
     random.seed(args.seed)
     gen = torch.Generator().manual_seed(args.seed)
 
-    rows = read_metadata(args.data)
+    rows = dataset_reader.rows_for_training(args.data)
     classes = csv_list(args.classes) or sorted({r["class"] for r in rows})
     train_rows, val_rows = select(rows, args)
     print(f"{len(train_rows)} training and {len(val_rows)} validation images, classes "
@@ -506,6 +525,8 @@ def main(argv=None):
             x = xt[idx]
             if args.augment:
                 x = augment(x, gen)
+            if args.augment_geometry:
+                x = augment_geometry(x, gen)
             return model(photometric(x, dt[idx], pre, args.lighting_normalise)), yt[idx]
 
         def val_fn():

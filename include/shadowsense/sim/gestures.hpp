@@ -1,11 +1,15 @@
 // The paper's six social-touch gestures on the robot rig (section 5.1): nothing, hug, palm,
 // point, punch, two_hands; and recording sessions (one per user and lighting, gestures in
-// blocks, in time order, with a smooth pose drift within each block).
+// blocks, in time order, with a smooth pose drift within each block). With
+// GestureSessionConfig::randomise a session also draws a DomainSample (randomise.hpp) and renders
+// its fabric, light, camera, body and occluders from it; the renderer's shading is set for the
+// frame and restored afterwards (the Renderer is used, not shared: one per thread as always).
 #pragma once
 
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/lighting.hpp>
+#include <shadowsense/sim/randomise.hpp>
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/rng.hpp>
 
@@ -76,6 +80,17 @@ struct GesturePose {
                     "GesturePose: hug_reach must be in [0.2, 2]");
   }
 };
+
+// Domain randomisation of a pose (randomise.hpp): arm elevation, wrist bend, spread and hug
+// reach offset by the sample, clamped to the valid ranges of GesturePose and HandPose.
+inline GesturePose randomise_pose(GesturePose p, const DomainSample& d) {
+  p.arm_elevation_deg = std::clamp(p.arm_elevation_deg + d.arm_elevation_offset_deg, 5.0, 85.0);
+  p.wrist_bend_deg = std::clamp(p.wrist_bend_deg + d.wrist_bend_offset_deg, -55.0, 55.0);
+  p.spread = std::clamp(p.spread + d.spread_offset, 0.0, 1.0);
+  p.hug_reach = std::clamp(p.hug_reach * d.hug_reach_scale, 0.3, 1.9);
+  p.validate();
+  return p;
+}
 
 namespace internal {
 // Appends segments along a polyline with linearly varying width and height.
@@ -287,8 +302,13 @@ struct GestureSessionConfig {
   double fps = 10.0;
   double gap_ms = 3000.0; // pause between gesture blocks
   double distractor_probability = 0.25;
+  // Domain randomisation (randomise.hpp): off = the frames of the unrandomised generator,
+  // byte for byte. On: one DomainSample per session, drawn from the session seed.
+  bool randomise = false;
+  DomainRanges ranges{};
 
   void validate() const {
+    if (randomise) ranges.validate();
     detail::require(frames_per_gesture >= 1 && frames_per_gesture <= 100000,
                     "GestureSessionConfig: frames_per_gesture must be in [1, 100000], got " +
                         std::to_string(frames_per_gesture));
@@ -329,6 +349,12 @@ public:
       poses_[g] = random_gesture_pose(all_gestures[g], block);
       drifts_[g] = PoseDrift::random(block);
     }
+    if (config.randomise) {
+      domain_ = DomainSample::draw(seed, config.ranges);
+      user_ = randomise_user(user_, domain_);
+      light_ = randomise_light(light_, domain_);
+      for (auto& o : random_occluders(domain_, seed)) distractors_.push_back(std::move(o));
+    }
     name_ = "u" + std::to_string(user.id) + "_" + std::string(to_string(light_.label));
     if (light_.label == Lighting::custom)
       name_ += std::to_string(static_cast<int>(std::lround(lighting_level * 100)));
@@ -338,6 +364,8 @@ public:
   const std::string& name() const { return name_; }
   const Light& light() const { return light_; }
   const User& user() const { return user_; }
+  // The session's domain sample (meaningful only with config.randomise).
+  const DomainSample& domain() const { return domain_; }
 
   GestureFrameInfo info(int index) const {
     check(index);
@@ -358,7 +386,9 @@ public:
     const int block = index / config_.frames_per_gesture;
     const double t_s = static_cast<double>(index % config_.frames_per_gesture) / config_.fps;
     const auto b = static_cast<std::size_t>(block);
-    Scene s = gesture_scene(all_gestures[b], user_, drifts_[b].apply(poses_[b], t_s));
+    GesturePose pose = drifts_[b].apply(poses_[b], t_s);
+    if (config_.randomise) pose = randomise_pose(pose, domain_);
+    Scene s = gesture_scene(all_gestures[b], user_, pose);
     s.wrinkle = wrinkle_;
     s.distractors = distractors_;
     Rng rng(derive_seed(seed_, 0xD15A0000ull + static_cast<std::uint64_t>(index)));
@@ -370,8 +400,21 @@ public:
   void render(Renderer& renderer, int index, Frame& out,
               GestureFrameInfo* info_out = nullptr) const {
     const GestureFrameInfo i = info(index);
-    renderer.render(scene(index), i.light,
-                    derive_seed(seed_, 0xAB0000ull + static_cast<std::uint64_t>(index)), out);
+    const std::uint64_t noise_seed =
+        derive_seed(seed_, 0xAB0000ull + static_cast<std::uint64_t>(index));
+    if (!config_.randomise) {
+      renderer.render(scene(index), i.light, noise_seed, out);
+    } else {
+      // Session shading on the shared renderer, restored even if rendering throws.
+      struct Restore {
+        Renderer& r;
+        RenderConfig c;
+        ~Restore() { r.set_shading(c); }
+      } restore{renderer, renderer.config()};
+      renderer.set_shading(randomise_shading(restore.c, domain_));
+      renderer.render(scene(index), i.light, noise_seed, out);
+      apply_camera(domain_, renderer.surface_mask(), noise_seed, out);
+    }
     if (info_out) *info_out = i;
   }
 
@@ -384,6 +427,7 @@ private:
   std::vector<Distractor> distractors_;
   std::array<GesturePose, 6> poses_{};
   std::array<PoseDrift, 6> drifts_{};
+  DomainSample domain_{};
   std::string name_;
 
   void check(int index) const {

@@ -93,6 +93,19 @@ public:
 
   const Rig& rig() const { return rig_; }
   const RenderConfig& config() const { return cfg_; }
+  // Replaces the shading parameters that need no precomputation (opacity, penumbra, skin
+  // transmission, interior), e.g. per session under domain randomisation.
+  // requires: c.validate() passes and c.fabric_seed, c.weave_amplitude, c.sensor_noise equal
+  // config()'s (those are baked into the precomputed maps); InvalidArgument otherwise.
+  void set_shading(const RenderConfig& c) {
+    c.validate();
+    detail::require(c.fabric_seed == cfg_.fabric_seed &&
+                        c.weave_amplitude == cfg_.weave_amplitude &&
+                        c.sensor_noise == cfg_.sensor_noise,
+                    "Renderer::set_shading: fabric_seed, weave_amplitude and sensor_noise are "
+                    "fixed at construction; build another Renderer to change them");
+    cfg_ = c;
+  }
   // 255 where the pixel shows the skin surface.
   const cv::Mat& surface_mask() const { return surface_; }
 

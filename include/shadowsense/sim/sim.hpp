@@ -5,6 +5,7 @@
 #include <shadowsense/sim/body.hpp>
 #include <shadowsense/sim/gestures.hpp>
 #include <shadowsense/sim/lighting.hpp>
+#include <shadowsense/sim/randomise.hpp>
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/rig.hpp>
 #include <shadowsense/sim/rng.hpp>
