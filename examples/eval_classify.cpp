@@ -16,19 +16,20 @@
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
+#include "common/cli.hpp"
+#include "common/json.hpp"
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <optional>
 #include <set>
-#include <sstream>
 
 namespace ss = shadowsense;
 namespace fs = std::filesystem;
@@ -148,14 +149,15 @@ std::string pct(double a) {
   return b;
 }
 
-std::string json_confusion(const Confusion& c) {
-  std::string s = "[";
-  for (std::size_t i = 0; i < c.size(); ++i) {
-    s += i ? ", [" : "[";
-    for (std::size_t j = 0; j < c[i].size(); ++j) s += (j ? ", " : "") + std::to_string(c[i][j]);
-    s += "]";
+// A confusion matrix as rows of counts, [true][predicted].
+void json_confusion(cli::JsonWriter& j, const Confusion& c) {
+  j.begin_array(cli::JsonWriter::compact);
+  for (const auto& row : c) {
+    j.begin_array();
+    for (int v : row) j.value(v);
+    j.end_array();
   }
-  return s + "]";
+  j.end_array();
 }
 
 // A confusion matrix as an image (Fig. 11 style): rows true, columns predicted, cells shaded by
@@ -205,16 +207,23 @@ int run_speed(const Options& o) {
   std::cout
       << "Speed vs error (1 thread; ms/frame = preprocessing + forward of one 635x350 frame)\n";
   std::cout << "model                                  input     ms/frame   Table-1 avg acc\n";
-  std::string json = "{\n  \"speed\": [";
-  bool first = true;
+  cli::JsonWriter json;
+  json.begin_object().key("speed").begin_array();
   for (const auto& spec : o.speed_models) {
     std::string path = spec;
     std::optional<std::pair<int, int>> size;
     if (const auto at = spec.rfind('@'); at != std::string::npos) {
       path = spec.substr(0, at);
-      int w = 0, h = 0;
-      if (std::sscanf(spec.c_str() + at + 1, "%dx%d", &w, &h) != 2 || w < 8 || h < 8)
-        throw ss::InvalidArgument("--speed " + spec + ": expected MODEL@WxH");
+      const std::string wxh = spec.substr(at + 1);
+      const auto x = wxh.find('x');
+      cli::detail::Constraint<int> side;
+      side.has_range = true;
+      side.lo = 8;
+      side.hi = 4096;
+      if (x == std::string::npos)
+        throw cli::UsageError("--speed: expected MODEL@WxH, got '" + spec + "'");
+      const int w = side.parse("--speed " + spec + ": width", std::string_view(wxh).substr(0, x));
+      const int h = side.parse("--speed " + spec + ": height", std::string_view(wxh).substr(x + 1));
       size = std::pair{w, h};
     }
     auto model = ss::ModelFile::load(path);
@@ -281,27 +290,24 @@ int run_speed(const Options& o) {
                   fs::path(path).filename().string().c_str(), in_w, in_h, ms,
                   acc < 0 ? "-" : pct(acc).c_str());
     std::cout << line << std::flush;
-    char js[512];
-    std::snprintf(js, sizeof js,
-                  "%s\n    {\"model\": \"%s\", \"input_width\": %d, \"input_height\": %d, "
-                  "\"ms_per_frame\": %.3f, \"table1_average_accuracy\": %s}",
-                  first ? "" : ",", fs::path(path).filename().string().c_str(), in_w, in_h, ms,
-                  acc < 0 ? "null" : std::to_string(acc).c_str());
-    json += js;
-    first = false;
+    json.begin_object(cli::JsonWriter::compact).field("model", fs::path(path).filename().string());
+    json.field("input_width", in_w).field("input_height", in_h).field("ms_per_frame", ms);
+    json.key("table1_average_accuracy");
+    if (acc < 0)
+      json.value(nullptr);
+    else
+      json.value(acc);
+    json.end_object();
   }
-  json += "\n  ]\n}\n";
-  if (!o.json.empty()) {
-    std::ofstream(o.json + ".tmp") << json;
-    fs::rename(o.json + ".tmp", o.json);
-  }
+  json.end_array().end_object();
+  if (!o.json.empty()) json.save(o.json);
   return 0;
 }
 
 // Scores a model file as it is (its own classifier, no training) on every frame of --data with
 // the C++ Classifier: accuracy per lighting and overall, confusion matrices.
 int run_score(const Options& o) {
-  if (o.data.empty()) throw ss::InvalidArgument("--score needs --data DIR");
+  if (o.data.empty()) throw cli::UsageError("--score: needs --data DIR");
   const auto model = ss::ModelFile::load(o.score_model);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
@@ -328,10 +334,9 @@ int run_score(const Options& o) {
   std::cout << "Model " << o.score_model << " on " << o.data << " (" << set.frames.size()
             << " frames" << (o.normalise ? ", lighting normalisation on" : "")
             << ")\n  lighting    accuracy   frames\n";
-  std::ostringstream js;
-  js << "{\n  \"model\": \"" << o.score_model << "\",\n  \"data\": \"" << o.data
-     << "\",\n  \"accuracy\": {";
-  bool first = true;
+  cli::JsonWriter json;
+  json.begin_object().field("model", o.score_model).field("data", o.data);
+  json.key("accuracy").begin_object(cli::JsonWriter::compact);
   for (const auto& [key, m] : conf) {
     int ok = 0, n = 0;
     for (std::size_t i = 0; i < k; ++i)
@@ -341,223 +346,231 @@ int run_score(const Options& o) {
       }
     std::cout << "  " << std::left << std::setw(10) << key << "  " << pct(double(ok) / n) << "   "
               << n << "\n";
-    js << (first ? "" : ", ") << '"' << key << "\": " << double(ok) / n;
-    first = false;
+    json.field(key, double(ok) / n);
     if (!o.confusion_dir.empty())
       write_confusion_png(fs::path(o.confusion_dir) / ("score_" + key + ".png"), m, set.class_names,
                           "Shipped model - " + key + ": " + pct(double(ok) / n));
   }
-  js << "},\n  \"confusion\": {";
-  first = true;
+  json.end_object().key("confusion").begin_object();
   for (const auto& [key, m] : conf) {
-    js << (first ? "" : ", ") << '"' << key << "\": " << json_confusion(m);
-    first = false;
+    json.key(key);
+    json_confusion(json, m);
   }
-  js << "}\n}\n";
-  if (!o.json.empty()) {
-    std::ofstream(o.json + ".tmp") << js.str();
-    fs::rename(o.json + ".tmp", o.json);
+  json.end_object().end_object();
+  if (!o.json.empty()) json.save(o.json);
+  return 0;
+}
+
+Options parse_options(int argc, char** argv) {
+  Options o;
+  std::vector<int> tables{1, 2, 3, 4};
+  cli::Parser p("ss_eval_classify",
+                "The paper's classification experiments (section 5.1, Tables 1-4) on a gesture "
+                "folder: every split trains a linear classifier on frozen backbone features and "
+                "scores the split's test frames (docs/classification_eval.md). --score scores a "
+                "model as it is; --speed times models (speed vs error).");
+  p.usage("ss_eval_classify --data DIR --backbone ALL.ssm [--backbone-dir DIR] [--tables LIST] "
+          "[options]");
+  p.usage("ss_eval_classify --score MODEL --data DIR [options]");
+  p.usage("ss_eval_classify --speed MODEL[@WxH] ... [--data DIR --subsample K] [options]");
+  p.option("--data", "DIR", "gesture folder (dataset format)", o.data);
+  p.option("--backbone", "ALL.ssm", "backbone of Tables 1 and 2 (never saw the evaluated users)",
+           o.backbone);
+  p.option("--backbone-dir", "DIR",
+           "no_<lighting>.ssm (Table 3) and only_<lighting>.ssm (Table 4) backbones",
+           o.backbone_dir);
+  p.list("--tables", "LIST", "tables to compute", tables).range(1, 4);
+  p.flag("--lighting-normalise", "normalise lighting before the network", o.normalise);
+  p.option("--json", "OUT.json", "write the results as JSON", o.json);
+  p.option("--confusion-dir", "DIR", "write confusion matrices as PNG images", o.confusion_dir);
+  p.option("--threads", "N", "worker threads", o.threads).range(1, 256);
+  p.option("--score", "MODEL", "score this model's own classifier on --data", o.score_model);
+  p.repeated("--speed", "MODEL[@WxH]",
+             "time this model, optionally resized to WxH; with --data also its Table-1 accuracy",
+             o.speed_models);
+  p.option("--subsample", "K", "with --speed: every K-th frame of each session x class block",
+           o.subsample)
+      .range(1, 1000000);
+  p.flag("--quiet", "no progress messages", o.quiet);
+  p.parse(argc, argv);
+  o.tables = std::set<int>(tables.begin(), tables.end());
+  if (o.speed_models.empty() && o.score_model.empty()) {
+    if (o.data.empty() || o.backbone.empty())
+      throw cli::UsageError(
+          "--data and --backbone are required (or --score / --speed; see --help)");
+    if ((o.tables.count(3) || o.tables.count(4)) && o.backbone_dir.empty())
+      throw cli::UsageError(
+          "--backbone-dir: Tables 3 and 4 need it (no_<lighting>.ssm, only_<lighting>.ssm)");
   }
+  return o;
+}
+
+// ------------------------------------------------------------------------------ Tables 1 to 4
+// What every table needs: the data, the features of its backbone(s) (computed once each), where
+// to put confusion images and the JSON document under construction.
+struct TableRun {
+  const Options& o;
+  const ss::GestureSamples& set;
+  const Indices& all;
+  cli::JsonWriter& json;
+  std::string mode; // printed after each table's title
+  std::map<std::string, Features> features;
+
+  const Features& backbone_features(const std::string& path) {
+    if (!features.count(path)) features.emplace(path, features_for(path, set, o, all));
+    return features.at(path);
+  }
+  // The backbone that never saw lighting l ("no") or saw only l ("only").
+  const Features& lighting_backbone(const std::string& kind, ss::sim::Lighting l) {
+    return backbone_features(
+        (fs::path(o.backbone_dir) / (kind + "_" + lname(l) + ".ssm")).string());
+  }
+  void confusion_png(const std::string& file, const Confusion& c, const std::string& title) const {
+    if (!o.confusion_dir.empty())
+      write_confusion_png(fs::path(o.confusion_dir) / file, c, set.class_names, title);
+  }
+};
+
+// Table 1: combined data, every gesture x lighting block split 70/30 by collection time.
+void table1_combined(TableRun& r) {
+  const auto [pool, test] = ss::time_split(r.set, r.all, 0.3);
+  const auto pred = train_and_predict(r.set, r.backbone_features(r.o.backbone), pool, test);
+  std::cout << "\nTable 1: combined data, every gesture x lighting split 70/30 by collection time"
+            << r.mode << "\n";
+  std::cout << "  lighting    accuracy   test frames\n";
+  std::vector<Score> scores;
+  double sum = 0;
+  for (const auto l : lightings) {
+    scores.push_back(
+        score(r.set, test, pred, [&](const ss::GestureSample& f) { return f.lighting == l; }));
+    const Score& s = scores.back();
+    sum += s.accuracy;
+    std::cout << "  " << std::left << std::setw(10) << lname(l) << "  " << pct(s.accuracy) << "   "
+              << s.frames << "\n";
+    r.confusion_png("table1_" + lname(l) + ".png", s.confusion,
+                    "Table 1 - " + lname(l) + ": " + pct(s.accuracy));
+  }
+  std::cout << "  average     " << pct(sum / 3) << "\n";
+  r.json.key("table1").begin_object();
+  r.json.key("accuracy").begin_object(cli::JsonWriter::compact);
+  for (std::size_t li = 0; li < lightings.size(); ++li)
+    r.json.field(lname(lightings[li]), scores[li].accuracy);
+  r.json.end_object().field("average", sum / 3);
+  r.json.key("confusion").begin_object();
+  for (std::size_t li = 0; li < lightings.size(); ++li) {
+    r.json.key(lname(lightings[li]));
+    json_confusion(r.json, scores[li].confusion);
+  }
+  r.json.end_object().end_object();
+}
+
+// Table 2: leave one user out.
+void table2_leave_one_user_out(TableRun& r) {
+  std::set<int> users;
+  for (const auto& f : r.set.frames) users.insert(f.user);
+  std::cout << "\nTable 2: leave one user out" << r.mode << "\n  user   accuracy\n";
+  r.json.key("table2").begin_object().key("accuracy").begin_object(cli::JsonWriter::compact);
+  double sum = 0;
+  for (int u : users) {
+    const Indices pool =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.user != u; });
+    const Indices test =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.user == u; });
+    const Score s =
+        score(r.set, test, train_and_predict(r.set, r.backbone_features(r.o.backbone), pool, test));
+    sum += s.accuracy;
+    std::cout << "  " << std::setw(5) << u << "  " << pct(s.accuracy) << "\n";
+    r.json.field(std::to_string(u), s.accuracy);
+  }
+  std::cout << "  mean   " << pct(sum / double(users.size())) << "\n";
+  r.json.end_object().field("mean", sum / double(users.size())).end_object();
+}
+
+// Table 3: leave one lighting condition out (backbone no_<lighting>.ssm).
+void table3_leave_one_lighting_out(TableRun& r) {
+  std::cout << "\nTable 3: leave one lighting condition out (backbone no_<lighting>.ssm)" << r.mode
+            << "\n  test lighting   accuracy\n";
+  r.json.key("table3").begin_object().key("accuracy").begin_object(cli::JsonWriter::compact);
+  double sum = 0;
+  for (const auto l : lightings) {
+    const Indices pool =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting != l; });
+    const Indices test =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting == l; });
+    const Score s =
+        score(r.set, test, train_and_predict(r.set, r.lighting_backbone("no", l), pool, test));
+    sum += s.accuracy;
+    std::cout << "  " << std::left << std::setw(14) << lname(l) << "  " << pct(s.accuracy) << "\n";
+    r.json.field(lname(l), s.accuracy);
+    r.confusion_png("table3_" + lname(l) + ".png", s.confusion,
+                    "Table 3 - unseen " + lname(l) + ": " + pct(s.accuracy));
+  }
+  std::cout << "  mean            " << pct(sum / 3) << "\n";
+  r.json.end_object().field("mean", sum / 3).end_object();
+}
+
+// Table 4: train on one lighting condition, test on each other (backbone only_<lighting>.ssm).
+void table4_one_lighting_to_others(TableRun& r) {
+  std::cout << "\nTable 4: train on one lighting condition, test on each other (backbone "
+               "only_<lighting>.ssm)"
+            << r.mode << "\n  train \\ test   daylight    dusk      night\n";
+  r.json.key("table4").begin_object().key("accuracy").begin_object();
+  double worst = 1;
+  for (const auto l : lightings) {
+    const Indices pool =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting == l; });
+    const Indices test =
+        ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting != l; });
+    const auto pred = train_and_predict(r.set, r.lighting_backbone("only", l), pool, test);
+    std::cout << "  " << std::left << std::setw(12) << lname(l);
+    r.json.key(lname(l)).begin_object(cli::JsonWriter::compact);
+    for (const auto m : lightings) {
+      if (m == l) {
+        std::cout << "     -    ";
+        continue;
+      }
+      const Score s =
+          score(r.set, test, pred, [&](const ss::GestureSample& f) { return f.lighting == m; });
+      worst = std::min(worst, s.accuracy);
+      std::cout << "  " << pct(s.accuracy);
+      r.json.field(lname(m), s.accuracy);
+    }
+    std::cout << "\n";
+    r.json.end_object();
+  }
+  std::cout << "  lowest cell   " << pct(worst) << "\n";
+  r.json.end_object().field("min", worst).end_object();
+}
+
+int run_tables(const Options& o) {
+  const auto base = ss::ModelFile::load(o.backbone);
+  const auto set = ss::load_gesture_samples(o.data, base.class_names);
+  const Indices all = ss::select_samples(set, [](const ss::GestureSample&) { return true; });
+  cli::JsonWriter json;
+  json.begin_object().field("data", o.data).field("frames", set.frames.size());
+  json.field("lighting_normalise", o.normalise);
+  json.key("class_names").begin_array(cli::JsonWriter::compact);
+  for (const auto& n : set.class_names) json.value(n);
+  json.end_array().field("backbone", o.backbone);
+  TableRun r{
+      o, set, all, json, o.normalise ? " (lighting normalisation on)" : " (paper preprocessing)",
+      {}};
+  if (o.tables.count(1)) table1_combined(r);
+  if (o.tables.count(2)) table2_leave_one_user_out(r);
+  if (o.tables.count(3)) table3_leave_one_lighting_out(r);
+  if (o.tables.count(4)) table4_one_lighting_to_others(r);
+  json.end_object();
+  if (!o.json.empty()) json.save(o.json);
   return 0;
 }
 
 } // namespace
 
-int main(int argc, char** argv) try {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) throw ss::InvalidArgument(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--data")
-      o.data = next();
-    else if (a == "--backbone")
-      o.backbone = next();
-    else if (a == "--backbone-dir")
-      o.backbone_dir = next();
-    else if (a == "--json")
-      o.json = next();
-    else if (a == "--confusion-dir")
-      o.confusion_dir = next();
-    else if (a == "--lighting-normalise")
-      o.normalise = true;
-    else if (a == "--threads")
-      o.threads = std::stoi(next());
-    else if (a == "--subsample")
-      o.subsample = std::max(1, std::stoi(next()));
-    else if (a == "--speed")
-      o.speed_models.push_back(next());
-    else if (a == "--score")
-      o.score_model = next();
-    else if (a == "--quiet")
-      o.quiet = true;
-    else if (a == "--tables") {
-      o.tables.clear();
-      std::stringstream in(next());
-      for (std::string t; std::getline(in, t, ',');) {
-        if (t != "1" && t != "2" && t != "3" && t != "4")
-          throw ss::InvalidArgument("--tables: '" + t + "' is not 1, 2, 3 or 4");
-        o.tables.insert(std::stoi(t));
-      }
-    } else if (a == "--help" || a == "-h") {
-      std::cout << "ss_eval_classify --data DIR --backbone ALL.ssm [--backbone-dir DIR] "
-                   "[--lighting-normalise] [--tables 1,2,3,4] [--json OUT] [--confusion-dir DIR] "
-                   "[--threads N]\nss_eval_classify --score MODEL --data DIR "
-                   "[--lighting-normalise] [--json OUT] "
-                   "[--confusion-dir DIR]\nss_eval_classify --speed MODEL[@WxH] ... [--data DIR] "
-                   "[--subsample K] [--json OUT]\n";
-      return 0;
-    } else
-      throw ss::InvalidArgument("unknown argument '" + a + "' (see --help)");
-  }
-  if (!o.speed_models.empty()) return run_speed(o);
-  if (!o.score_model.empty()) return run_score(o);
-  if (o.data.empty() || o.backbone.empty())
-    throw ss::InvalidArgument("--data and --backbone are required (see --help)");
-  if ((o.tables.count(3) || o.tables.count(4)) && o.backbone_dir.empty())
-    throw ss::InvalidArgument(
-        "Tables 3 and 4 need --backbone-dir (no_<lighting>.ssm, only_<lighting>.ssm)");
-
-  const auto base = ss::ModelFile::load(o.backbone);
-  const auto set = ss::load_gesture_samples(o.data, base.class_names);
-  const Indices all = ss::select_samples(set, [](const ss::GestureSample&) { return true; });
-  std::set<int> users;
-  for (const auto& f : set.frames) users.insert(f.user);
-  const auto& names = set.class_names;
-  std::ostringstream js;
-  js << "{\n  \"data\": \"" << o.data << "\",\n  \"frames\": " << set.frames.size()
-     << ",\n  \"lighting_normalise\": " << (o.normalise ? "true" : "false")
-     << ",\n  \"class_names\": [";
-  for (std::size_t i = 0; i < names.size(); ++i) js << (i ? ", " : "") << '"' << names[i] << '"';
-  js << "],\n  \"backbone\": \"" << o.backbone << "\"";
-  auto confusion_png = [&](const std::string& file, const Confusion& c, const std::string& title) {
-    if (!o.confusion_dir.empty())
-      write_confusion_png(fs::path(o.confusion_dir) / file, c, names, title);
-  };
-  const std::string mode = o.normalise ? " (lighting normalisation on)" : " (paper preprocessing)";
-
-  std::optional<Features> fall;
-  if (o.tables.count(1) || o.tables.count(2)) fall = features_for(o.backbone, set, o, all);
-  if (o.tables.count(1)) {
-    const auto [pool, test] = ss::time_split(set, all, 0.3);
-    const auto pred = train_and_predict(set, *fall, pool, test);
-    std::cout << "\nTable 1: combined data, every gesture x lighting split 70/30 by collection time"
-              << mode << "\n";
-    std::cout << "  lighting    accuracy   test frames\n";
-    js << ",\n  \"table1\": {\"accuracy\": {";
-    double sum = 0;
-    std::string conf;
-    for (std::size_t li = 0; li < lightings.size(); ++li) {
-      const auto l = lightings[li];
-      const Score s =
-          score(set, test, pred, [&](const ss::GestureSample& f) { return f.lighting == l; });
-      sum += s.accuracy;
-      std::cout << "  " << std::left << std::setw(10) << lname(l) << "  " << pct(s.accuracy)
-                << "   " << s.frames << "\n";
-      js << (li ? ", " : "") << '"' << lname(l) << "\": " << s.accuracy;
-      conf += (li ? ", " : "") + ("\"" + lname(l) + "\": ") + json_confusion(s.confusion);
-      confusion_png("table1_" + lname(l) + ".png", s.confusion,
-                    "Table 1 - " + lname(l) + ": " + pct(s.accuracy));
-    }
-    std::cout << "  average     " << pct(sum / 3) << "\n";
-    js << "}, \"average\": " << sum / 3 << ", \"confusion\": {" << conf << "}}";
-  }
-  if (o.tables.count(2)) {
-    std::cout << "\nTable 2: leave one user out" << mode << "\n  user   accuracy\n";
-    js << ",\n  \"table2\": {\"accuracy\": {";
-    double sum = 0;
-    bool first = true;
-    for (int u : users) {
-      const Indices pool =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.user != u; });
-      const Indices test =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.user == u; });
-      const Score s = score(set, test, train_and_predict(set, *fall, pool, test));
-      sum += s.accuracy;
-      std::cout << "  " << std::setw(5) << u << "  " << pct(s.accuracy) << "\n";
-      js << (first ? "" : ", ") << "\"" << u << "\": " << s.accuracy;
-      first = false;
-    }
-    std::cout << "  mean   " << pct(sum / double(users.size())) << "\n";
-    js << "}, \"mean\": " << sum / double(users.size()) << "}";
-  }
-  std::map<std::string, Features> fl;
-  auto lit = [&](const std::string& kind, ss::sim::Lighting l) -> const Features& {
-    const std::string key = kind + "_" + lname(l);
-    if (!fl.count(key))
-      fl.emplace(key,
-                 features_for((fs::path(o.backbone_dir) / (key + ".ssm")).string(), set, o, all));
-    return fl.at(key);
-  };
-  if (o.tables.count(3)) {
-    std::cout << "\nTable 3: leave one lighting condition out (backbone no_<lighting>.ssm)" << mode
-              << "\n  test lighting   accuracy\n";
-    js << ",\n  \"table3\": {\"accuracy\": {";
-    double sum = 0;
-    for (std::size_t li = 0; li < lightings.size(); ++li) {
-      const auto l = lightings[li];
-      const Indices pool =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.lighting != l; });
-      const Indices test =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.lighting == l; });
-      const Score s = score(set, test, train_and_predict(set, lit("no", l), pool, test));
-      sum += s.accuracy;
-      std::cout << "  " << std::left << std::setw(14) << lname(l) << "  " << pct(s.accuracy)
-                << "\n";
-      js << (li ? ", " : "") << '"' << lname(l) << "\": " << s.accuracy;
-      confusion_png("table3_" + lname(l) + ".png", s.confusion,
-                    "Table 3 - unseen " + lname(l) + ": " + pct(s.accuracy));
-    }
-    std::cout << "  mean            " << pct(sum / 3) << "\n";
-    js << "}, \"mean\": " << sum / 3 << "}";
-  }
-  if (o.tables.count(4)) {
-    std::cout << "\nTable 4: train on one lighting condition, test on each other (backbone "
-                 "only_<lighting>.ssm)"
-              << mode << "\n  train \\ test   daylight    dusk      night\n";
-    js << ",\n  \"table4\": {\"accuracy\": {";
-    double worst = 1;
-    for (std::size_t li = 0; li < lightings.size(); ++li) {
-      const auto l = lightings[li];
-      const Indices pool =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.lighting == l; });
-      const Indices test =
-          ss::select_samples(set, [&](const ss::GestureSample& f) { return f.lighting != l; });
-      const auto pred = train_and_predict(set, lit("only", l), pool, test);
-      std::cout << "  " << std::left << std::setw(12) << lname(l);
-      js << (li ? ", " : "") << '"' << lname(l) << "\": {";
-      bool first = true;
-      for (auto m : lightings) {
-        if (m == l) {
-          std::cout << "     -    ";
-          continue;
-        }
-        const Score s =
-            score(set, test, pred, [&](const ss::GestureSample& f) { return f.lighting == m; });
-        worst = std::min(worst, s.accuracy);
-        std::cout << "  " << pct(s.accuracy);
-        js << (first ? "" : ", ") << '"' << lname(m) << "\": " << s.accuracy;
-        first = false;
-      }
-      std::cout << "\n";
-      js << "}";
-    }
-    std::cout << "  lowest cell   " << pct(worst) << "\n";
-    js << "}, \"min\": " << worst << "}";
-  }
-  js << "\n}\n";
-  if (!o.json.empty()) {
-    const std::string tmp = o.json + ".tmp";
-    std::ofstream f(tmp);
-    f << js.str();
-    f.close();
-    if (!f) throw ss::IoError("cannot write " + tmp);
-    fs::rename(tmp, o.json);
-  }
-  return 0;
-} catch (const std::exception& e) {
-  std::cerr << "ss_eval_classify: " << e.what() << "\n";
-  return 1;
+int main(int argc, char** argv) {
+  return cli::run("ss_eval_classify", [&] {
+    const Options o = parse_options(argc, argv);
+    if (!o.speed_models.empty()) return run_speed(o);
+    if (!o.score_model.empty()) return run_score(o);
+    return run_tables(o);
+  });
 }

@@ -13,6 +13,8 @@
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
 #include <shadowsense/eval.hpp>
 
+#include "common/cli.hpp"
+
 #include <opencv2/imgcodecs.hpp>
 
 #include <charconv>
@@ -20,7 +22,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -33,122 +34,89 @@ std::string box(const std::optional<cv::Rect>& r) {
   return std::to_string(r->x) + "," + std::to_string(r->y) + "," + std::to_string(r->width) + "," +
          std::to_string(r->height);
 }
-std::vector<std::string> split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 double level_of(const std::string& s) {
   if (s == "daylight" || s == "dusk" || s == "night")
     return ss::sim::lighting_level(ss::sim::lighting_from_string(s));
   double v = -1;
   const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
   if (r.ec != std::errc() || r.ptr != s.data() + s.size() || !(v >= 0 && v <= 1))
-    throw ss::InvalidArgument("--lightings: '" + s +
-                              "' is neither daylight, dusk, night nor a level in [0, 1]");
+    throw cli::UsageError(
+        "--lightings: expected daylight, dusk, night or a level in [0, 1], got '" + s + "'");
   return v;
-}
-int to_int(const std::string& flag, const std::string& v, int lo, int hi) {
-  int x = 0;
-  const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (r.ec != std::errc() || r.ptr != v.data() + v.size() || x < lo || x > hi)
-    throw ss::InvalidArgument(flag + ": '" + v + "' is not an integer in [" + std::to_string(lo) +
-                              ", " + std::to_string(hi) + "]");
-  return x;
 }
 } // namespace
 
-int main(int argc, char** argv) try {
-  std::string out, lightings = "daylight,dusk,night";
-  int users = 4, first_user = 0, frames = 20;
-  bool randomise = false;
-  std::uint64_t seed = 1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) throw ss::InvalidArgument(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--out")
-      out = next();
-    else if (a == "--users")
-      users = to_int(a, next(), 1, 1000);
-    else if (a == "--first-user")
-      first_user = to_int(a, next(), 0, 1000000);
-    else if (a == "--frames")
-      frames = to_int(a, next(), 1, 100000);
-    else if (a == "--lightings")
-      lightings = next();
-    else if (a == "--seed")
-      seed = static_cast<std::uint64_t>(to_int(a, next(), 0, 1 << 30));
-    else if (a == "--randomise")
-      randomise = true;
-    else if (a == "--help" || a == "-h") {
-      std::cout << "ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F per "
-                   "gesture and session] [--lightings daylight,dusk,night|levels] [--seed S] "
-                   "[--randomise]\n";
-      return 0;
-    } else
-      throw ss::InvalidArgument("unknown argument '" + a + "' (see --help)");
-  }
-  if (out.empty()) throw ss::InvalidArgument("--out DIR is required");
-  const auto levels = split(lightings);
-  if (levels.empty()) throw ss::InvalidArgument("--lightings: no lighting given");
-  fs::create_directories(out);
-  for (auto g : ss::sim::all_gestures)
-    fs::create_directories(fs::path(out) / ss::sim::to_string(g));
-  const fs::path csv_tmp = fs::path(out) / "metadata.csv.tmp";
-  std::ofstream csv(csv_tmp);
-  if (!csv) throw ss::IoError("cannot write " + csv_tmp.string());
-  csv << "file_name,class,user,lighting,lighting_level,session,frame_index,timestamp_ms,"
-         "shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h,"
-         "contact_cx,contact_cy,px_per_cm\n";
-  ss::sim::Renderer renderer(ss::sim::Rig::robot());
-  ss::sim::Frame frame;
-  ss::sim::GestureSessionConfig cfg;
-  cfg.frames_per_gesture = frames;
-  cfg.randomise = randomise;
-  int written = 0;
-  for (int u = first_user; u < first_user + users; ++u) {
-    ss::sim::Rng urng(ss::sim::derive_seed(seed, 0x05E40000ull + static_cast<std::uint64_t>(u)));
-    const auto user = ss::sim::User::random(u, urng);
-    for (std::size_t li = 0; li < levels.size(); ++li) {
-      const double level = level_of(levels[li]);
-      const std::uint64_t sseed =
-          ss::sim::derive_seed(seed, (static_cast<std::uint64_t>(u) << 16) + li * 7919 +
-                                         static_cast<std::uint64_t>(level * 1000));
-      ss::sim::GestureSession session(sseed, user, level, cfg);
-      for (int f = 0; f < session.size(); ++f) {
-        ss::sim::GestureFrameInfo info;
-        session.render(renderer, f, frame, &info);
-        char name[64];
-        std::snprintf(name, sizeof name, "%s_%05d.png", session.name().c_str(), f);
-        const std::string rel = std::string(ss::sim::to_string(info.gesture)) + "/" + name;
-        if (!cv::imwrite((fs::path(out) / rel).string(), frame.image))
-          throw ss::IoError("cannot write " + (fs::path(out) / rel).string());
-        const auto& gt = frame.gt;
-        csv << rel << ',' << ss::sim::to_string(info.gesture) << ',' << info.user << ','
-            << ss::sim::to_string(session.light().label) << ',' << session.light().level << ','
-            << info.session << ',' << info.frame_index << ',' << info.timestamp_ms << ','
-            << box(gt.shadow_box) << ',' << box(gt.contact_box) << ',';
-        if (gt.contact_point)
-          csv << gt.contact_point->x << ',' << gt.contact_point->y;
-        else
-          csv << ',';
-        csv << ',' << gt.px_per_cm << '\n';
-        ++written;
+int main(int argc, char** argv) {
+  return cli::run("ss_gesture_data", [&] {
+    std::string out;
+    std::vector<std::string> levels{"daylight", "dusk", "night"};
+    int users = 4, first_user = 0, frames = 20;
+    std::uint64_t seed = 1;
+    bool randomise = false;
+    cli::Parser p("ss_gesture_data",
+                  "Writes a gesture-classification dataset (six classes on the robot rig): "
+                  "DIR/<class>/<session>_<frame>.png and DIR/metadata.csv.");
+    p.option("--out", "DIR", "output folder", out).required();
+    p.option("--users", "N", "number of users (ids K..K+N-1)", users).range(1, 1000);
+    p.option("--first-user", "K", "id of the first user", first_user).range(0, 1000000);
+    p.option("--frames", "F", "frames per gesture and session", frames).range(1, 100000);
+    p.list("--lightings", "LIST", "lightings: daylight, dusk, night or levels in [0, 1]", levels);
+    p.option("--seed", "S", "random seed", seed).range(0, std::uint64_t{1} << 30);
+    p.flag("--randomise", "domain randomisation (fabric, light, camera, lens, noise, body)",
+           randomise);
+    p.parse(argc, argv);
+    for (const auto& l : levels) level_of(l); // check every lighting before writing anything
+    fs::create_directories(out);
+    for (auto g : ss::sim::all_gestures)
+      fs::create_directories(fs::path(out) / ss::sim::to_string(g));
+    const fs::path csv_tmp = fs::path(out) / "metadata.csv.tmp";
+    std::ofstream csv(csv_tmp);
+    if (!csv) throw ss::IoError("cannot write " + csv_tmp.string());
+    csv << "file_name,class,user,lighting,lighting_level,session,frame_index,timestamp_ms,"
+           "shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h,"
+           "contact_cx,contact_cy,px_per_cm\n";
+    ss::sim::Renderer renderer(ss::sim::Rig::robot());
+    ss::sim::Frame frame;
+    ss::sim::GestureSessionConfig cfg;
+    cfg.frames_per_gesture = frames;
+    cfg.randomise = randomise;
+    int written = 0;
+    for (int u = first_user; u < first_user + users; ++u) {
+      ss::sim::Rng urng(ss::sim::derive_seed(seed, 0x05E40000ull + static_cast<std::uint64_t>(u)));
+      const auto user = ss::sim::User::random(u, urng);
+      for (std::size_t li = 0; li < levels.size(); ++li) {
+        const double level = level_of(levels[li]);
+        const std::uint64_t sseed =
+            ss::sim::derive_seed(seed, (static_cast<std::uint64_t>(u) << 16) + li * 7919 +
+                                           static_cast<std::uint64_t>(level * 1000));
+        ss::sim::GestureSession session(sseed, user, level, cfg);
+        for (int f = 0; f < session.size(); ++f) {
+          ss::sim::GestureFrameInfo info;
+          session.render(renderer, f, frame, &info);
+          char name[64];
+          std::snprintf(name, sizeof name, "%s_%05d.png", session.name().c_str(), f);
+          const std::string rel = std::string(ss::sim::to_string(info.gesture)) + "/" + name;
+          if (!cv::imwrite((fs::path(out) / rel).string(), frame.image))
+            throw ss::IoError("cannot write " + (fs::path(out) / rel).string());
+          const auto& gt = frame.gt;
+          csv << rel << ',' << ss::sim::to_string(info.gesture) << ',' << info.user << ','
+              << ss::sim::to_string(session.light().label) << ',' << session.light().level << ','
+              << info.session << ',' << info.frame_index << ',' << info.timestamp_ms << ','
+              << box(gt.shadow_box) << ',' << box(gt.contact_box) << ',';
+          if (gt.contact_point)
+            csv << gt.contact_point->x << ',' << gt.contact_point->y;
+          else
+            csv << ',';
+          csv << ',' << gt.px_per_cm << '\n';
+          ++written;
+        }
       }
+      std::cout << "user " << u << ": " << written << " frames\n" << std::flush;
     }
-    std::cout << "user " << u << ": " << written << " frames\n" << std::flush;
-  }
-  csv.close();
-  if (!csv) throw ss::IoError("cannot finish " + csv_tmp.string());
-  fs::rename(csv_tmp, fs::path(out) / "metadata.csv"); // complete only once every image exists
-  std::cout << "wrote " << written << " frames to " << out << "\n";
-  return 0;
-} catch (const std::exception& e) {
-  std::cerr << "ss_gesture_data: " << e.what() << "\n";
-  return 1;
+    csv.close();
+    if (!csv) throw ss::IoError("cannot finish " + csv_tmp.string());
+    fs::rename(csv_tmp, fs::path(out) / "metadata.csv"); // complete only once every image exists
+    std::cout << "wrote " << written << " frames to " << out << "\n";
+    return 0;
+  });
 }

@@ -15,10 +15,11 @@
 // box blue, contact box white, contact point red) of all classes; alone it writes nothing else.
 #include <shadowsense/eval.hpp>
 
+#include "common/cli.hpp"
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <charconv>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -30,22 +31,6 @@ namespace ss = shadowsense;
 namespace sim = shadowsense::sim;
 
 namespace {
-
-int usage(const std::string& error) {
-  std::cerr << "ss_synth: " << error << "\n"
-            << "usage: ss_synth --out DIR [--dataset gestures|tracking|slides|all] [--seed N]\n"
-            << "                [--paper-sizes] [--users N] [--frames-per-gesture N]\n"
-            << "                [--tracking-per-category N] [--slides-per-combination N]\n"
-            << "                [--lighting-level L] [--overwrite] [--threads N]\n"
-            << "                [--preview FILE.png]\n";
-  return 2;
-}
-
-template <class T>
-bool parse(std::string_view s, T& out) {
-  const auto [p, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
-  return !s.empty() && ec == std::errc() && p == s.data() + s.size();
-}
 
 cv::Mat annotated(const sim::Frame& f, const std::string& caption, double scale) {
   cv::Mat img;
@@ -113,109 +98,104 @@ cv::Mat preview(std::uint64_t seed) {
 } // namespace
 
 int main(int argc, char** argv) {
-  std::string out, dataset = "all", preview_path;
-  std::uint64_t seed = 1;
-  bool paper = false, overwrite = false;
-  int threads = 1;
-  int users = -1, frames_per_gesture = -1, tracking_per_category = -1, slides_per_combination = -1;
-  double lighting_level = -1;
-  bool have_level = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    auto value = [&](std::string_view& v) {
-      if (i + 1 >= argc) return false;
-      v = argv[++i];
-      return true;
+  return cli::run("ss_synth", [&] {
+    std::string out, dataset = "all", preview_path;
+    std::uint64_t seed = 1;
+    bool paper = false, overwrite = false;
+    int threads = 1;
+    const sim::GestureDatasetConfig g0, gp = sim::GestureDatasetConfig::paper();
+    const sim::TrackingDatasetConfig t0, tp = sim::TrackingDatasetConfig::paper();
+    const sim::SlideDatasetConfig s0, sp = sim::SlideDatasetConfig::paper();
+    int users = g0.users, frames_per_gesture = g0.frames_per_gesture,
+        tracking_per_category = t0.frames_per_category,
+        slides_per_combination = s0.sequences_per_combination;
+    const auto or_paper = [](int small, int paper) {
+      return std::to_string(small) + ", " + std::to_string(paper) + " with --paper-sizes";
     };
-    std::string_view v;
-    if (a == "--paper-sizes")
-      paper = true;
-    else if (a == "--overwrite")
-      overwrite = true;
-    else if (a == "--help" || a == "-h")
-      return usage("help"), 0;
-    else if (!value(v))
-      return usage("missing value after " + std::string(a));
-    else if (a == "--out")
-      out = std::string(v);
-    else if (a == "--dataset")
-      dataset = std::string(v);
-    else if (a == "--preview")
-      preview_path = std::string(v);
-    else if (a == "--threads") {
-      if (!parse(v, threads)) return usage("--threads expects an integer");
-    } else if (a == "--seed") {
-      if (!parse(v, seed)) return usage("--seed expects an unsigned integer");
-    } else if (a == "--users") {
-      if (!parse(v, users)) return usage("--users expects an integer");
-    } else if (a == "--frames-per-gesture") {
-      if (!parse(v, frames_per_gesture)) return usage("--frames-per-gesture expects an integer");
-    } else if (a == "--tracking-per-category") {
-      if (!parse(v, tracking_per_category))
-        return usage("--tracking-per-category expects an integer");
-    } else if (a == "--slides-per-combination") {
-      if (!parse(v, slides_per_combination))
-        return usage("--slides-per-combination expects an integer");
-    } else if (a == "--lighting-level") {
-      if (!parse(v, lighting_level)) return usage("--lighting-level expects a number in [0, 1]");
-      have_level = true;
-    } else
-      return usage("unknown option " + std::string(a));
-  }
-  if (!preview_path.empty()) {
-    try {
+    double lighting_level = 0;
+    cli::Parser p("ss_synth",
+                  "Writes the scene generator's datasets: DIR/gestures (six gesture classes on "
+                  "the robot rig), DIR/tracking (five tracking categories on the test box), "
+                  "DIR/slides (slide sequences). Defaults are small; --paper-sizes gives the "
+                  "paper's sizes.");
+    p.usage("ss_synth --out DIR [options]");
+    p.usage("ss_synth --preview FILE.png [--seed N]");
+    p.option("--out", "DIR", "output folder", out);
+    p.option("--dataset", "NAME", "which dataset to write", dataset)
+        .choices({"gestures", "tracking", "slides", "all"});
+    p.option("--seed", "N", "random seed", seed);
+    p.flag("--paper-sizes",
+           "the paper's sizes (6,120 gesture frames, 500 tracking frames, 160 "
+           "slide sequences)",
+           paper);
+    p.option("--users", "N", "number of users", users).range(1, 1000);
+    p.option("--frames-per-gesture", "N", "gesture frames per gesture and session",
+             frames_per_gesture)
+        .range(1, 100000)
+        .default_text(or_paper(frames_per_gesture, gp.frames_per_gesture));
+    p.option("--tracking-per-category", "N", "tracking frames per category", tracking_per_category)
+        .range(1, 1000000)
+        .default_text(or_paper(tracking_per_category, tp.frames_per_category));
+    p.option("--slides-per-combination", "N", "slide sequences per direction x gesture",
+             slides_per_combination)
+        .range(1, 100000)
+        .default_text(or_paper(slides_per_combination, sp.sequences_per_combination));
+    p.option("--lighting-level", "L",
+             "render every dataset under one custom light (0 night, 0.5 dusk, 1 daylight)",
+             lighting_level)
+        .range(0.0, 1.0)
+        .default_text("the datasets' own lightings");
+    p.flag("--overwrite", "replace existing dataset folders", overwrite);
+    p.option("--threads", "N", "rendering threads", threads).range(1, 256);
+    p.option("--preview", "FILE.png",
+             "write one annotated montage of all classes (alone, nothing else is written)",
+             preview_path);
+    p.parse(argc, argv);
+    if (!preview_path.empty()) {
       if (!cv::imwrite(preview_path, preview(seed)))
-        return usage("cannot write " + preview_path), 1;
-    } catch (const std::exception& e) {
-      std::cerr << "ss_synth: " << e.what() << "\n";
-      return 1;
+        throw ss::IoError("cannot write " + preview_path);
+      std::cout << "preview -> " << preview_path << "\n";
+      if (out.empty()) return 0;
     }
-    std::cout << "preview -> " << preview_path << "\n";
-    if (out.empty()) return 0;
-  }
-  if (out.empty()) return usage("--out DIR is required");
-  const bool all = dataset == "all";
-  if (!all && dataset != "gestures" && dataset != "tracking" && dataset != "slides")
-    return usage("unknown --dataset '" + dataset + "'; expected gestures, tracking, slides or all");
+    if (out.empty()) throw cli::UsageError("missing required option --out DIR");
+    const bool all = dataset == "all";
 
-  auto g = paper ? sim::GestureDatasetConfig::paper() : sim::GestureDatasetConfig{};
-  auto t = paper ? sim::TrackingDatasetConfig::paper() : sim::TrackingDatasetConfig{};
-  auto s = paper ? sim::SlideDatasetConfig::paper() : sim::SlideDatasetConfig{};
-  if (users != -1) g.users = t.users = s.users = users;
-  if (frames_per_gesture != -1) g.frames_per_gesture = frames_per_gesture;
-  if (tracking_per_category != -1) t.frames_per_category = tracking_per_category;
-  if (slides_per_combination != -1) s.sequences_per_combination = slides_per_combination;
-  if (have_level) {
-    g.lighting_levels = {lighting_level};
-    t.sample.lighting_level = s.slide.variety.lighting_level = lighting_level;
-  }
-  g.overwrite = t.overwrite = s.overwrite = overwrite;
-  g.threads = t.threads = s.threads = threads;
+    auto g = paper ? sim::GestureDatasetConfig::paper() : sim::GestureDatasetConfig{};
+    auto t = paper ? sim::TrackingDatasetConfig::paper() : sim::TrackingDatasetConfig{};
+    auto s = paper ? sim::SlideDatasetConfig::paper() : sim::SlideDatasetConfig{};
+    if (p.given("--users")) g.users = t.users = s.users = users;
+    if (p.given("--frames-per-gesture")) g.frames_per_gesture = frames_per_gesture;
+    if (p.given("--tracking-per-category")) t.frames_per_category = tracking_per_category;
+    if (p.given("--slides-per-combination")) s.sequences_per_combination = slides_per_combination;
+    if (p.given("--lighting-level")) {
+      g.lighting_levels = {lighting_level};
+      t.sample.lighting_level = s.slide.variety.lighting_level = lighting_level;
+    }
+    g.overwrite = t.overwrite = s.overwrite = overwrite;
+    g.threads = t.threads = s.threads = threads;
 
-  try {
-    // Validate everything before writing anything.
-    g.validate();
-    t.validate();
-    s.validate();
-    const std::filesystem::path root(out);
-    const auto run = [&](const char* name, auto&& write) {
-      const auto t0 = std::chrono::steady_clock::now();
-      const sim::DatasetSummary r = write(root / name);
-      const double sec =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::cout << name << ": " << r.images << " images";
-      if (r.sequences) std::cout << " in " << r.sequences << " sequences";
-      std::cout << " -> " << r.root.string() << " (" << sec << " s)\n";
-    };
-    if (all || dataset == "gestures")
-      run("gestures", [&](const auto& p) { return sim::write_gesture_dataset(p, seed, g); });
-    if (all || dataset == "tracking")
-      run("tracking", [&](const auto& p) { return sim::write_tracking_dataset(p, seed, t); });
-    if (all || dataset == "slides")
-      run("slides", [&](const auto& p) { return sim::write_slide_dataset(p, seed, s); });
-  } catch (const ss::Error& e) {
-    std::cerr << "ss_synth: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+    {
+      // Validate everything before writing anything.
+      g.validate();
+      t.validate();
+      s.validate();
+      const std::filesystem::path root(out);
+      const auto run = [&](const char* name, auto&& write) {
+        const auto t0 = std::chrono::steady_clock::now();
+        const sim::DatasetSummary r = write(root / name);
+        const double sec =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::cout << name << ": " << r.images << " images";
+        if (r.sequences) std::cout << " in " << r.sequences << " sequences";
+        std::cout << " -> " << r.root.string() << " (" << sec << " s)\n";
+      };
+      if (all || dataset == "gestures")
+        run("gestures", [&](const auto& p) { return sim::write_gesture_dataset(p, seed, g); });
+      if (all || dataset == "tracking")
+        run("tracking", [&](const auto& p) { return sim::write_tracking_dataset(p, seed, t); });
+      if (all || dataset == "slides")
+        run("slides", [&](const auto& p) { return sim::write_slide_dataset(p, seed, s); });
+    }
+    return 0;
+  });
 }

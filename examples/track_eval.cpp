@@ -15,19 +15,19 @@
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 
+#include "common/cli.hpp"
+#include "common/json.hpp"
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -45,70 +45,42 @@ struct Options {
   double differential_window_ms = 300;
 };
 
-[[noreturn]] void usage(const std::string& error) {
-  std::cerr << "error: " << error << "\n"
-            << "usage: ss_track_eval --data DIR | --tracking DIR --slides DIR [--json PATH]\n"
-               "       [--annotate DIR] [--annotate-limit N] [--calib-seed N] [--calib-frames N]\n"
-               "       [--calibration FILE] [--save-calibration FILE]\n"
-               "       [--mode relative|fixed_ranges] [--differential-window MS]\n";
-  std::exit(2);
-}
-
 Options parse(int argc, char** argv) {
   Options o;
-  auto value = [&](int& i) -> std::string {
-    if (i + 1 >= argc) usage(std::string(argv[i]) + " needs a value");
-    return argv[++i];
-  };
-  auto number = [&](int& i) -> double {
-    const std::string flag = argv[i], v = value(i);
-    char* end = nullptr;
-    const double d = std::strtod(v.c_str(), &end);
-    if (end == v.c_str() || *end != '\0' || !std::isfinite(d))
-      usage(flag + ": '" + v + "' is not a number");
-    return d;
-  };
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--data") {
-      const fs::path d = value(i);
-      o.tracking = d / "tracking";
-      o.slides = d / "slides";
-    } else if (a == "--tracking")
-      o.tracking = value(i);
-    else if (a == "--slides")
-      o.slides = value(i);
-    else if (a == "--json")
-      o.json = value(i);
-    else if (a == "--annotate")
-      o.annotate = value(i);
-    else if (a == "--annotate-limit")
-      o.annotate_limit = static_cast<int>(number(i));
-    else if (a == "--calib-seed")
-      o.calib_seed = static_cast<std::uint64_t>(number(i));
-    else if (a == "--calib-frames")
-      o.calib_frames = static_cast<int>(number(i));
-    else if (a == "--calibration")
-      o.calibration_in = value(i);
-    else if (a == "--save-calibration")
-      o.calibration_out = value(i);
-    else if (a == "--differential-window")
-      o.differential_window_ms = number(i);
-    else if (a == "--mode") {
-      const std::string m = value(i);
-      if (m == "relative")
-        o.mode = SegmentMode::relative;
-      else if (m == "fixed_ranges")
-        o.mode = SegmentMode::fixed_ranges;
-      else
-        usage("--mode must be relative or fixed_ranges");
-    } else if (a == "--help" || a == "-h")
-      usage("help requested");
-    else
-      usage("unknown argument '" + a + "'");
+  fs::path data;
+  std::string mode = "relative";
+  cli::Parser p("ss_track_eval",
+                "The paper's Table 5 (shadow and contact tracking accuracy per category) and "
+                "Figure 14 (slide direction accuracy against the observed ratio) on datasets "
+                "written by ss_synth; the segmenter is calibrated on generator frames, never on "
+                "the evaluated ones.");
+  p.usage("ss_track_eval --data DIR [options]");
+  p.usage("ss_track_eval --tracking DIR --slides DIR [options]");
+  p.option("--data", "DIR", "folder holding tracking/ and slides/", data);
+  p.option("--tracking", "DIR", "tracking dataset (instead of DIR/tracking)", o.tracking);
+  p.option("--slides", "DIR", "slides dataset (instead of DIR/slides)", o.slides);
+  p.option("--json", "PATH", "write the results as JSON (docs/tracking_eval.md)", o.json);
+  p.option("--annotate", "DIR", "write annotated frames to DIR", o.annotate);
+  p.option("--annotate-limit", "N", "annotated frames per category / slide sequences",
+           o.annotate_limit)
+      .range(0, 1000000);
+  p.option("--calib-seed", "N", "seed of the calibration frames", o.calib_seed);
+  p.option("--calib-frames", "N", "number of calibration frames", o.calib_frames).range(1, 100000);
+  p.option("--calibration", "FILE", "take the thresholds from a calibration file",
+           o.calibration_in);
+  p.option("--save-calibration", "FILE", "write the calibration used", o.calibration_out);
+  p.option("--mode", "MODE", "segmentation thresholds", mode).choices({"relative", "fixed_ranges"});
+  p.option("--differential-window", "MS", "touch state machine's differential window",
+           o.differential_window_ms)
+      .range(0.0, 1e9);
+  p.parse(argc, argv);
+  if (!data.empty()) { // --tracking / --slides override one of the two
+    if (!p.given("--tracking")) o.tracking = data / "tracking";
+    if (!p.given("--slides")) o.slides = data / "slides";
   }
-  if (o.tracking.empty() && o.slides.empty()) usage("give --data, --tracking or --slides");
-  if (o.annotate_limit < 0) usage("--annotate-limit must be >= 0");
+  if (o.tracking.empty() && o.slides.empty())
+    throw cli::UsageError("give --data DIR, --tracking DIR or --slides DIR");
+  o.mode = mode == "relative" ? SegmentMode::relative : SegmentMode::fixed_ranges;
   return o;
 }
 
@@ -336,92 +308,88 @@ void print_figure14(const SlideResults& r) {
   for (const auto& [k, c] : r.by_direction) line(k, c);
 }
 
-std::string json_stats(const ClassStats& s) {
-  std::ostringstream o;
-  o << "{\"frames\": " << s.frames << ", \"truth\": " << s.truth << ", \"missed\": " << s.missed
-    << ", \"tracking_error_rate\": "
-    << num(s.truth ? static_cast<double>(s.missed) / s.truth : 0.0, 6)
-    << ", \"false_positives\": " << s.false_positives << ", \"matched\": " << s.iou.count()
-    << ", \"error_x_cm_mean\": " << num(s.err_x.mean(), 6)
-    << ", \"error_x_cm_sd\": " << num(s.err_x.sd(), 6)
-    << ", \"error_y_cm_mean\": " << num(s.err_y.mean(), 6)
-    << ", \"error_y_cm_sd\": " << num(s.err_y.sd(), 6) << ", \"iou_mean\": " << num(s.iou.mean(), 6)
-    << ", \"iou_sd\": " << num(s.iou.sd(), 6) << "}";
-  return o.str();
+void json_stats(cli::JsonWriter& j, const ClassStats& s) {
+  j.begin_object(cli::JsonWriter::compact);
+  j.field("frames", s.frames).field("truth", s.truth).field("missed", s.missed);
+  j.field("tracking_error_rate", s.truth ? static_cast<double>(s.missed) / s.truth : 0.0);
+  j.field("false_positives", s.false_positives).field("matched", s.iou.count());
+  j.field("error_x_cm_mean", s.err_x.mean()).field("error_x_cm_sd", s.err_x.sd());
+  j.field("error_y_cm_mean", s.err_y.mean()).field("error_y_cm_sd", s.err_y.sd());
+  j.field("iou_mean", s.iou.mean()).field("iou_sd", s.iou.sd());
+  j.end_object();
 }
 
-std::string json_curve(const Curve& c) {
-  std::ostringstream o;
-  o << "{\"sequences\": " << c.sequences << ", \"accuracy\": [";
+void json_curve(cli::JsonWriter& j, const Curve& c) {
+  j.begin_object(cli::JsonWriter::compact).field("sequences", c.sequences);
+  j.key("accuracy").begin_array();
   for (int k = 0; k < kRatios; ++k)
-    o << (k ? ", " : "")
-      << num(c.sequences ? static_cast<double>(c.correct[static_cast<std::size_t>(k)]) / c.sequences
-                         : 0.0,
-             6);
-  o << "]}";
-  return o.str();
+    j.value(c.sequences ? static_cast<double>(c.correct[static_cast<std::size_t>(k)]) / c.sequences
+                        : 0.0);
+  j.end_array().end_object();
 }
 
 void write_json(const Options& o, const SegmenterCalibration& cal,
                 const std::optional<std::map<std::string, CategoryResult>>& t5,
                 const std::optional<SlideResults>& f14, const HoverHeightResult& hh) {
-  std::ostringstream j;
-  j << "{\n  \"schema\": \"shadowsense.track_eval/1\",\n";
-  j << "  \"calibration\": {\"seed\": " << o.calib_seed << ", \"frames\": " << o.calib_frames
-    << ", \"mode\": \"" << (cal.mode == SegmentMode::relative ? "relative" : "fixed_ranges") << "\""
-    << ", \"from_file\": " << (o.calibration_in.empty() ? "false" : "true") << "},\n";
-  j << "  \"table5\": ";
+  cli::JsonWriter j;
+  j.begin_object().field("schema", "shadowsense.track_eval/1");
+  j.key("calibration").begin_object(cli::JsonWriter::compact);
+  j.field("seed", o.calib_seed).field("frames", o.calib_frames);
+  j.field("mode", cal.mode == SegmentMode::relative ? "relative" : "fixed_ranges");
+  j.field("from_file", !o.calibration_in.empty()).end_object();
+  j.key("table5");
   if (t5) {
-    j << "{";
-    bool first = true;
+    j.begin_object();
     for (const auto& [name, c] : *t5) {
-      j << (first ? "\n" : ",\n") << "    \"" << name << "\": {\"frames\": " << c.frames
-        << ", \"shadow\": " << json_stats(c.shadow) << ", \"contact\": " << json_stats(c.contact)
-        << "}";
-      first = false;
+      j.key(name).begin_object(cli::JsonWriter::compact).field("frames", c.frames);
+      j.key("shadow");
+      json_stats(j, c.shadow);
+      j.key("contact");
+      json_stats(j, c.contact);
+      j.end_object();
     }
-    j << "\n  },\n";
+    j.end_object();
   } else {
-    j << "null,\n";
+    j.value(nullptr);
   }
-  j << "  \"figure14\": ";
+  j.key("figure14");
   if (f14) {
-    j << "{\"ratios\": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0], "
-         "\"sequences_without_contact\": "
-      << f14->no_touch << ",\n    \"overall\": " << json_curve(f14->overall)
-      << ",\n    \"by_gesture\": {";
-    bool first = true;
-    for (const auto& [k, c] : f14->by_gesture) {
-      j << (first ? "" : ", ") << "\"" << k << "\": " << json_curve(c);
-      first = false;
+    j.begin_object();
+    j.key("ratios").begin_array(cli::JsonWriter::compact);
+    for (int k = 0; k < kRatios; ++k) j.value((k + 1) / 10.0);
+    j.end_array().field("sequences_without_contact", f14->no_touch);
+    j.key("overall");
+    json_curve(j, f14->overall);
+    for (const auto& [group, curves] : {std::pair{"by_gesture", &f14->by_gesture},
+                                        std::pair{"by_direction", &f14->by_direction}}) {
+      j.key(group).begin_object();
+      for (const auto& [k, c] : *curves) {
+        j.key(k);
+        json_curve(j, c);
+      }
+      j.end_object();
     }
-    j << "},\n    \"by_direction\": {";
-    first = true;
-    for (const auto& [k, c] : f14->by_direction) {
-      j << (first ? "" : ", ") << "\"" << k << "\": " << json_curve(c);
-      first = false;
-    }
-    j << "}},\n";
+    j.end_object();
   } else {
-    j << "null,\n";
+    j.value(nullptr);
   }
-  j << "  \"hover_height\": {\"fit_frames\": " << hh.fit_frames
-    << ", \"test_frames\": " << hh.test_frames << ", \"mae_cm\": " << num(hh.mae_cm, 6)
-    << ", \"rmse_cm\": " << num(hh.rmse_cm, 6)
-    << ", \"baseline_mae_cm\": " << num(hh.baseline_mae_cm, 6)
-    << ", \"model\": {\"intercept\": " << num(hh.model.intercept, 6)
-    << ", \"per_edge_px\": " << num(hh.model.per_edge_px, 6)
-    << ", \"per_opacity\": " << num(hh.model.per_opacity, 6) << "}}\n";
-  j << "}\n";
-  std::ofstream f(o.json, std::ios::binary);
-  if (!(f << j.str()) || !f.flush()) throw IoError("cannot write '" + o.json.string() + "'");
+  j.key("hover_height").begin_object(cli::JsonWriter::compact);
+  j.field("fit_frames", hh.fit_frames).field("test_frames", hh.test_frames);
+  j.field("mae_cm", hh.mae_cm).field("rmse_cm", hh.rmse_cm);
+  j.field("baseline_mae_cm", hh.baseline_mae_cm);
+  j.key("model").begin_object();
+  j.field("intercept", hh.model.intercept).field("per_edge_px", hh.model.per_edge_px);
+  j.field("per_opacity", hh.model.per_opacity).end_object();
+  j.end_object();
+  j.end_object();
+  j.save(o.json);
 }
 
 } // namespace
 
 int main(int argc, char** argv) {
-  const Options o = parse(argc, argv);
-  try {
+  return cli::run("ss_track_eval", [&] {
+    const Options o = parse(argc, argv);
     // The calibration frames are rendered with the rig whose frame size matches the data
     // (tracking box 200x205 or robot 635x350), taken from the first image.
     sim::Rig rig = sim::Rig::tracking_box();
@@ -450,8 +418,13 @@ int main(int argc, char** argv) {
     Segmenter seg = segmenter_from(cal);
     std::cout << "calibration: " << o.calib_frames << " generator frames (" << rig.name
               << " rig), seed " << o.calib_seed
-              << (o.calibration_in.empty() ? ""
-                                           : " (thresholds from " + o.calibration_in.string() + ")")
+              << (o.calibration_in.empty()
+                      ? ""
+                      : " (thresholds" +
+                            std::string(cal.config.calibration.empty_skin.empty()
+                                            ? ""
+                                            : " and empty-skin model") +
+                            " from " + o.calibration_in.string() + ")")
               << "\n";
 
     std::optional<std::map<std::string, CategoryResult>> t5;
@@ -482,9 +455,6 @@ int main(int argc, char** argv) {
                 "RMSE %.2f cm (always-the-mean baseline: MAE %.2f cm)\n",
                 hh.fit_frames, hh.test_frames, hh.mae_cm, hh.rmse_cm, hh.baseline_mae_cm);
     if (!o.json.empty()) write_json(o, cal.config.calibration, t5, f14, hh);
-  } catch (const std::exception& e) {
-    std::cerr << "ss_track_eval: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+    return 0;
+  });
 }

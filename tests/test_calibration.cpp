@@ -233,3 +233,49 @@ TEST_CASE("degenerate input: warnings for what can still be used, refusal for th
                          doctest::Contains("touch frame 0"), InvalidArgument);
   }
 }
+
+TEST_CASE(
+    "unlabelled touch frames: clustering finds contact; the empty skin and hovers stay clear") {
+  Frames f = render_frames(0xB0C5, 4, 16);
+  for (BoxLabelledFrame& b : f.touch) b = {b.image, false, std::nullopt, std::nullopt};
+  const CalibrationResult r = calibrate_from_frames(f.empty, f.touch);
+  bool hover_taken = false;
+  for (const CalibrationWarning& w : r.warnings)
+    hover_taken = hover_taken || w.issue == CalibrationIssue::contact_not_separated;
+  CHECK(hover_taken); // the hover frames (and some others) give no contact cluster
+  Segmenter seg({.calibration = r.calibration});
+  sim::TrackingSampleConfig variety;
+  for (int c : {0, 1, 2, 4}) { // nothing, hover, palm, finger
+    RunningStats contact_iou;
+    int shadow_fp = 0, contact_fp = 0, contact_miss = 0;
+    for (int i = 0; i < 12; ++i) {
+      const sim::Frame fr = sim::render_random_tracking_frame(
+          renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
+      const Segmentation s = seg.segment(fr.image);
+      if (!fr.gt.shadow_box && s.shadow_box) ++shadow_fp;
+      if (!fr.gt.contact_box && s.contact_box) ++contact_fp;
+      if (fr.gt.contact_box) {
+        if (s.contact_box)
+          contact_iou.add(box_iou(*s.contact_box, *fr.gt.contact_box));
+        else
+          ++contact_miss;
+      }
+    }
+    CAPTURE(c);
+    CHECK(shadow_fp == 0);
+    CHECK(contact_fp == 0);
+    CHECK(contact_miss == 0);
+    if (c >= 2) CHECK(contact_iou.mean() >= 0.9);
+  }
+}
+
+TEST_CASE("load_calibration refuses devices and FIFOs before reading") {
+  CHECK_THROWS_WITH_AS(load_calibration("/dev/zero"), doctest::Contains("not a regular file"),
+                       IoError);
+  const std::string fifo = std::string(SHADOWSENSE_TEST_TMP_DIR) + "/calibration/fifo";
+  std::filesystem::create_directories(std::string(SHADOWSENSE_TEST_TMP_DIR) + "/calibration");
+  std::filesystem::remove(fifo);
+  if (std::system(("mkfifo '" + fifo + "'").c_str()) == 0)
+    CHECK_THROWS_WITH_AS(load_calibration(fifo), doctest::Contains("not a regular file"),
+                         IoError); // would hang if it were opened
+}

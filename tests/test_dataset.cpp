@@ -8,7 +8,10 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <sstream>
 #include <string>
+
+#include <sys/stat.h>
 
 using namespace shadowsense;
 namespace fs = std::filesystem;
@@ -212,6 +215,29 @@ TEST_CASE(
   CHECK_FALSE(fs::exists(done / "metadata.csv"));
 }
 
+TEST_CASE("overwriting slides killed early leaves no old csv beside new frames") {
+  // Issue 11: `ss_synth --overwrite` stopped early left old per-sequence metadata.csv files
+  // beside new frames. The writer now removes sequences.csv, then every metadata.csv, before
+  // writing a frame; a failure at the first frame stands for a kill.
+  const fs::path root = fresh_dir("slides_overwrite");
+  sim::SlideDatasetConfig c = tiny_slides();
+  sim::write_slide_dataset(root, 3, c);
+  int old_csvs = 0;
+  for (const auto& e : fs::recursive_directory_iterator(root))
+    old_csvs += e.path().filename() == "metadata.csv" ? 1 : 0;
+  REQUIRE(old_csvs == 8);
+  fs::remove(root / "left" / "palm_0000" / "frame_0000.png");
+  fs::create_directories(root / "left" / "palm_0000" / "frame_0000.png");
+  c.overwrite = true;
+  CHECK_THROWS_AS(sim::write_slide_dataset(root, 4, c), IoError);
+  CHECK_FALSE(fs::exists(root / "sequences.csv"));
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    CAPTURE(e.path());
+    CHECK(e.path().filename() != "metadata.csv");
+    CHECK(e.path().filename().string().find(".tmp") == std::string::npos);
+  }
+}
+
 TEST_CASE("the csv reader accepts well-formed rows") {
   const Metadata m = read_metadata(csv_with(
       "good.csv", good_row + "nothing/b.png,nothing,2,custom,0.3,s,0,0,,,,,,,,,,,7.5\r\n"));
@@ -284,4 +310,92 @@ TEST_CASE("the csv reader rejects malformed rows naming file, line and column") 
                               "sequence,gesture,direction,num_frames,distance_cm,fps,user,"
                               "lighting,lighting_level")),
       doctest::Contains("seq.csv:2: column 3 'direction': unknown direction 'up'"), DatasetError);
+}
+
+namespace {
+// What the shared corpus checks: a metadata.csv with its images, or a sequences.csv with every
+// sequence and its images (tools/dataset_reader.py read_case does the same).
+void read_case(const std::string& kind, const fs::path& csv) {
+  if (kind == "metadata") {
+    check_images(read_metadata(csv));
+  } else {
+    REQUIRE(kind == "sequences");
+    for (const SequenceRow& s : read_sequences(csv)) check_images(read_sequence_metadata(csv, s));
+  }
+}
+} // namespace
+
+TEST_CASE("the shared bad-input corpus: the C++ reader gives the verdicts of cases.txt") {
+  // tests/data/bad_inputs/cases.txt is also run by tools/dataset_reader.py (ctest
+  // dataset_reader_corpus): both readers must agree on every file.
+  const fs::path root = fs::path(SHADOWSENSE_TEST_DATA_DIR) / "bad_inputs";
+  std::ifstream in(root / "cases.txt");
+  REQUIRE(in);
+  std::string line;
+  int cases = 0, rejects = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::string kind, rel, verdict, expect;
+    ls >> kind >> rel >> verdict;
+    std::getline(ls >> std::ws, expect);
+    CAPTURE(line);
+    ++cases;
+    std::string got = "accept", message;
+    try {
+      read_case(kind, root / rel);
+    } catch (const DatasetError& e) {
+      got = "reject";
+      message = e.what();
+    }
+    CAPTURE(message);
+    CHECK(got == verdict);
+    CHECK(message.find(expect) != std::string::npos);
+    rejects += got == "reject" ? 1 : 0;
+  }
+  CHECK(cases == 23);
+  CHECK(rejects == 21);
+}
+
+TEST_CASE("bounded image reading: header sizes before decoding, no FIFO hang, no /dev/zero") {
+  const fs::path dir = fresh_dir("image_file");
+  fs::create_directories(dir);
+  cv::Mat img(37, 53, CV_8UC3, cv::Scalar(10, 200, 30));
+  for (const char* ext : {".png", ".jpg", ".bmp"}) {
+    CAPTURE(ext);
+    const fs::path p = dir / (std::string("img") + ext);
+    REQUIRE(cv::imwrite(p.string(), img));
+    const ImageHeader h = read_image_header(p);
+    CHECK(h.width == 53);
+    CHECK(h.height == 37);
+    CHECK(read_image_file(p).size() == img.size());
+    // The limit applies to the header, before decoding.
+    CHECK_THROWS_WITH_AS(read_image_file(p, cv::IMREAD_COLOR, {.max_width = 52}),
+                         doctest::Contains("the image is 53x37 pixels; the limit is 52x8192"),
+                         IoError);
+  }
+  // A PNG that claims 20000x20000 (issue 11: decoded to 1.23 GB before any check).
+  const fs::path huge = fs::path(SHADOWSENSE_TEST_DATA_DIR) / "bad_inputs/huge_png/palm/b.png";
+  CHECK(fs::file_size(huge) < 2000);
+  CHECK_THROWS_WITH_AS(read_image_file(huge),
+                       doctest::Contains("the image is 20000x20000 pixels; the limit is 8192x8192"),
+                       IoError);
+  // Not regular files: refused without reading (a FIFO with no writer would block forever).
+  const fs::path fifo = dir / "fifo.png";
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  CHECK_THROWS_WITH_AS(read_image_file(fifo), doctest::Contains("not a regular file"), IoError);
+  CHECK_THROWS_WITH_AS(read_image_file("/dev/zero"), doctest::Contains("not a regular file"),
+                       IoError);
+  CHECK_THROWS_WITH_AS(read_image_file(dir), doctest::Contains("not a regular file"), IoError);
+  // File size bound and truncated headers.
+  CHECK_THROWS_WITH_AS(read_image_file(dir / "img.png", cv::IMREAD_COLOR, {.max_file_bytes = 10}),
+                       doctest::Contains("bytes; the limit is 10"), IoError);
+  std::ofstream(dir / "cut.png", std::ios::binary) << std::string("\x89PNG\r\n\x1a\n\0\0", 10);
+  CHECK_THROWS_WITH_AS(read_image_header(dir / "cut.png"), doctest::Contains("truncated PNG"),
+                       IoError);
+}
+
+TEST_CASE("a header-only csv is an error, not an empty dataset (ss_track_eval exited 0)") {
+  CHECK_THROWS_WITH_AS(read_metadata(csv_with("header_only.csv", "")),
+                       doctest::Contains("header_only.csv:2: no data rows"), DatasetError);
 }

@@ -41,11 +41,9 @@ double check_against_torchvision(DenseNet& net, const ModelSelfTest& st) {
   return max_diff;
 }
 
+// Every kernel this CPU runs, the reference (the oracle) included.
 std::vector<GemmKernelKind> available_kernels() {
-  std::vector<GemmKernelKind> out;
-  for (auto k : {GemmKernelKind::avx512, GemmKernelKind::avx2, GemmKernelKind::portable})
-    if (detail::cpu_has(k)) out.push_back(k);
-  return out;
+  return detail::available_kernels();
 }
 
 bool torch_available() {
@@ -134,6 +132,28 @@ TEST_CASE("bad inputs: NaN/Inf pixels, wrong channels, too small, denormals") {
   for (std::size_t i = 0; i < z.size(); ++i) {
     CHECK(std::isfinite(d[i]));
     CHECK(std::abs(d[i] - z[i]) <= 1e-6f);
+  }
+}
+
+TEST_CASE("NaN or Inf produced by extreme weights is reported with the image index") {
+  auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  // Finite weights and a valid file, but activations of ~1e20 * 1e20 overflow float.
+  for (auto& t : m.tensors)
+    if (t.name == "features.conv0.weight" ||
+        t.name == "features.denseblock1.denselayer1.conv1.weight")
+      for (float& v : t.values) v *= 1e20f;
+  Tensor x(2, 3, 45, 61); // image 0 all zeros: conv0 sees only its bias and stays finite
+  for (int y = 0; y < 45; ++y)
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < 61; ++i) x(1, c, y, i) = std::sin(0.1f * float(y * 61 + i + c));
+  for (auto kernel : available_kernels()) {
+    DenseNet net(m, {.kernel = kernel, .run_self_test = false});
+    CAPTURE(net.kernel_name());
+    CHECK_THROWS_WITH_AS(net.logits(x), doctest::Contains("of image 1 is"), Error);
+    CHECK_THROWS_WITH_AS(net.features(x), doctest::Contains("expected a finite number"), Error);
+    Tensor first(1, 3, 45, 61); // image 0 alone is fine
+    const auto ok = net.logits(first);
+    for (float v : ok) CHECK(std::isfinite(v));
   }
 }
 

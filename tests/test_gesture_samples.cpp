@@ -85,3 +85,66 @@ TEST_CASE("corrupt and missing images are IoErrors naming the image; good frames
   CHECK_THROWS_WITH_AS(extract_features(fx, encoder, set, missing),
                        doctest::Contains("missing.png: cannot read the image"), IoError);
 }
+
+TEST_CASE("a plain class-per-folder tree: recursive, sorted, hidden files and non-images skipped") {
+  const fs::path dir = fresh_folder("tree");
+  const cv::Mat img(30, 40, CV_8UC3, cv::Scalar(10, 20, 30));
+  for (const char* p : {"palm/b.png", "palm/a.PNG", "palm/deep/er/c.jpg", "fist/z.bmp",
+                        "fist/.hidden.png", ".cache/x.png", "stray.png"}) {
+    fs::create_directories((dir / p).parent_path());
+    cv::imwrite((dir / p).string(), img);
+  }
+  std::ofstream(dir / "palm" / "notes.txt") << "not an image";
+  const auto images = find_images(dir);
+  std::vector<std::string> rel;
+  for (const auto& p : images) rel.push_back(fs::relative(p, dir).string());
+  CHECK(rel == std::vector<std::string>{"fist/z.bmp", "palm/a.PNG", "palm/b.png",
+                                        "palm/deep/er/c.jpg", "stray.png"});
+  CHECK_THROWS_WITH_AS(find_images(dir / "stray.png"), doctest::Contains("not a folder"), IoError);
+
+  // Classes from the folder names (sorted) or in the model's order; stray.png has no class.
+  const GestureSamples own = load_class_folders(dir, {});
+  CHECK(own.class_names == std::vector<std::string>{"fist", "palm"});
+  REQUIRE(own.frames.size() == 4);
+  CHECK(own.frames[0].label == 0);
+  CHECK(own.frames[3].path == dir / "palm/deep/er/c.jpg");
+  CHECK(own.frames[3].label == 1);
+  CHECK(own.frames[3].session == "palm");
+  CHECK(own.frames[3].timestamp_ms == 2); // third palm frame in path order
+  CHECK_FALSE(own.frames[3].from_metadata);
+  const GestureSamples ordered = load_class_folders(dir, {"palm", "fist", "wave"});
+  CHECK(ordered.frames[0].label == 1);
+  CHECK_THROWS_WITH_AS(load_class_folders(dir, {"palm"}),
+                       doctest::Contains("z.bmp: class folder 'fist' is not one of the model's"),
+                       DatasetError);
+  // load_gesture_folder takes metadata.csv when there is one, the tree otherwise.
+  CHECK(load_gesture_folder(dir, {}).frames.size() == 4);
+  const fs::path empty = fresh_folder("tree_empty");
+  cv::imwrite((empty / "only_here.png").string(), img);
+  CHECK_THROWS_WITH_AS(load_gesture_folder(empty, {}), doctest::Contains("no images in class"),
+                       DatasetError);
+}
+
+TEST_CASE("frames without metadata are encoded with the model's dark-frame rule") {
+  ModelFile model = ModelFile::load(tiny_model.string());
+  model.preprocess.dark_luminance_threshold = 0.2f;
+  const std::string cls = model.class_names.front();
+  const fs::path dir = fresh_folder("tree_dark");
+  fs::create_directories(dir / cls);
+  const cv::Mat dark(60, 80, CV_8UC3, cv::Scalar::all(25)); // luminance 0.098 < 0.2
+  cv::imwrite((dir / cls / "dark.png").string(), dark);
+  const GestureSamples set = load_class_folders(dir, model.class_names);
+  FeatureExtractor fx(model);
+  FrameEncoder encoder(model.preprocess, false);
+  const std::vector<std::size_t> first{0};
+  const Eigen::MatrixXd got = extract_features(fx, encoder, set, first);
+  Tensor t;
+  encoder.run(dark, true, t); // brightened, as the rule says
+  const auto v = fx.extract(t);
+  for (int c = 0; c < fx.dim(); ++c) CHECK(got(0, c) == v[static_cast<std::size_t>(c)]);
+  encoder.run(dark, false, t);
+  const auto plain = fx.extract(t);
+  bool differs = false;
+  for (int c = 0; c < fx.dim(); ++c) differs |= got(0, c) != plain[static_cast<std::size_t>(c)];
+  CHECK(differs);
+}

@@ -6,6 +6,9 @@
 
 #include <doctest/doctest.h>
 
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -167,4 +170,74 @@ TEST_CASE("bad timestamps and frames are refused with the pipeline unchanged") {
   CHECK_THROWS_AS(pipeline.update(cv::Mat(10, 10, CV_8UC3), 20), InvalidArgument);
   CHECK_THROWS_AS(pipeline.flush(5), InvalidArgument);
   CHECK(pipeline.update(f.image, 30).events.empty());
+}
+
+namespace {
+
+namespace ss = shadowsense;
+
+// The README's tracking loop, verbatim between the markers (a test below compares the text).
+template <class Camera, class Log>
+void readme_tracking_loop(const Camera& camera, Log log) {
+  // README-BEGIN
+  ss::TouchPipeline touch{ss::Segmenter({.calibration = ss::load_calibration("skin.calib")})};
+  double t_end = 0;
+  for (const auto& [frame, t_ms] : camera) { // cv::Mat BGR, timestamp in ms
+    for (const ss::TrackEvent& e : touch.update(frame, t_ms).events) log(e); // e.track_id, e.event
+    t_end = t_ms;
+  }
+  for (const ss::TrackEvent& e : touch.flush(t_end + 33).events) log(e); // the stream ended
+  // README-END
+}
+
+std::vector<std::string> trimmed_lines(const std::string& text, const std::string& from,
+                                       const std::string& to) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    const auto first = line.find_first_not_of(' ');
+    const std::string t = first == std::string::npos ? "" : line.substr(first);
+    if (t.rfind(from, 0) == 0) inside = true;
+    if (inside && t != "// README-BEGIN" && t != "// README-END") out.push_back(t);
+    if (inside && t.find(to) != std::string::npos) break;
+  }
+  return out;
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream f(path);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+} // namespace
+
+TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
+  const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
+  const auto readme =
+      trimmed_lines(read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
+  const auto here = trimmed_lines(
+      read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"), first,
+      last);
+  REQUIRE(readme.size() == 7);
+  CHECK(readme == here);
+  // Run it: a calibration file in the working folder, a short touch.
+  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_loop";
+  std::filesystem::create_directories(dir);
+  const auto old = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  save_calibration(calibration().config.calibration, "skin.calib");
+  std::vector<std::pair<cv::Mat, double>> camera;
+  camera.emplace_back(render({}, 1).image, 0.0);
+  camera.emplace_back(render({finger(0, 0, 0)}, 2).image, 33.0);
+  camera.emplace_back(render({finger(0, 0, 0)}, 3).image, 66.0);
+  std::vector<TrackEvent> logged;
+  readme_tracking_loop(camera, [&](const TrackEvent& e) { logged.push_back(e); });
+  std::filesystem::current_path(old);
+  REQUIRE(logged.size() == 4); // appear + touch at 33 ms; lift + disappear at the flush
+  CHECK(logged[1].event.to == TouchState::touch);
+  CHECK(logged[1].event.timestamp_ms == 33.0);
+  CHECK(logged[2].event.to == TouchState::lift);
+  CHECK(logged[3].event.to == TouchState::none);
 }

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Installs the Debian/Ubuntu packages shadowsense needs, only those missing.
-# Usage: tools/install-debian-deps.sh [--python]   (--python adds python3-torch for tools/ and
-# the torchvision golden tests)
+# Usage: tools/install-debian-deps.sh [--python]   (--python adds python3-torch and
+# python3-opencv for tools/ and the torchvision golden tests)
 set -euo pipefail
-packages=(cmake g++ make libopencv-dev libeigen3-dev doctest-dev catch2)
-if [[ "${1:-}" == "--python" ]]; then packages+=(python3 python3-numpy python3-torch python3-torchvision); fi
+packages=(cmake g++ make libopencv-dev libopencv-videoio-dev libopencv-highgui-dev libeigen3-dev doctest-dev catch2 pkg-config liblo-dev liblo-tools)
+if [[ "${1:-}" == "--python" ]]; then packages+=(python3 python3-numpy python3-torch python3-torchvision python3-opencv); fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -52,6 +52,7 @@ import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import dataset_reader  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
 
 MEAN = [0.485, 0.456, 0.406]
@@ -456,7 +457,7 @@ def main(argv=None):
     random.seed(args.seed)
     gen = torch.Generator().manual_seed(args.seed)
 
-    rows = read_metadata(args.data)
+    rows = dataset_reader.rows_for_training(args.data)
     classes = csv_list(args.classes) or sorted({r["class"] for r in rows})
     train_rows, val_rows = select(rows, args)
     print(f"{len(train_rows)} training and {len(val_rows)} validation images, classes "

@@ -3,4 +3,5 @@
 #pragma once
 
 #include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/image_file.hpp>
 #include <shadowsense/shadowsense.hpp>

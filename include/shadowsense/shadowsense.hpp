@@ -4,6 +4,7 @@
 //   sense/     segmenter, tracker, touch state machine (shadow -> contact -> touch events)
 //   classify/  preprocessing, the backend concept, Classifier<Backend>
 //   backends/densenet/  the reference backend: model file + hand-written forward pass
+//   output/    event sinks: EventSink concept, CSV, JSON lines, TUIO 1.1 over UDP (OSC encoder)
 // Other targets, each with its own umbrella: <shadowsense/io.hpp> (dataset files, imgcodecs),
 // <shadowsense/train.hpp> (on-device head training, Eigen), <shadowsense/sim.hpp> (scene
 // generator), <shadowsense/eval.hpp> (evaluation helpers).
@@ -23,6 +24,7 @@
 #include <shadowsense/core/image_check.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
+#include <shadowsense/output/output.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>

@@ -38,16 +38,16 @@ inline Direction direction_from_string(std::string_view s) {
   if (s == "none") return Direction::none;
   for (Direction d : all_directions)
     if (s == to_string(d)) return d;
-  throw InvalidArgument("direction '" + std::string(s) +
-                        "' is unknown; expected left, right, front, back or none");
+  SHADOWSENSE_THROW(InvalidArgument("direction '" + std::string(s) +
+                                    "' is unknown; expected left, right, front, back or none"));
 }
 
 // Parses one of the four movement directions; "none" is rejected (a slide always moves).
 inline Direction movement_direction_from_string(std::string_view s) {
   for (Direction d : all_directions)
     if (s == to_string(d)) return d;
-  throw InvalidArgument("unknown direction '" + std::string(s) +
-                        "'; expected left, right, front or back");
+  SHADOWSENSE_THROW(InvalidArgument("unknown direction '" + std::string(s) +
+                                    "'; expected left, right, front or back"));
 }
 
 SHADOWSENSE_NAMESPACE_END

@@ -1,11 +1,37 @@
-// The library's exceptions. Every public entry point validates its input and throws one of
-// these with a message that names what was wrong and what was expected.
+// The library's exceptions and its exception policy.
+//
+// WHAT THIS IS
+//   Every public entry point validates its input and reports a failure by throwing one of the
+//   types below with a message that names what was wrong and what was expected.
+//
+//   Every throw in the library goes through one macro, SHADOWSENSE_THROW(exception), the way
+//   nlohmann/json routes its throws through JSON_THROW_USER. By default it is `throw exception`.
+//   A firmware build without exceptions (-fno-exceptions) defines it BEFORE including any
+//   shadowsense header (or on the command line) to call its own handler, for example:
+//
+//     [[noreturn]] void on_shadowsense_error(const shadowsense::Error& e); // logs, aborts
+//     #define SHADOWSENSE_THROW(exception) on_shadowsense_error(exception)
+//     #include <shadowsense/shadowsense.hpp>
+//
+//   requires of a user definition:
+//     - it must not return to the library (the handler is [[noreturn]]: it aborts, resets,
+//       longjmps out, or throws something else); code after a throw assumes it never runs.
+//     - it is given an expression of one of the types below (always derived from Error);
+//       the argument is evaluated exactly once.
+//     - the same definition in every translation unit of a program (ODR).
+//
+// THREADING
+//   Stateless; the exception types are ordinary value types.
 #pragma once
 
 #include <shadowsense/core/version.hpp>
 
 #include <stdexcept>
 #include <string>
+
+#ifndef SHADOWSENSE_THROW
+#define SHADOWSENSE_THROW(exception) throw exception
+#endif
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
@@ -39,11 +65,20 @@ public:
   using Error::Error;
 };
 
+// One instance of a type that is not internally synchronised was used from two threads at
+// once (core/thread_owner.hpp). A programming error in the caller: use one instance per thread.
+class ConcurrentUseError : public Error {
+public:
+  using Error::Error;
+};
+
 namespace detail {
-// Throws E(message) unless condition holds. Keeps validation one line per rule.
+// require<E>(condition, message)
+//   ensures: returns normally when condition holds; otherwise raises E(message) through
+//            SHADOWSENSE_THROW. Keeps validation one line per rule.
 template <class E = InvalidArgument>
 inline void require(bool condition, const std::string& message) {
-  if (!condition) throw E(message);
+  if (!condition) SHADOWSENSE_THROW(E(message));
 }
 } // namespace detail
 

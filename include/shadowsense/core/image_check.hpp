@@ -13,13 +13,14 @@ SHADOWSENSE_NAMESPACE_BEGIN
 inline void require_colour_image(const cv::Mat& image, const char* argument_name) {
   const std::string name = argument_name;
   if (image.empty())
-    throw InvalidArgument(name + ": image is empty; expected an 8-bit 3-channel image");
+    SHADOWSENSE_THROW(
+        InvalidArgument(name + ": image is empty; expected an 8-bit 3-channel image"));
   if (image.dims != 2)
-    throw InvalidArgument(name + ": image has " + std::to_string(image.dims) +
-                          " dimensions; expected 2 (rows x cols)");
+    SHADOWSENSE_THROW(InvalidArgument(name + ": image has " + std::to_string(image.dims) +
+                                      " dimensions; expected 2 (rows x cols)"));
   if (image.type() != CV_8UC3)
-    throw InvalidArgument(name + ": image type is " + cv::typeToString(image.type()) +
-                          "; expected CV_8UC3 (8-bit, 3 channels)");
+    SHADOWSENSE_THROW(InvalidArgument(name + ": image type is " + cv::typeToString(image.type()) +
+                                      "; expected CV_8UC3 (8-bit, 3 channels)"));
 }
 
 SHADOWSENSE_NAMESPACE_END

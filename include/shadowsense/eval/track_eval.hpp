@@ -46,8 +46,8 @@ private:
   double mean_ = 0, m2_ = 0;
 };
 
-// A Segmenter config fitted on generator frames plus the empty-skin frames it was fitted with
-// (hand them to Segmenter::set_empty_skin).
+// A Segmenter config fitted on generator frames (its calibration holds the empty-skin model made
+// from `empty_frames`, so save_calibration stores everything) plus those empty-skin frames.
 struct SimCalibration {
   Segmenter::Config config;
   std::vector<cv::Mat> empty_frames;
@@ -76,13 +76,17 @@ inline SimCalibration calibrate_on_sim(sim::Renderer& renderer, std::uint64_t se
   }
   out.config = base;
   out.config.calibration = fit_calibration(out.empty_frames, labelled, base, 3);
+  Segmenter model(out.config);
+  model.set_empty_skin(out.empty_frames);
+  out.config.calibration.empty_skin = model.empty_skin_model().clone();
   return out;
 }
 
-// A Segmenter ready to use: calibrate_on_sim + set_empty_skin.
+// A Segmenter ready to use: the calibration's empty-skin model, or (a calibration without one,
+// e.g. loaded from a version-1 file) the model made from the empty frames.
 inline Segmenter segmenter_from(const SimCalibration& c) {
   Segmenter s(c.config);
-  s.set_empty_skin(c.empty_frames);
+  if (!s.has_empty_skin()) s.set_empty_skin(c.empty_frames);
   return s;
 }
 

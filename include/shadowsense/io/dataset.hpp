@@ -1,12 +1,15 @@
 // The on-disk dataset format (docs/dataset_format.md): ImageFolder-style folders of PNG
 // frames with one metadata.csv per dataset (per sequence for slides) and a sequences.csv
 // for slide datasets. A strict reader (malformed rows are rejected with a DatasetError naming
-// file, line and column) and a writer that never leaves a half-written csv looking complete.
+// file, line and column; images are checked from their headers: inside the folder, bounded,
+// boxes inside) and atomic writers. Depends on core/ and io/ only (its enums: io/labels.hpp).
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
+#include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
-#include <shadowsense/sim/lighting.hpp>
-#include <shadowsense/sim/tracking.hpp>
+#include <shadowsense/io/image_file.hpp>
+#include <shadowsense/io/labels.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -14,9 +17,10 @@
 #include <array>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -42,7 +46,7 @@ struct MetadataRow {
   std::string file_name; // relative to the csv's folder
   std::string label;     // the "class" column
   int user = 0;
-  sim::Lighting lighting = sim::Lighting::daylight;
+  Lighting lighting = Lighting::daylight;
   double lighting_level = 1.0;
   std::string session;
   int frame_index = 0;
@@ -52,8 +56,8 @@ struct MetadataRow {
   std::optional<cv::Point2f> contact_point;
   double px_per_cm = 0;
   // Slide sequences only.
-  std::optional<sim::SlideGesture> gesture;
-  std::optional<sim::Direction> direction;
+  std::optional<SlideGesture> gesture;
+  std::optional<Direction> direction;
   int line = 0; // line in the csv (1 = header), for messages
 };
 
@@ -71,13 +75,13 @@ struct Metadata {
 // One row of slides/sequences.csv.
 struct SequenceRow {
   std::string sequence; // folder relative to sequences.csv, holding frames + metadata.csv
-  sim::SlideGesture gesture = sim::SlideGesture::palm;
-  sim::Direction direction = sim::Direction::right;
+  SlideGesture gesture = SlideGesture::palm;
+  Direction direction = Direction::right;
   int num_frames = 0;
   double distance_cm = 0;
   double fps = 0;
   int user = 0;
-  sim::Lighting lighting = sim::Lighting::daylight;
+  Lighting lighting = Lighting::daylight;
   double lighting_level = 1.0;
   int line = 0;
 };
@@ -108,9 +112,9 @@ public:
       : file_(file), line_(line), header_(header), fields_(fields) {}
 
   [[noreturn]] void fail(std::size_t col, const std::string& what) const {
-    throw DatasetError(file_.string() + ":" + std::to_string(line_) + ": column " +
-                       std::to_string(col + 1) + " '" + std::string(header_[col]) + "': " + what +
-                       "; got '" + std::string(fields_[col]) + "'");
+    SHADOWSENSE_THROW(DatasetError(file_.string() + ":" + std::to_string(line_) + ": column " +
+                                   std::to_string(col + 1) + " '" + std::string(header_[col]) +
+                                   "': " + what + "; got '" + std::string(fields_[col]) + "'"));
   }
   std::string_view raw(std::size_t col) const { return fields_[col]; }
   bool empty(std::size_t col) const { return fields_[col].empty(); }
@@ -142,13 +146,17 @@ public:
     }
     return v;
   }
-  template <class F>
-  auto parse_enum(std::size_t col, F from_string) const {
-    try {
-      return from_string(fields_[col]);
-    } catch (const InvalidArgument& e) {
-      fail(col, e.what());
+  // One of `values` by its to_string name (no exceptions to translate: a user-defined
+  // SHADOWSENSE_THROW would skip a catch).
+  template <class E, std::size_t N>
+  E choice(std::size_t col, const std::array<E, N>& values, const char* what) const {
+    std::string expected;
+    for (std::size_t i = 0; i < N; ++i) {
+      if (fields_[col] == std::string_view(to_string(values[i]))) return values[i];
+      expected.append(i == 0 ? "" : i + 1 == N ? " or " : ", ").append(to_string(values[i]));
     }
+    fail(col, std::string("unknown ") + what + " '" + std::string(fields_[col]) + "'; expected " +
+                  expected);
   }
   // Four columns x, y, w, h: all empty (absent) or all integers with w, h > 0.
   std::optional<cv::Rect> box(std::size_t col) const {
@@ -168,20 +176,34 @@ private:
   const std::vector<std::string_view>& fields_;
 };
 
-// Reads a csv into lines, checking the header against `expected` (each alternative tried).
-inline std::vector<std::string> read_csv_lines(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DatasetError(path.string() + ": cannot open the csv file");
+// Splits csv text into lines (a trailing '\r' dropped, trailing empty lines ignored).
+inline std::vector<std::string> csv_lines(std::string_view text,
+                                          const std::filesystem::path& path) {
   std::vector<std::string> lines;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    lines.push_back(line);
+  std::size_t start = 0;
+  while (start < text.size()) {
+    std::size_t end = text.find('\n', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view line = text.substr(start, end - start);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    lines.emplace_back(line);
+    start = end + 1;
   }
   while (!lines.empty() && lines.back().empty()) lines.pop_back();
   if (lines.empty())
-    throw DatasetError(path.string() + ":1: the csv file is empty; expected a header row");
+    SHADOWSENSE_THROW(
+        DatasetError(path.string() + ":1: the csv file is empty; expected a header row"));
   return lines;
+}
+
+// A csv file's text: a regular file of at most max_csv_bytes (no FIFO hang, no /dev/zero).
+inline constexpr std::uint64_t max_csv_bytes = 1ull << 30;
+inline std::string read_csv_text(const std::filesystem::path& path) {
+  ImageLimits limits;
+  limits.max_file_bytes = max_csv_bytes;
+  const BoundedFile f(path, limits, "csv file", {}, true);
+  const std::vector<unsigned char> b = f.read_at(0, static_cast<std::size_t>(f.size()));
+  return std::string(b.begin(), b.end());
 }
 
 template <class Columns>
@@ -208,12 +230,12 @@ inline std::string join(const Columns& c) {
 inline void check_row_width(const std::filesystem::path& path, int line, std::string_view text,
                             const std::vector<std::string_view>& fields, std::size_t expected) {
   if (text.find('"') != std::string_view::npos)
-    throw DatasetError(path.string() + ":" + std::to_string(line) +
-                       ": quoted fields are not supported");
+    SHADOWSENSE_THROW(DatasetError(path.string() + ":" + std::to_string(line) +
+                                   ": quoted fields are not supported"));
   if (fields.size() != expected)
-    throw DatasetError(path.string() + ":" + std::to_string(line) + ": row has " +
-                       std::to_string(fields.size()) + " columns; expected " +
-                       std::to_string(expected) + " (as in the header)");
+    SHADOWSENSE_THROW(DatasetError(path.string() + ":" + std::to_string(line) + ": row has " +
+                                   std::to_string(fields.size()) + " columns; expected " +
+                                   std::to_string(expected) + " (as in the header)"));
 }
 
 inline void check_relative(const FieldParser& p, std::size_t col) {
@@ -225,11 +247,10 @@ inline void check_relative(const FieldParser& p, std::size_t col) {
     if (part == "..") p.fail(col, "the path must not leave the dataset folder ('..')");
 }
 
-inline void check_lighting_level(const FieldParser& p, std::size_t col, sim::Lighting l,
-                                 double level) {
-  if (l != sim::Lighting::custom && level != sim::lighting_level(l))
-    p.fail(col, "does not match the lighting preset '" + std::string(sim::to_string(l)) +
-                    "' (level " + std::to_string(sim::lighting_level(l)) + ")");
+inline void check_lighting_level(const FieldParser& p, std::size_t col, Lighting l, double level) {
+  if (l != Lighting::custom && level != lighting_level(l))
+    p.fail(col, "does not match the lighting preset '" + std::string(to_string(l)) + "' (level " +
+                    std::to_string(lighting_level(l)) + ")");
 }
 
 inline std::string format_number(double v, int decimals) {
@@ -238,28 +259,14 @@ inline std::string format_number(double v, int decimals) {
   return buf;
 }
 
-// Writes text to path via a temporary file and a rename, so a reader never sees a partial
-// csv: the file either does not exist yet or is complete.
-inline void write_file_atomically(const std::filesystem::path& path, const std::string& text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError(tmp.string() + ": cannot create the file");
-    out << text;
-    out.flush();
-    if (!out) throw IoError(tmp.string() + ": writing failed");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec)
-    throw IoError(path.string() + ": cannot rename the temporary file into place: " + ec.message());
-}
-
 } // namespace detail
 
-// Reads and validates a metadata.csv (gestures, tracking, or one slide sequence).
-inline Metadata read_metadata(const std::filesystem::path& csv_path) {
-  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+// parse_metadata(text, csv_path): validates the text of a metadata.csv (gestures, tracking, or
+// one slide sequence); csv_path names it in messages and anchors the rows' relative paths.
+// throws DatasetError naming csv_path:line: column. read_metadata(csv_path) reads the file
+// (a regular file of at most max_csv_bytes) and parses it.
+inline Metadata parse_metadata(std::string_view text, const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::csv_lines(text, csv_path);
   Metadata md;
   md.csv_path = csv_path;
   const std::vector<std::string_view> header = detail::split_csv(lines[0]);
@@ -269,10 +276,12 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
                                slide_columns.data())) {
     md.slide_columns = true;
   } else {
-    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
-                       detail::join(metadata_columns) + "' (slide sequences add '," +
-                       detail::join(slide_columns) + "')");
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
+                                   "'; expected '" + detail::join(metadata_columns) +
+                                   "' (slide sequences add '," + detail::join(slide_columns) +
+                                   "')"));
   }
+  std::map<std::string, int> first_line; // file_name -> line, for duplicates
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
     const std::vector<std::string_view> f = detail::split_csv(lines[li]);
@@ -284,7 +293,7 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
     r.file_name = p.text(0);
     r.label = p.text(1);
     r.user = p.integer(2, 0, 1000000);
-    r.lighting = p.parse_enum(3, sim::lighting_from_string);
+    r.lighting = p.choice(3, all_lightings, "lighting");
     r.lighting_level = p.real(4, 0.0, 1.0);
     detail::check_lighting_level(p, 4, r.lighting, r.lighting_level);
     r.session = p.text(5);
@@ -303,22 +312,34 @@ inline Metadata read_metadata(const std::filesystem::path& csv_path) {
       p.fail(8, "a frame with a contact box must have a shadow box");
     r.px_per_cm = p.real(18, 1e-6, 1e6);
     if (md.slide_columns) {
-      r.gesture = p.parse_enum(19, sim::slide_gesture_from_string);
-      r.direction = p.parse_enum(20, sim::movement_direction_from_string);
+      r.gesture = p.choice(19, all_slide_gestures, "slide gesture");
+      r.direction = p.choice(20, all_directions, "direction");
     }
+    if (const auto [it, fresh] = first_line.emplace(r.file_name, line); !fresh)
+      p.fail(0, "duplicate row: the same file is already listed on line " +
+                    std::to_string(it->second));
     md.rows.push_back(std::move(r));
   }
+  if (md.rows.empty())
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() +
+                                   ":2: no data rows; expected at least one row after the header"));
   return md;
 }
 
-// Reads and validates slides/sequences.csv.
-inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_path) {
-  const std::vector<std::string> lines = detail::read_csv_lines(csv_path);
+inline Metadata read_metadata(const std::filesystem::path& csv_path) {
+  return parse_metadata(detail::read_csv_text(csv_path), csv_path);
+}
+
+// parse_sequences(text, csv_path) / read_sequences(csv_path): the same for sequences.csv.
+inline std::vector<SequenceRow> parse_sequences(std::string_view text,
+                                                const std::filesystem::path& csv_path) {
+  const std::vector<std::string> lines = detail::csv_lines(text, csv_path);
   const std::vector<std::string_view> header = detail::split_csv(lines[0]);
   if (!detail::header_is(header, sequence_columns))
-    throw DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] + "'; expected '" +
-                       detail::join(sequence_columns) + "'");
+    SHADOWSENSE_THROW(DatasetError(csv_path.string() + ":1: unexpected header '" + lines[0] +
+                                   "'; expected '" + detail::join(sequence_columns) + "'"));
   std::vector<SequenceRow> rows;
+  std::map<std::string, int> first_line; // sequence -> line, for duplicates
   for (std::size_t li = 1; li < lines.size(); ++li) {
     const int line = static_cast<int>(li) + 1;
     const std::vector<std::string_view> f = detail::split_csv(lines[li]);
@@ -328,18 +349,28 @@ inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_
     r.line = line;
     detail::check_relative(p, 0);
     r.sequence = p.text(0);
-    r.gesture = p.parse_enum(1, sim::slide_gesture_from_string);
-    r.direction = p.parse_enum(2, sim::movement_direction_from_string);
+    r.gesture = p.choice(1, all_slide_gestures, "slide gesture");
+    r.direction = p.choice(2, all_directions, "direction");
     r.num_frames = p.integer(3, 1, 1 << 24);
     r.distance_cm = p.real(4, 0.0, 1e4);
     r.fps = p.real(5, 1e-3, 1e4);
     r.user = p.integer(6, 0, 1000000);
-    r.lighting = p.parse_enum(7, sim::lighting_from_string);
+    r.lighting = p.choice(7, all_lightings, "lighting");
     r.lighting_level = p.real(8, 0.0, 1.0);
     detail::check_lighting_level(p, 8, r.lighting, r.lighting_level);
+    if (const auto [it, fresh] = first_line.emplace(r.sequence, line); !fresh)
+      p.fail(0, "duplicate row: the same sequence is already listed on line " +
+                    std::to_string(it->second));
     rows.push_back(std::move(r));
   }
+  if (rows.empty())
+    SHADOWSENSE_THROW(
+        DatasetError(csv_path.string() + ":2: no data rows; expected at least one sequence"));
   return rows;
+}
+
+inline std::vector<SequenceRow> read_sequences(const std::filesystem::path& csv_path) {
+  return parse_sequences(detail::read_csv_text(csv_path), csv_path);
 }
 
 // The csv text of metadata rows (header included). Numbers use fixed decimals so the same
@@ -374,7 +405,7 @@ inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_
     add(r.file_name);
     add(r.label);
     add(std::to_string(r.user));
-    add(sim::to_string(r.lighting));
+    add(to_string(r.lighting));
     add(detail::format_number(r.lighting_level, 4));
     add(r.session);
     add(std::to_string(r.frame_index));
@@ -385,8 +416,8 @@ inline std::string metadata_csv(const std::vector<MetadataRow>& rows, bool with_
     add(r.contact_point ? detail::format_number(r.contact_point->y, 3) : std::string());
     add(detail::format_number(r.px_per_cm, 5));
     if (with_slide_columns) {
-      add(sim::to_string(*r.gesture));
-      add(sim::to_string(*r.direction));
+      add(to_string(*r.gesture));
+      add(to_string(*r.direction));
     }
     s += '\n';
   }
@@ -407,37 +438,148 @@ inline std::string sequences_csv(const std::vector<SequenceRow>& rows) {
                     "sequences_csv: sequence folder must be non-empty without commas or quotes");
     first = true;
     add(r.sequence);
-    add(sim::to_string(r.gesture));
-    add(sim::to_string(r.direction));
+    add(to_string(r.gesture));
+    add(to_string(r.direction));
     add(std::to_string(r.num_frames));
     add(detail::format_number(r.distance_cm, 3));
     add(detail::format_number(r.fps, 3));
     add(std::to_string(r.user));
-    add(sim::to_string(r.lighting));
+    add(to_string(r.lighting));
     add(detail::format_number(r.lighting_level, 4));
     s += '\n';
   }
   return s;
 }
 
-// Writes a metadata.csv atomically (temporary file + rename).
+// Writes a metadata.csv atomically (core/atomic_file.hpp: temporary file, checked writes,
+// fsync, rename).
 inline void write_metadata(const std::filesystem::path& csv_path,
-                           const std::vector<MetadataRow>& rows, bool with_slide_columns) {
-  detail::write_file_atomically(csv_path, metadata_csv(rows, with_slide_columns));
+                           const std::vector<MetadataRow>& rows, bool with_slide_columns,
+                           Sync sync = Sync::file) {
+  write_file_atomically(csv_path, metadata_csv(rows, with_slide_columns), sync);
 }
 inline void write_sequences(const std::filesystem::path& csv_path,
                             const std::vector<SequenceRow>& rows) {
-  detail::write_file_atomically(csv_path, sequences_csv(rows));
+  write_file_atomically(csv_path, sequences_csv(rows));
 }
 
-// Loads a row's image as 8-bit BGR.
-inline cv::Mat read_image(const Metadata& md, const MetadataRow& row) {
-  const std::filesystem::path p = md.image_path(row);
-  cv::Mat img = cv::imread(p.string(), cv::IMREAD_COLOR);
-  if (img.empty())
-    throw DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) +
-                       ": cannot read image '" + p.string() + "'");
-  return img;
+namespace detail {
+
+// "file:line: column N 'name': " for messages about a row's column.
+inline std::string where(const std::filesystem::path& csv, int line, std::size_t col,
+                         std::string_view name) {
+  return csv.string() + ":" + std::to_string(line) + ": column " + std::to_string(col + 1) + " '" +
+         std::string(name) + "': ";
+}
+
+// `relative` (already free of '..' and absolute parts) resolved inside `folder`, refusing a
+// path that leaves the folder through a symlink.
+inline std::filesystem::path inside_folder(const std::filesystem::path& folder,
+                                           const std::string& relative, const std::string& at) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path base = fs::weakly_canonical(folder, ec);
+  const fs::path full = fs::weakly_canonical(folder / relative, ec);
+  if (ec)
+    SHADOWSENSE_THROW(DatasetError(at + "cannot resolve '" + relative + "': " + ec.message()));
+  const fs::path rel = full.lexically_relative(base);
+  if (rel.empty() || *rel.begin() == "..")
+    SHADOWSENSE_THROW(DatasetError(at + "'" + relative + "' resolves to '" + full.string() +
+                                   "', outside the dataset folder '" + base.string() +
+                                   "' (a symlink leaves it)"));
+  return folder / relative;
+}
+
+inline void check_box_inside(const std::optional<cv::Rect>& box, cv::Size size,
+                             const std::string& at, const char* what) {
+  if (!box) return;
+  if ((*box & cv::Rect(cv::Point(), size)) != *box)
+    SHADOWSENSE_THROW(DatasetError(
+        at + what + " (" + std::to_string(box->x) + ", " + std::to_string(box->y) + ", " +
+        std::to_string(box->width) + ", " + std::to_string(box->height) + ") is not inside the " +
+        std::to_string(size.width) + "x" + std::to_string(size.height) + " image"));
+}
+
+} // namespace detail
+
+// check_image(md, row, limits)
+//   ensures: the row's image lies inside the dataset folder (no symlink leaves it), is a
+//            regular PNG/JPEG/BMP file within `limits` (read from its header, no decoding), and
+//            the row's boxes and contact point lie inside it. Returns the image size.
+//   throws:  DatasetError naming csv:line: column and the problem.
+inline cv::Size check_image(const Metadata& md, const MetadataRow& row,
+                            const ImageLimits& limits = {}) {
+  const std::string at = detail::where(md.csv_path, row.line, 0, "file_name");
+  const std::filesystem::path p = detail::inside_folder(md.folder(), row.file_name, at);
+  const ImageHeader h = detail::image_header(p, limits, at, true);
+  const cv::Size size(h.width, h.height);
+  detail::check_box_inside(row.shadow_box, size,
+                           detail::where(md.csv_path, row.line, 8, "shadow_x"), "the shadow box");
+  detail::check_box_inside(row.contact_box, size,
+                           detail::where(md.csv_path, row.line, 12, "contact_x"),
+                           "the contact box");
+  if (row.contact_point &&
+      !cv::Rect2f(0.f, 0.f, static_cast<float>(size.width), static_cast<float>(size.height))
+           .contains(*row.contact_point))
+    SHADOWSENSE_THROW(DatasetError(detail::where(md.csv_path, row.line, 16, "contact_cx") +
+                                   "the contact point is not inside the " +
+                                   std::to_string(size.width) + "x" + std::to_string(size.height) +
+                                   " image"));
+  return size;
+}
+
+// check_images(md, limits): check_image for every row (reads only the headers).
+inline void check_images(const Metadata& md, const ImageLimits& limits = {}) {
+  for (const MetadataRow& row : md.rows) (void)check_image(md, row, limits);
+}
+
+// Loads a row's image as 8-bit BGR after check_image (bounded: the header is checked before
+// any pixel is decoded). Throws DatasetError naming csv:line.
+inline cv::Mat read_image(const Metadata& md, const MetadataRow& row,
+                          const ImageLimits& limits = {}) {
+  (void)check_image(md, row, limits);
+  return detail::image_file(
+      md.image_path(row), cv::IMREAD_COLOR, limits,
+      md.csv_path.string() + ":" + std::to_string(row.line) + ": cannot read image: ", true);
+}
+
+// read_sequence_metadata(sequences_csv, row)
+//   ensures: the metadata.csv of one slide sequence listed in sequences.csv, read and checked
+//            against its row there: the folder stays inside the dataset, the csv has slide
+//            columns, num_frames equals its row count, and every row's gesture, direction,
+//            user, lighting and lighting_level equal the sequence's.
+//   throws:  DatasetError naming the file:line: column that disagrees (and the other file).
+inline Metadata read_sequence_metadata(const std::filesystem::path& sequences_csv,
+                                       const SequenceRow& seq) {
+  const std::filesystem::path folder =
+      detail::inside_folder(sequences_csv.parent_path(), seq.sequence,
+                            detail::where(sequences_csv, seq.line, 0, "sequence"));
+  Metadata md = read_metadata(folder / "metadata.csv");
+  const std::string other =
+      " disagrees with " + sequences_csv.string() + ":" + std::to_string(seq.line);
+  if (!md.slide_columns)
+    SHADOWSENSE_THROW(DatasetError(md.csv_path.string() +
+                                   ":1: a slide sequence's csv needs the gesture and direction "
+                                   "columns;" +
+                                   other));
+  if (static_cast<int>(md.rows.size()) != seq.num_frames)
+    SHADOWSENSE_THROW(DatasetError(detail::where(sequences_csv, seq.line, 3, "num_frames") +
+                                   std::to_string(seq.num_frames) + " frames, but " +
+                                   md.csv_path.string() + " has " + std::to_string(md.rows.size()) +
+                                   " rows"));
+  for (const MetadataRow& r : md.rows) {
+    auto check = [&](bool ok, std::size_t col, std::string_view name) {
+      if (!ok)
+        SHADOWSENSE_THROW(DatasetError(detail::where(md.csv_path, r.line, col, name) + "the value" +
+                                       other + " (column '" + std::string(name) + "')"));
+    };
+    check(r.gesture == seq.gesture, 19, "gesture");
+    check(r.direction == seq.direction, 20, "direction");
+    check(r.user == seq.user, 2, "user");
+    check(r.lighting == seq.lighting, 3, "lighting");
+    check(std::abs(r.lighting_level - seq.lighting_level) < 1e-9, 4, "lighting_level");
+  }
+  return md;
 }
 
 SHADOWSENSE_NAMESPACE_END

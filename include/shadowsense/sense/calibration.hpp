@@ -8,6 +8,11 @@
 //             jointly) minimising misclassified pixels over all frames, per light group when
 //             light_groups > 1, and the fixed-mode colour ranges; base's other fields kept.
 //   throws:   InvalidArgument.
+//   Masks are per-pixel labels (generator renders, a painting tool).
+// calibrate_from_frames(empty_frames, touch_frames, options)
+//   A robot's own frames: empty skin (required) plus touch frames labelled by coarse boxes or
+//   not at all; returns the calibration with the empty-skin model, structured warnings and a
+//   report per light level. Rules and guards below and in docs/calibration.md.
 // Plain functions; no shared state (any thread).
 #pragma once
 
@@ -21,6 +26,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -456,16 +462,21 @@ inline float best_box_threshold(const cv::Mat& model, const SegmenterConfig& bas
 //    reference, so light levels mix). Light groups: the empty frames' reference luminances,
 //    sorted, split where one is more than light_group_ratio above the previous. Each touch frame
 //    joins the group of nearest luminance (log scale).
+//  * Noise per group: noise_quantile of the empty frames' darkness, smoothed like the masks
+//    (Config::mask_blur).
 //  * Labelled frame, "surely outside": a ring ring_margin_px..ring_margin_px + ring_width_px
 //    outside the shadow box; "shadow core": the pixels in the shadow box away from the contact
-//    box, whose 95th-percentile darkness is the frame's core darkness; "surely contact": the
-//    contact box minus contact_inset per side, pixels at least as dark as the shadow threshold.
-//  * Shadow threshold per group: half the median core darkness (a shadow's edge is where its
-//    opacity is half the core's, the labels' convention), raised to noise + 0.02 when the empty
-//    skin's noise (noise_quantile of the darkness of empty frames and rings) reaches it.
-//  * Contact thresholds per group: (darkness, warmth) minimising misclassified pixels between
-//    "surely contact" and the shadow pixels away from the contact box, rings and empty frames.
-//  * Unlabelled frame: pixels darker than noise + 0.05 are shadow; its core darkness as above;
+//    box, whose 99th-percentile smoothed darkness is the frame's core darkness; "surely contact":
+//    the contact box minus contact_inset per side, pixels at least as dark as the shadow
+//    threshold.
+//  * Shadow threshold per group: the one in [noise + 0.02, 0.95] whose shadow boxes best match
+//    the group's labelled shadow boxes (best_box_threshold); a group with unlabelled frames only:
+//    half the median core darkness (a shadow's edge is where its opacity is half the core's), at
+//    least noise + 0.02. Core darkness within 0.04 of the noise: the group is ignored.
+//  * Contact thresholds per group: (darkness from the shadow threshold up, warmth) minimising
+//    misclassified pixels between "surely contact" and the shadow core, rings and empty frames.
+//  * Unlabelled frame: pixels whose smoothed darkness exceeds noise + 0.05 are shadow; its core
+//  darkness as above;
 //    2-means on (darkness, warmth) of those pixels (initial split at the median darkness); the
 //    cluster with the higher mean warmth is contact when it is also darker and warmer by at least
 //    0.05 than the other, else the frame is a hover (contact_not_separated).
@@ -615,10 +626,13 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     Group& grp = groups[g];
     if (!f.labelled) {
       std::vector<cv::Vec2f> cand;
+      std::vector<float> sm; // smoothed darkness, on the noise's footing
       for (int y = 0; y < d.rows; ++y)
         for (int x = 0; x < d.cols; ++x)
-          if (skin.at<uchar>(y, x) && smoothed.at<float>(y, x) >= noise[g] + 0.05f)
+          if (skin.at<uchar>(y, x) && smoothed.at<float>(y, x) >= noise[g] + 0.05f) {
             cand.push_back({d.at<float>(y, x), w.at<float>(y, x)});
+            sm.push_back(smoothed.at<float>(y, x));
+          }
       if (static_cast<double>(cand.size()) < options.min_class_pixels) {
         warn(CalibrationIssue::too_few_pixels,
              "unlabelled touch frame " + std::to_string(i) + ": " + std::to_string(cand.size()) +
@@ -627,14 +641,11 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
                  " (frame skipped)");
         continue;
       }
-      std::vector<float> dk;
-      for (const auto& c : cand) dk.push_back(c[0]);
-      grp.hover_cores.push_back(detail::quantile(dk, 0.95f));
-      const float median = detail::quantile(dk, 0.5f);
+      const float median = detail::quantile(sm, 0.5f);
       cv::Mat pts(static_cast<int>(cand.size()), 2, CV_32F, cand.data());
       cv::Mat labels(static_cast<int>(cand.size()), 1, CV_32S);
       for (int k = 0; k < labels.rows; ++k)
-        labels.at<int>(k) = cand[static_cast<std::size_t>(k)][0] > median;
+        labels.at<int>(k) = sm[static_cast<std::size_t>(k)] > median;
       cv::Mat centres;
       cv::kmeans(pts, 2, labels,
                  cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-5), 1,
@@ -650,6 +661,9 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
         const cv::Vec2f& v = cand[static_cast<std::size_t>(k)];
         add_contact(grp, v[0], v[1], separated && labels.at<int>(k) == warm);
       }
+      // Core darkness: over all its shadow pixels (contact included), a conservative choice that
+      // keeps the empty skin clear; see docs/calibration.md for the measured cost on hovers.
+      grp.hover_cores.push_back(detail::quantile(sm, 0.95f));
       continue;
     }
     grp.box_frames.push_back(i);
@@ -759,7 +773,10 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
                std::to_string(f.last_warmth_bin()) + " of " + std::to_string(nb) +
                "): the contact pixels are not separated from the rest");
   };
-  // Fallback for contact thresholds: the fit over all groups, else the defaults.
+  // Fallback for contact thresholds: the fit over all groups, else the defaults. Its edge check
+  // is reported only when some light level uses it.
+  std::function<void()> overall_edges = [] {};
+  bool overall_used = false;
   LightThresholds overall{0, options.base.calibration.shadow_darkness,
                           options.base.calibration.contact_darkness,
                           options.base.calibration.contact_warmth};
@@ -776,7 +793,15 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     for (const auto& t : shadow_t)
       if (t) lowest = std::min(lowest, *t);
     const LightThresholds t = all.fit(0, lowest);
-    check_edges(all, "all light groups");
+    overall_edges = [&, bi = all.last_darkness_bin(), bj = all.last_warmth_bin()] {
+      const int nb = detail::ThresholdFit::nb;
+      if (bi >= nb || bj <= 0 || bj >= nb)
+        warn(CalibrationIssue::threshold_at_edge,
+             "all light groups: a contact threshold sits at the edge of the searched range "
+             "(darkness bin " +
+                 std::to_string(bi) + ", warmth bin " + std::to_string(bj) + " of " +
+                 std::to_string(nb) + "): the contact pixels are not separated");
+    };
     overall.contact_darkness = t.contact_darkness;
     overall.contact_warmth = t.contact_warmth;
   } else {
@@ -811,7 +836,10 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
       check_edges(groups[g].fit, where);
       r.thresholds.contact_darkness = t.contact_darkness;
       r.thresholds.contact_warmth = t.contact_warmth;
-    } else if (ng > 1) {
+    } else {
+      overall_used = true;
+    }
+    if (groups[g].fit.contact_positives() < options.min_class_pixels && ng > 1) {
       warn(CalibrationIssue::too_few_pixels,
            where + ": " +
                std::to_string(static_cast<long long>(groups[g].fit.contact_positives())) +
@@ -819,6 +847,7 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     }
     r.fitted = true;
   }
+  if (overall_used) overall_edges();
   if (ng == 1) {
     cal.shadow_darkness = result.groups[0].thresholds.shadow_darkness;
     cal.contact_darkness = result.groups[0].thresholds.contact_darkness;

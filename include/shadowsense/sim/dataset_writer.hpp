@@ -5,6 +5,7 @@
 // so an interrupted run never leaves a dataset that looks complete.
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/sim/gestures.hpp>
@@ -132,41 +133,67 @@ inline User dataset_user(std::uint64_t seed, int id) {
 
 namespace internal {
 
+inline void remove_csv(const std::filesystem::path& p) {
+  std::error_code ec;
+  std::filesystem::remove(p, ec);
+  if (ec) SHADOWSENSE_THROW(IoError(p.string() + ": cannot remove the old csv: " + ec.message()));
+}
+
 // Makes `dir` ready to receive a dataset: it must be new/empty unless overwrite, in which case
-// the old csv files are removed first so the old dataset no longer looks complete.
+// the old csv files (top-level first, then every nested metadata.csv) are removed before any
+// frame is written, so the old dataset no longer looks complete.
 inline void prepare_output(const std::filesystem::path& dir, bool overwrite,
                            std::initializer_list<const char*> csv_names) {
   namespace fs = std::filesystem;
   detail::require(!dir.empty(), "dataset writer: the output folder path is empty");
   std::error_code ec;
   if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) throw IoError(dir.string() + ": exists and is not a folder");
+    if (!fs::is_directory(dir, ec))
+      SHADOWSENSE_THROW(IoError(dir.string() + ": exists and is not a folder"));
     if (!fs::is_empty(dir, ec)) {
       if (!overwrite)
-        throw IoError(dir.string() +
-                      ": folder is not empty; choose a new folder or allow overwriting");
-      for (const char* name : csv_names) fs::remove(dir / name, ec);
+        SHADOWSENSE_THROW(IoError(
+            dir.string() + ": folder is not empty; choose a new folder or allow overwriting"));
+      // The top-level csv first (the dataset stops looking complete), then every nested
+      // metadata.csv (slide sequences), so a run killed after this point never leaves an old
+      // csv beside new frames.
+      for (const char* name : csv_names) remove_csv(dir / name);
+      std::vector<fs::path> nested;
+      for (auto it = fs::recursive_directory_iterator(dir, ec);
+           !ec && it != fs::recursive_directory_iterator(); it.increment(ec))
+        if (it->path().filename() == "metadata.csv") nested.push_back(it->path());
+      if (ec)
+        SHADOWSENSE_THROW(
+            IoError(dir.string() +
+                    ": cannot list the old dataset to remove its csv files: " + ec.message()));
+      for (const fs::path& p : nested) remove_csv(p);
     }
   }
   fs::create_directories(dir, ec);
   if (ec || !fs::is_directory(dir))
-    throw IoError(dir.string() + ": cannot create the output folder: " + ec.message());
+    SHADOWSENSE_THROW(IoError(dir.string() + ": cannot create the output folder: " + ec.message()));
 }
 
 inline void make_dir(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  if (ec) throw IoError(dir.string() + ": cannot create folder: " + ec.message());
+  if (ec) SHADOWSENSE_THROW(IoError(dir.string() + ": cannot create folder: " + ec.message()));
 }
 
+// Encodes in memory, then writes atomically: a frame file is never half-written.
 inline void write_png(const std::filesystem::path& path, const cv::Mat& image) {
+  std::vector<unsigned char> bytes;
   bool ok = false;
   try {
-    ok = cv::imwrite(path.string(), image);
+    ok = cv::imencode(".png", image, bytes);
   } catch (const cv::Exception& e) {
-    throw IoError(path.string() + ": cannot write image: " + e.what());
+    SHADOWSENSE_THROW(IoError(path.string() + ": cannot encode the image as PNG: " + e.what()));
   }
-  if (!ok) throw IoError(path.string() + ": cannot write image");
+  if (!ok) SHADOWSENSE_THROW(IoError(path.string() + ": cannot encode the image as PNG"));
+  // Deferred fsync: the dataset's csv, written last, follows one sync_filesystem().
+  write_file_atomically(path,
+                        std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()),
+                        Sync::deferred);
 }
 
 inline std::string numbered(const char* fmt, int n) {
@@ -254,6 +281,7 @@ inline DatasetSummary write_gesture_dataset(const std::filesystem::path& dir, st
       });
   std::vector<MetadataRow> all;
   for (auto& r : rows) all.insert(all.end(), r.begin(), r.end());
+  sync_filesystem(dir);
   write_metadata(dir / "metadata.csv", all, false);
   return {dir, static_cast<int>(all.size()), 0};
 }
@@ -291,6 +319,7 @@ inline DatasetSummary write_tracking_dataset(const std::filesystem::path& dir, s
         internal::write_png(dir / r.file_name, frame.image);
         rows[static_cast<std::size_t>(index)] = std::move(r);
       });
+  sync_filesystem(dir);
   write_metadata(dir / "metadata.csv", rows, false);
   return {dir, static_cast<int>(rows.size()), 0};
 }
@@ -344,7 +373,8 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
           internal::write_png(dir / folder / r.file_name, frame.image);
           rows.push_back(std::move(r));
         }
-        write_metadata(dir / folder / "metadata.csv", rows, true);
+        // Deferred like the frames: sequences.csv completes the dataset.
+        write_metadata(dir / folder / "metadata.csv", rows, true, Sync::deferred);
         SequenceRow& q = sequences[static_cast<std::size_t>(index)];
         q.sequence = folder;
         q.gesture = g;
@@ -356,6 +386,7 @@ inline DatasetSummary write_slide_dataset(const std::filesystem::path& dir, std:
         q.lighting = plan.light.label;
         q.lighting_level = plan.light.level;
       });
+  sync_filesystem(dir);
   write_sequences(dir / "sequences.csv", sequences);
   DatasetSummary summary{dir, 0, n};
   for (const SequenceRow& q : sequences) summary.images += q.num_frames;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/io/labels.hpp>
 #include <shadowsense/sim/rng.hpp>
 
 #include <opencv2/core.hpp>
@@ -16,43 +17,11 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace sim {
 
-enum class Lighting { daylight, dusk, night, custom };
-
-inline std::string_view to_string(Lighting l) {
-  switch (l) {
-  case Lighting::daylight:
-    return "daylight";
-  case Lighting::dusk:
-    return "dusk";
-  case Lighting::night:
-    return "night";
-  case Lighting::custom:
-    return "custom";
-  }
-  return "custom";
-}
-inline Lighting lighting_from_string(std::string_view s) {
-  if (s == "daylight") return Lighting::daylight;
-  if (s == "dusk") return Lighting::dusk;
-  if (s == "night") return Lighting::night;
-  if (s == "custom") return Lighting::custom;
-  throw InvalidArgument("unknown lighting '" + std::string(s) +
-                        "'; expected daylight, dusk, night or custom");
-}
-// The level of each preset.
-inline double lighting_level(Lighting l) {
-  switch (l) {
-  case Lighting::daylight:
-    return 1.0;
-  case Lighting::dusk:
-    return 0.5;
-  case Lighting::night:
-    return 0.0;
-  case Lighting::custom:
-    break;
-  }
-  throw InvalidArgument("lighting_level: 'custom' has no preset level; pass a level in [0,1]");
-}
+// The dataset format's lighting label (io/labels.hpp).
+using shadowsense::Lighting;
+using shadowsense::lighting_from_string;
+using shadowsense::lighting_level;
+using shadowsense::to_string;
 
 // Everything the renderer needs to light one frame.
 struct Light {

@@ -52,20 +52,14 @@ inline TrackCategory track_category_from_string(std::string_view s) {
                         "'; expected nothing, hover, palm, fist or finger");
 }
 
-enum class SlideGesture { palm, finger };
+// The dataset format's slide gesture label (io/labels.hpp).
+using shadowsense::slide_gesture_from_string;
+using shadowsense::SlideGesture;
 using shadowsense::all_directions;
 using shadowsense::Direction;
 using shadowsense::movement_direction_from_string;
 using shadowsense::to_string;
 
-inline std::string_view to_string(SlideGesture g) {
-  return g == SlideGesture::palm ? "palm" : "finger";
-}
-inline SlideGesture slide_gesture_from_string(std::string_view s) {
-  if (s == "palm") return SlideGesture::palm;
-  if (s == "finger") return SlideGesture::finger;
-  throw InvalidArgument("unknown slide gesture '" + std::string(s) + "'; expected palm or finger");
-}
 // Unit vector of a direction in image axes (x right, y down): front = up = -y.
 inline cv::Point2d direction_vector(Direction d) {
   switch (d) {

@@ -41,6 +41,10 @@ public:
     int threads = 1; // worker threads incl. the caller
     GemmKernelKind kernel = GemmKernelKind::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
+    // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
+    // vector_ops (all four set) are used instead of `kernel`.
+    detail::MicroKernel micro_kernel{};
+    detail::VectorOps vector_ops{};
   };
 
   explicit DenseNet(const ModelFile& model) : DenseNet(model, Config{}) {}
@@ -48,8 +52,18 @@ public:
       : config_(config), arch_(model.architecture), class_names_(model.class_names),
         preprocess_(model.preprocess) {
     model.validate();
-    kernel_ = detail::select_micro_kernel(config.kernel);
-    ops_ = detail::select_vector_ops(kernel_.kind);
+    if (config.micro_kernel.fn) {
+      detail::require(config.micro_kernel.mr >= 1 && config.micro_kernel.nr >= 1 &&
+                          config.vector_ops.affine_relu && config.vector_ops.bias_relu &&
+                          config.vector_ops.pool_affine_relu && config.vector_ops.pack3x3,
+                      "DenseNet: a custom micro-kernel needs mr, nr >= 1 and all four vector "
+                      "ops set");
+      kernel_ = config.micro_kernel;
+      ops_ = config.vector_ops;
+    } else {
+      kernel_ = detail::select_micro_kernel(config.kernel);
+      ops_ = detail::select_vector_ops(kernel_.kind);
+    }
     pool_ = std::make_unique<detail::ThreadPool>(config.threads);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -77,6 +91,10 @@ public:
 
   // Logits for an n x 3 x h x w tensor (n x num_classes values, row per image). The returned
   // span stays valid until the next call.
+  // requires: input is n x 3 x h x w with accepts(h, w) and only finite values (else
+  //           InvalidArgument naming the problem).
+  // ensures:  every logit is finite; a NaN or Inf produced inside the pass (weights or input
+  //           magnitudes that overflow float) throws Error naming the image index and logit.
   std::span<const float> logits(const Tensor& input) {
     run(input);
     return logits_;
@@ -117,6 +135,15 @@ private:
       const auto k = static_cast<std::size_t>(i);
       forward_one(input.image(i).data(), std::span<float>(features_).subspan(k * c, c),
                   std::span<float>(logits_).subspan(k * classes, classes));
+      // A NaN or Inf anywhere in the pass reaches the logits (ReLU and the pools propagate
+      // NaN), so checking these few values is enough.
+      for (std::size_t o = 0; o < classes; ++o)
+        detail::require<Error>(std::isfinite(logits_[k * classes + o]),
+                               "DenseNet: logit " + std::to_string(o) + " of image " +
+                                   std::to_string(i) + " is " +
+                                   std::to_string(logits_[k * classes + o]) +
+                                   " for a finite input, expected a finite number: the model's "
+                                   "weights (or the input's magnitude) overflow float");
     }
   }
 
@@ -287,153 +314,189 @@ private:
     }
   }
 
+  // One image through the network, as the named steps of torchvision's DenseNet.
   void forward_one(const float* in, std::span<float> pooled, std::span<float> out) {
-    const int H = in_h_, W = in_w_, nr = kernel_.nr;
-    // conv0 (7x7, stride 2, pad 3) + folded norm0 + relu0.
-    const int PW = W + 6, PH = H + 6;
+    load_input(in);
+    conv0();
+    pool0();
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      for (std::size_t l = 0; l < blocks_[b].layers.size(); ++l) {
+        bottleneck_conv(b, l);
+        growth_conv(b, l);
+      }
+      if (b + 1 < blocks_.size()) transition(b);
+    }
+    head(pooled, out);
+  }
+
+  // The image into the zero-padded (pad 3) buffer conv0 reads.
+  void load_input(const float* in) {
+    const int H = in_h_, W = in_w_, PW = W + 6, PH = H + 6;
     for (int c = 0; c < 3; ++c)
       for (int y = 0; y < H; ++y)
         std::copy_n(in + (static_cast<std::size_t>(c) * H + y) * W, W,
                     padded_input_.data() + (static_cast<std::size_t>(c) * PH + y + 3) * PW + 3);
-    {
-      const int n = h0_ * w0_, w0 = w0_;
-      const float* src = padded_input_.data();
-      auto pack = [&](float* dst, int n0, int cols, int* idx) {
-        for (int j = 0; j < cols; ++j) {
-          const int y = (n0 + j) / w0, x = (n0 + j) % w0;
-          idx[j] = 2 * y * PW + 2 * x;
-        }
-        for (int c = 0; c < 3; ++c)
-          for (int ky = 0; ky < 7; ++ky)
-            for (int kx = 0; kx < 7; ++kx) {
-              const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
-              float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
-              for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
-              for (int j = cols; j < nr; ++j) d[j] = 0.0f;
-            }
-      };
-      float* out0 = conv0_out_.data();
-      auto store = [&](int m, int n0, int cols, const float* v) {
-        float* d = out0 + static_cast<std::size_t>(m) * n + n0;
-        ops_.bias_relu(v, d, cols, bias0_[static_cast<std::size_t>(m)]);
-      };
-      detail::gemm(kernel_, conv0_, n, pack, store, *pool_, scratch_);
-    }
-    // pool0: max 3x3, stride 2, pad 1 (inputs are >= 0 after ReLU, padding never wins).
-    {
-      const int bh = block_h_[0], bw = block_w_[0];
-      float* dst = block_buf_[0].data();
-      for (int c = 0; c < arch_.init_features; ++c) {
-        const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
-        for (int y = 0; y < bh; ++y)
-          for (int x = 0; x < bw; ++x) {
-            float mx = -INFINITY;
-            for (int dy = -1; dy <= 1; ++dy) {
-              const int iy = 2 * y + dy;
-              if (iy < 0 || iy >= h0_) continue;
-              for (int dx = -1; dx <= 1; ++dx) {
-                const int ix = 2 * x + dx;
-                if (ix < 0 || ix >= w0_) continue;
-                mx = std::max(mx, s[iy * w0_ + ix]);
-              }
-            }
-            dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] = mx;
+  }
+
+  // conv0 (7x7, stride 2, pad 3) + folded norm0 + relu0 -> conv0_out_.
+  void conv0() {
+    const int nr = kernel_.nr, PW = in_w_ + 6, PH = in_h_ + 6;
+    const int n = h0_ * w0_, w0 = w0_;
+    const float* src = padded_input_.data();
+    auto pack = [&](float* dst, int n0, int cols, int* idx) {
+      for (int j = 0; j < cols; ++j) {
+        const int y = (n0 + j) / w0, x = (n0 + j) % w0;
+        idx[j] = 2 * y * PW + 2 * x;
+      }
+      for (int c = 0; c < 3; ++c)
+        for (int ky = 0; ky < 7; ++ky)
+          for (int kx = 0; kx < 7; ++kx) {
+            const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
+            float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
+            for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
+            for (int j = cols; j < nr; ++j) d[j] = 0.0f;
           }
-      }
-    }
-    const int k = arch_.growth_rate;
-    for (std::size_t b = 0; b < blocks_.size(); ++b) {
-      const int bh = block_h_[b], bw = block_w_[b], n = bh * bw;
-      float* feat = block_buf_[b].data();
-      const Block& blk = blocks_[b];
-      for (std::size_t l = 0; l < blk.layers.size(); ++l) {
-        const Layer& layer = blk.layers[l];
-        const int cin = blk.c_in + static_cast<int>(l) * k;
-        // conv1 (1x1) on relu(norm1(features)), + folded norm2, relu2 -> padded bottleneck.
-        const int pw = bw + 2;
-        float* bott = bottleneck_[b].data();
-        const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
-        {
-          auto pack = [&](float* dst, int n0, int cols, int*) {
-            for (int c = 0; c < cin; ++c) {
-              const float* s = feat + static_cast<std::size_t>(c) * n + n0;
-              float* d = dst + static_cast<std::size_t>(c) * nr;
-              const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
-              const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
-              ops_.affine_relu(s, d, cols, sc, sh);
-              std::fill(d + cols, d + nr, 0.0f);
+    };
+    float* out0 = conv0_out_.data();
+    auto store = [&](int m, int n0, int cols, const float* v) {
+      float* d = out0 + static_cast<std::size_t>(m) * n + n0;
+      ops_.bias_relu(v, d, cols, bias0_[static_cast<std::size_t>(m)]);
+    };
+    detail::gemm(kernel_, conv0_, n, pack, store, *pool_, scratch_);
+  }
+
+  // pool0: max 3x3, stride 2, pad 1 -> the first block's buffer (inputs are >= 0 after ReLU,
+  // padding never wins). A NaN in the window wins, so it reaches the logits check.
+  void pool0() {
+    const int bh = block_h_[0], bw = block_w_[0];
+    float* dst = block_buf_[0].data();
+    for (int c = 0; c < arch_.init_features; ++c) {
+      const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
+      for (int y = 0; y < bh; ++y)
+        for (int x = 0; x < bw; ++x) {
+          float mx = -INFINITY, nan_probe = 0.0f;
+          for (int dy = -1; dy <= 1; ++dy) {
+            const int iy = 2 * y + dy;
+            if (iy < 0 || iy >= h0_) continue;
+            for (int dx = -1; dx <= 1; ++dx) {
+              const int ix = 2 * x + dx;
+              if (ix < 0 || ix >= w0_) continue;
+              const float v = s[iy * w0_ + ix];
+              mx = std::max(mx, v);
+              nan_probe += v; // >= 0 terms: NaN exactly when a NaN is in the window
             }
-          };
-          auto store = [&](int m, int n0, int cols, const float* v) {
-            float* d = bott + static_cast<std::size_t>(m) * plane;
-            const float bias = layer.bias1[static_cast<std::size_t>(m)];
-            int y = n0 / bw, x = n0 % bw;
-            for (int j = 0; j < cols;) { // runs within one image row
-              const int run = std::min(cols - j, bw - x);
-              ops_.bias_relu(v + j, d + (y + 1) * pw + x + 1, run, bias);
-              j += run;
-              x = 0;
-              ++y;
-            }
-          };
-          detail::gemm(kernel_, layer.conv1, n, pack, store, *pool_, scratch_);
-        }
-        // conv2 (3x3, pad 1) -> the block buffer behind the existing channels. Computed on the
-        // padded grid (bh x pw, the 2 extra columns per row are discarded): there, tap (ky, kx)
-        // of output q reads padded position q + ky * pw + kx, so every packed row is a
-        // contiguous copy instead of a gather.
-        {
-          const int inner = layer.conv1.m;
-          auto pack = [&](float* dst, int n0, int cols, int*) {
-            for (int c = 0; c < inner; ++c)
-              ops_.pack3x3(bott + c * plane + n0, dst + static_cast<std::size_t>(c) * 9 * nr, cols,
-                           nr, pw);
-          };
-          float* outp = feat + static_cast<std::size_t>(cin) * n;
-          auto store = [&](int m, int n0, int cols, const float* v) {
-            float* d = outp + static_cast<std::size_t>(m) * n;
-            int y = n0 / pw, x = n0 % pw;
-            for (int j = 0; j < cols;) { // runs within one padded row; columns >= bw dropped
-              const int run = std::min(cols - j, pw - x);
-              if (x < bw) std::copy_n(v + j, std::min(run, bw - x), d + y * bw + x);
-              j += run;
-              x = 0;
-              ++y;
-            }
-          };
-          detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
-        }
-      }
-      if (b + 1 < blocks_.size()) {
-        // transition: relu(norm) -> avgpool 2x2 -> conv 1x1 (pool first: linear, 4x cheaper).
-        const int oh = block_h_[b + 1], ow = block_w_[b + 1], on = oh * ow;
-        const Affine& a = blk.transition_norm;
-        auto pack = [&](float* dst, int n0, int cols, int*) {
-          for (int c = 0; c < blk.c_out; ++c) {
-            const float* s = feat + static_cast<std::size_t>(c) * n;
-            float* d = dst + static_cast<std::size_t>(c) * nr;
-            const float sc = a.scale[static_cast<std::size_t>(c)];
-            const float sh = a.shift[static_cast<std::size_t>(c)];
-            int y = n0 / ow, x = n0 % ow;
-            for (int j = 0; j < cols;) { // runs within one output row
-              const int run = std::min(cols - j, ow - x);
-              const float* r0 = s + 2 * y * bw + 2 * x;
-              ops_.pool_affine_relu(r0, r0 + bw, d + j, run, sc, sh);
-              j += run;
-              x = 0;
-              ++y;
-            }
-            std::fill(d + cols, d + nr, 0.0f);
           }
-        };
-        float* next = block_buf_[b + 1].data();
-        auto store = [&](int m, int n0, int cols, const float* v) {
-          std::copy_n(v, cols, next + static_cast<std::size_t>(m) * on + n0);
-        };
-        detail::gemm(kernel_, blk.transition, on, pack, store, *pool_, scratch_);
-      }
+          dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] =
+              nan_probe == nan_probe ? mx : nan_probe;
+        }
     }
-    // norm5, relu, global average pool, classifier (accumulated in double: it is tiny).
+  }
+
+  // Dense layer l of block b, first half: conv1 (1x1) on relu(norm1(features)), + folded norm2,
+  // relu2 -> the block's zero-padded bottleneck buffer.
+  void bottleneck_conv(std::size_t b, std::size_t l) {
+    const int nr = kernel_.nr, bh = block_h_[b], bw = block_w_[b], n = bh * bw;
+    const Block& blk = blocks_[b];
+    const Layer& layer = blk.layers[l];
+    const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;
+    const float* feat = block_buf_[b].data();
+    const int pw = bw + 2;
+    float* bott = bottleneck_[b].data();
+    const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
+    auto pack = [&](float* dst, int n0, int cols, int*) {
+      for (int c = 0; c < cin; ++c) {
+        const float* s = feat + static_cast<std::size_t>(c) * n + n0;
+        float* d = dst + static_cast<std::size_t>(c) * nr;
+        const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
+        const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
+        ops_.affine_relu(s, d, cols, sc, sh);
+        std::fill(d + cols, d + nr, 0.0f);
+      }
+    };
+    auto store = [&](int m, int n0, int cols, const float* v) {
+      float* d = bott + static_cast<std::size_t>(m) * plane;
+      const float bias = layer.bias1[static_cast<std::size_t>(m)];
+      int y = n0 / bw, x = n0 % bw;
+      for (int j = 0; j < cols;) { // runs within one image row
+        const int run = std::min(cols - j, bw - x);
+        ops_.bias_relu(v + j, d + (y + 1) * pw + x + 1, run, bias);
+        j += run;
+        x = 0;
+        ++y;
+      }
+    };
+    detail::gemm(kernel_, layer.conv1, n, pack, store, *pool_, scratch_);
+  }
+
+  // Dense layer l of block b, second half: conv2 (3x3, pad 1) -> the block buffer behind the
+  // existing channels (concatenation without a copy). Computed on the padded grid (bh x pw,
+  // the 2 extra columns per row are discarded): there, tap (ky, kx) of output q reads padded
+  // position q + ky * pw + kx, so every packed row is a contiguous copy instead of a gather.
+  void growth_conv(std::size_t b, std::size_t l) {
+    const int nr = kernel_.nr, bh = block_h_[b], bw = block_w_[b], n = bh * bw;
+    const Block& blk = blocks_[b];
+    const Layer& layer = blk.layers[l];
+    const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;
+    const int pw = bw + 2;
+    const float* bott = bottleneck_[b].data();
+    const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
+    const int inner = layer.conv1.m;
+    auto pack = [&](float* dst, int n0, int cols, int*) {
+      for (int c = 0; c < inner; ++c)
+        ops_.pack3x3(bott + c * plane + n0, dst + static_cast<std::size_t>(c) * 9 * nr, cols, nr,
+                     pw);
+    };
+    float* outp = block_buf_[b].data() + static_cast<std::size_t>(cin) * n;
+    auto store = [&](int m, int n0, int cols, const float* v) {
+      float* d = outp + static_cast<std::size_t>(m) * n;
+      int y = n0 / pw, x = n0 % pw;
+      for (int j = 0; j < cols;) { // runs within one padded row; columns >= bw dropped
+        const int run = std::min(cols - j, pw - x);
+        if (x < bw) std::copy_n(v + j, std::min(run, bw - x), d + y * bw + x);
+        j += run;
+        x = 0;
+        ++y;
+      }
+    };
+    detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
+  }
+
+  // Transition after block b: relu(norm) -> avgpool 2x2 -> conv 1x1 -> block b+1's buffer
+  // (pool first: both are linear after the ReLU, 4x cheaper, equal up to rounding).
+  void transition(std::size_t b) {
+    const int nr = kernel_.nr, bw = block_w_[b], n = block_h_[b] * bw;
+    const Block& blk = blocks_[b];
+    const float* feat = block_buf_[b].data();
+    const int ow = block_w_[b + 1], on = block_h_[b + 1] * ow;
+    const Affine& a = blk.transition_norm;
+    auto pack = [&](float* dst, int n0, int cols, int*) {
+      for (int c = 0; c < blk.c_out; ++c) {
+        const float* s = feat + static_cast<std::size_t>(c) * n;
+        float* d = dst + static_cast<std::size_t>(c) * nr;
+        const float sc = a.scale[static_cast<std::size_t>(c)];
+        const float sh = a.shift[static_cast<std::size_t>(c)];
+        int y = n0 / ow, x = n0 % ow;
+        for (int j = 0; j < cols;) { // runs within one output row
+          const int run = std::min(cols - j, ow - x);
+          const float* r0 = s + 2 * y * bw + 2 * x;
+          ops_.pool_affine_relu(r0, r0 + bw, d + j, run, sc, sh);
+          j += run;
+          x = 0;
+          ++y;
+        }
+        std::fill(d + cols, d + nr, 0.0f);
+      }
+    };
+    float* next = block_buf_[b + 1].data();
+    auto store = [&](int m, int n0, int cols, const float* v) {
+      std::copy_n(v, cols, next + static_cast<std::size_t>(m) * on + n0);
+    };
+    detail::gemm(kernel_, blk.transition, on, pack, store, *pool_, scratch_);
+  }
+
+  // norm5, relu, global average pool -> pooled; classifier -> out (accumulated in double: it
+  // is tiny).
+  void head(std::span<float> pooled, std::span<float> out) const {
     const Block& last = blocks_.back();
     const int n = block_h_.back() * block_w_.back();
     const float* feat = block_buf_.back().data();
@@ -442,7 +505,10 @@ private:
       const float sc = norm5_.scale[static_cast<std::size_t>(c)];
       const float sh = norm5_.shift[static_cast<std::size_t>(c)];
       double sum = 0;
-      for (int j = 0; j < n; ++j) sum += std::max(s[j] * sc + sh, 0.0f);
+      for (int j = 0; j < n; ++j) {
+        const float v = s[j] * sc + sh;
+        sum += v < 0.0f ? 0.0f : v;
+      }
       pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
     }
     for (int o = 0; o < arch_.num_classes; ++o) {

@@ -1,11 +1,34 @@
 // Packed single-precision GEMM for the DenseNet forward pass: C (M x N) = A (M x K) * B (K x N)
 // with A (the weights) packed once at load time and B produced panel by panel by a caller's
 // "packer" (fused im2col / BatchNorm+ReLU / average pooling), so no im2col matrix is ever
-// materialised. Micro-kernels for AVX-512 and AVX2+FMA are compiled with function-level target
-// attributes and picked at run time, so the library needs no -march flag; a portable kernel is
-// the fallback. Summation order differs from PyTorch's only by float rounding.
+// materialised. This header is the dispatch and the driver; the kernels live apart:
+//   gemm_reference.hpp  plain loops, the oracle every other kernel is tested against
+//   gemm_portable.hpp   plain C++ the compiler auto-vectorises (any CPU)
+//   gemm_x86.hpp        AVX-512 and AVX2+FMA intrinsics, picked at run time (no -march needed)
+//   gemm_neon.hpp       aarch64 Advanced SIMD intrinsics, compiled in on aarch64
+// Summation order differs from PyTorch's only by float rounding.
+//
+// GemmKernelKind: which micro-kernel (and matching element-wise loops) the forward pass uses.
+//   automatic picks the fastest the CPU runs: avx512, avx2, then portable on x86; neon on
+//   aarch64; portable elsewhere.
+// cpu_has(kind): true when kind is compiled in and the CPU runs it (automatic: false).
+// select_micro_kernel(kind) / select_vector_ops(kind)
+//   requires: kind is automatic or cpu_has(kind); throws InvalidArgument otherwise.
+//   ensures:  the kernel's tile (mr x nr), function and name; its element-wise loops.
+// available_kernels(): every kind cpu_has() accepts, fastest first, reference last.
+// PackedMatrix::pack(w, rows, cols, panel_rows): packs a row-major rows x cols matrix into
+//   panel_rows-row panels (K x MR interleaved, zero-padded). Not thread-safe while packing;
+//   read-only use afterwards may be shared between threads.
+// ThreadPool(threads): requires 1 <= threads <= 256 (InvalidArgument). run() must be called
+//   from one thread at a time (the owner); the pool's workers are its own.
+// gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
+//   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
 #pragma once
 
+#include <shadowsense/backends/densenet/gemm_neon.hpp>
+#include <shadowsense/backends/densenet/gemm_portable.hpp>
+#include <shadowsense/backends/densenet/gemm_reference.hpp>
+#include <shadowsense/backends/densenet/gemm_x86.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 
@@ -18,17 +41,10 @@
 #include <thread>
 #include <vector>
 
-#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
-#define SHADOWSENSE_X86_KERNELS 1
-#include <immintrin.h>
-#else
-#define SHADOWSENSE_X86_KERNELS 0
-#endif
-
 SHADOWSENSE_NAMESPACE_BEGIN
 
 // Which GEMM micro-kernel the forward pass uses. automatic picks the best one the CPU runs.
-enum class GemmKernelKind { automatic, avx512, avx2, portable };
+enum class GemmKernelKind { automatic, avx512, avx2, portable, reference, neon };
 
 namespace detail {
 
@@ -42,156 +58,14 @@ struct MicroKernel {
   const char* name;
 };
 
-// out (MR x NR, row-major) = A panel (K x MR interleaved) * B panel (K x NR).
-template <int MR, int NR>
-inline void micro_kernel_portable(int K, const float* a, const float* b, float* out) {
-  float acc[MR][NR] = {};
-  for (int k = 0; k < K; ++k, a += MR, b += NR)
-    for (int r = 0; r < MR; ++r)
-      for (int j = 0; j < NR; ++j) acc[r][j] += a[r] * b[j];
-  std::memcpy(out, acc, sizeof(acc));
-}
-
-#if SHADOWSENSE_X86_KERNELS
-__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
-                                                                   const float* b, float* out) {
-  constexpr int MR = 8;
-  __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
-         c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
-         c70 = c00, c71 = c00;
-  for (int k = 0; k < K; ++k, a += MR, b += 32) {
-    const __m512 b0 = _mm512_loadu_ps(b);
-    const __m512 b1 = _mm512_loadu_ps(b + 16);
-    __m512 x = _mm512_set1_ps(a[0]);
-    c00 = _mm512_fmadd_ps(x, b0, c00);
-    c01 = _mm512_fmadd_ps(x, b1, c01);
-    x = _mm512_set1_ps(a[1]);
-    c10 = _mm512_fmadd_ps(x, b0, c10);
-    c11 = _mm512_fmadd_ps(x, b1, c11);
-    x = _mm512_set1_ps(a[2]);
-    c20 = _mm512_fmadd_ps(x, b0, c20);
-    c21 = _mm512_fmadd_ps(x, b1, c21);
-    x = _mm512_set1_ps(a[3]);
-    c30 = _mm512_fmadd_ps(x, b0, c30);
-    c31 = _mm512_fmadd_ps(x, b1, c31);
-    x = _mm512_set1_ps(a[4]);
-    c40 = _mm512_fmadd_ps(x, b0, c40);
-    c41 = _mm512_fmadd_ps(x, b1, c41);
-    x = _mm512_set1_ps(a[5]);
-    c50 = _mm512_fmadd_ps(x, b0, c50);
-    c51 = _mm512_fmadd_ps(x, b1, c51);
-    x = _mm512_set1_ps(a[6]);
-    c60 = _mm512_fmadd_ps(x, b0, c60);
-    c61 = _mm512_fmadd_ps(x, b1, c61);
-    x = _mm512_set1_ps(a[7]);
-    c70 = _mm512_fmadd_ps(x, b0, c70);
-    c71 = _mm512_fmadd_ps(x, b1, c71);
-  }
-  _mm512_storeu_ps(out + 0, c00);
-  _mm512_storeu_ps(out + 16, c01);
-  _mm512_storeu_ps(out + 32, c10);
-  _mm512_storeu_ps(out + 48, c11);
-  _mm512_storeu_ps(out + 64, c20);
-  _mm512_storeu_ps(out + 80, c21);
-  _mm512_storeu_ps(out + 96, c30);
-  _mm512_storeu_ps(out + 112, c31);
-  _mm512_storeu_ps(out + 128, c40);
-  _mm512_storeu_ps(out + 144, c41);
-  _mm512_storeu_ps(out + 160, c50);
-  _mm512_storeu_ps(out + 176, c51);
-  _mm512_storeu_ps(out + 192, c60);
-  _mm512_storeu_ps(out + 208, c61);
-  _mm512_storeu_ps(out + 224, c70);
-  _mm512_storeu_ps(out + 240, c71);
-}
-
-__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
-                                                                  const float* b, float* out) {
-  constexpr int MR = 4;
-  __m256 c00 = _mm256_setzero_ps(), c01 = c00, c02 = c00, c10 = c00, c11 = c00, c12 = c00,
-         c20 = c00, c21 = c00, c22 = c00, c30 = c00, c31 = c00, c32 = c00;
-  for (int k = 0; k < K; ++k, a += MR, b += 24) {
-    const __m256 b0 = _mm256_loadu_ps(b);
-    const __m256 b1 = _mm256_loadu_ps(b + 8);
-    const __m256 b2 = _mm256_loadu_ps(b + 16);
-    __m256 x = _mm256_broadcast_ss(a + 0);
-    c00 = _mm256_fmadd_ps(x, b0, c00);
-    c01 = _mm256_fmadd_ps(x, b1, c01);
-    c02 = _mm256_fmadd_ps(x, b2, c02);
-    x = _mm256_broadcast_ss(a + 1);
-    c10 = _mm256_fmadd_ps(x, b0, c10);
-    c11 = _mm256_fmadd_ps(x, b1, c11);
-    c12 = _mm256_fmadd_ps(x, b2, c12);
-    x = _mm256_broadcast_ss(a + 2);
-    c20 = _mm256_fmadd_ps(x, b0, c20);
-    c21 = _mm256_fmadd_ps(x, b1, c21);
-    c22 = _mm256_fmadd_ps(x, b2, c22);
-    x = _mm256_broadcast_ss(a + 3);
-    c30 = _mm256_fmadd_ps(x, b0, c30);
-    c31 = _mm256_fmadd_ps(x, b1, c31);
-    c32 = _mm256_fmadd_ps(x, b2, c32);
-  }
-  _mm256_storeu_ps(out + 0, c00);
-  _mm256_storeu_ps(out + 8, c01);
-  _mm256_storeu_ps(out + 16, c02);
-  _mm256_storeu_ps(out + 24, c10);
-  _mm256_storeu_ps(out + 32, c11);
-  _mm256_storeu_ps(out + 40, c12);
-  _mm256_storeu_ps(out + 48, c20);
-  _mm256_storeu_ps(out + 56, c21);
-  _mm256_storeu_ps(out + 64, c22);
-  _mm256_storeu_ps(out + 72, c30);
-  _mm256_storeu_ps(out + 80, c31);
-  _mm256_storeu_ps(out + 88, c32);
-}
-#endif
-
-// Element-wise loops of the forward pass (BatchNorm+ReLU packing, bias+ReLU epilogues,
-// pooled packing), compiled once per instruction set like the micro-kernels: at AVX-512 GEMM
-// speed, SSE2 versions of these loops would cost as much as the convolutions.
-#define SHADOWSENSE_DEFINE_VECTOR_OPS(SUFFIX, ATTR)                                                \
-  ATTR inline void affine_relu_##SUFFIX(const float* s, float* d, int n, float sc, float sh) {     \
-    for (int i = 0; i < n; ++i) {                                                                  \
-      const float v = s[i] * sc + sh;                                                              \
-      d[i] = v > 0.0f ? v : 0.0f;                                                                  \
-    }                                                                                              \
-  }                                                                                                \
-  ATTR inline void bias_relu_##SUFFIX(const float* s, float* d, int n, float b) {                  \
-    for (int i = 0; i < n; ++i) {                                                                  \
-      const float v = s[i] + b;                                                                    \
-      d[i] = v > 0.0f ? v : 0.0f;                                                                  \
-    }                                                                                              \
-  }                                                                                                \
-  /* the 9 taps of a 3x3 convolution on the padded grid: row t = s[ky * pw + kx + j] */            \
-  ATTR inline void pack3x3_##SUFFIX(const float* s, float* d, int cols, int nr, int pw) {          \
-    for (int ky = 0; ky < 3; ++ky)                                                                 \
-      for (int kx = 0; kx < 3; ++kx, d += nr) {                                                    \
-        const float* r = s + ky * pw + kx;                                                         \
-        for (int j = 0; j < cols; ++j) d[j] = r[j];                                                \
-        for (int j = cols; j < nr; ++j) d[j] = 0.0f;                                               \
-      }                                                                                            \
-  }                                                                                                \
-  /* d[j] = mean of relu(affine) over the 2x2 window at columns 2j, 2j+1 of rows r0, r1 */         \
-  ATTR inline void pool_affine_relu_##SUFFIX(const float* r0, const float* r1, float* d, int n,    \
-                                             float sc, float sh) {                                 \
-    for (int j = 0; j < n; ++j) {                                                                  \
-      float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;                                  \
-      float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;                                  \
-      a = a > 0.0f ? a : 0.0f;                                                                     \
-      b = b > 0.0f ? b : 0.0f;                                                                     \
-      c = c > 0.0f ? c : 0.0f;                                                                     \
-      e = e > 0.0f ? e : 0.0f;                                                                     \
-      d[j] = ((a + b) + (c + e)) * 0.25f;                                                          \
-    }                                                                                              \
-  }
-
-SHADOWSENSE_DEFINE_VECTOR_OPS(portable, )
-#if SHADOWSENSE_X86_KERNELS
-SHADOWSENSE_DEFINE_VECTOR_OPS(avx512, __attribute__((target("avx512f"))))
-SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
-#endif
-#undef SHADOWSENSE_DEFINE_VECTOR_OPS
-
+// The element-wise loops of the forward pass, one set per kernel kind:
+//   affine_relu(s, d, n, sc, sh):  d[i] = relu(s[i] * sc + sh), i < n
+//   bias_relu(s, d, n, b):         d[i] = relu(s[i] + b)
+//   pool_affine_relu(r0, r1, d, n, sc, sh): d[j] = mean of relu(x * sc + sh) over the 2x2
+//                                  window r0[2j], r0[2j+1], r1[2j], r1[2j+1]
+//   pack3x3(s, d, cols, nr, pw):   9 rows of nr floats, row ky*3+kx = s[ky*pw + kx + j] for
+//                                  j < cols, 0 beyond
+// Sources and destinations never overlap. relu(NaN) is NaN.
 struct VectorOps {
   void (*affine_relu)(const float*, float*, int, float, float);
   void (*bias_relu)(const float*, float*, int, float);
@@ -199,23 +73,10 @@ struct VectorOps {
   void (*pack3x3)(const float*, float*, int, int, int);
 };
 
-inline VectorOps select_vector_ops(GemmKernelKind kind) {
-  switch (kind) {
-#if SHADOWSENSE_X86_KERNELS
-  case GemmKernelKind::avx512:
-    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512};
-  case GemmKernelKind::avx2:
-    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2};
-#endif
-  default:
-    return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable,
-            &pack3x3_portable};
-  }
-}
-
 inline bool cpu_has(GemmKernelKind kind) {
   switch (kind) {
   case GemmKernelKind::portable:
+  case GemmKernelKind::reference:
     return true;
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
@@ -223,28 +84,70 @@ inline bool cpu_has(GemmKernelKind kind) {
   case GemmKernelKind::avx2:
     return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 #endif
+#if SHADOWSENSE_NEON_KERNELS
+  case GemmKernelKind::neon:
+    return true;
+#endif
   default:
     return false;
   }
 }
 
-inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
-  if (wanted == GemmKernelKind::automatic) {
-    for (auto k : {GemmKernelKind::avx512, GemmKernelKind::avx2})
-      if (cpu_has(k)) return select_micro_kernel(k);
-    return select_micro_kernel(GemmKernelKind::portable);
+inline std::vector<GemmKernelKind> available_kernels() {
+  std::vector<GemmKernelKind> out;
+  for (auto k : {GemmKernelKind::avx512, GemmKernelKind::avx2, GemmKernelKind::neon,
+                 GemmKernelKind::portable, GemmKernelKind::reference})
+    if (cpu_has(k)) out.push_back(k);
+  return out;
+}
+
+inline GemmKernelKind resolve_kernel(GemmKernelKind wanted) {
+  if (wanted != GemmKernelKind::automatic) {
+    require(cpu_has(wanted), "GEMM kernel: the requested kernel is not supported by this CPU or "
+                             "compiler, expected automatic or one the CPU runs");
+    return wanted;
   }
-  require(cpu_has(wanted), "GEMM kernel: the requested kernel is not supported by this CPU or "
-                           "compiler, expected automatic or one the CPU runs");
-  switch (wanted) {
+  return available_kernels().front();
+}
+
+inline VectorOps select_vector_ops(GemmKernelKind kind) {
+  switch (resolve_kernel(kind)) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {wanted, 8, 32, &micro_kernel_avx512, "avx512"};
+    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512};
   case GemmKernelKind::avx2:
-    return {wanted, 4, 24, &micro_kernel_avx2, "avx2+fma"};
+    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2};
 #endif
+#if SHADOWSENSE_NEON_KERNELS
+  case GemmKernelKind::neon:
+    return {&affine_relu_neon, &bias_relu_neon, &pool_affine_relu_neon, &pack3x3_neon};
+#endif
+  case GemmKernelKind::reference:
+    return {&affine_relu_reference, &bias_relu_reference, &pool_affine_relu_reference,
+            &pack3x3_reference};
   default:
-    return {GemmKernelKind::portable, 4, 16, &micro_kernel_portable<4, 16>, "portable"};
+    return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable,
+            &pack3x3_portable};
+  }
+}
+
+inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
+  const GemmKernelKind kind = resolve_kernel(wanted);
+  switch (kind) {
+#if SHADOWSENSE_X86_KERNELS
+  case GemmKernelKind::avx512:
+    return {kind, 8, 32, &micro_kernel_avx512, "avx512"};
+  case GemmKernelKind::avx2:
+    return {kind, 4, 24, &micro_kernel_avx2, "avx2+fma"};
+#endif
+#if SHADOWSENSE_NEON_KERNELS
+  case GemmKernelKind::neon:
+    return {kind, 8, 12, &micro_kernel_neon, "neon"};
+#endif
+  case GemmKernelKind::reference:
+    return {kind, 4, 8, &micro_kernel_reference<4, 8>, "reference"};
+  default:
+    return {GemmKernelKind::portable, 4, 8, &micro_kernel_portable<4, 8>, "portable"};
   }
 }
 

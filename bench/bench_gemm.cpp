@@ -1,0 +1,256 @@
+// Every GEMM micro-kernel this machine runs, in one run: reference (the oracle), portable,
+// the legacy portable kernel (the one the library shipped before the portable kernel was made
+// vectorisable; kept here only, for the comparison), AVX2+FMA, AVX-512 and NEON where present.
+// 1. GFLOP/s of each kernel on three GEMM shapes of DenseNet-121 at 3x150x220 (1 thread), and
+//    the max abs / relative difference of its output from the reference kernel's.
+// 2. DenseNet-121 forward time at batch 1, 3x150x220, 1 thread, per kernel (median), and the
+//    max abs difference of the logits from the reference kernel's logits.
+// SS_BENCH_KERNELS=portable,legacy-portable (comma list of names) restricts the kernels, e.g.
+// to count instructions of one kernel with perf stat; differences are then taken from the first
+// kernel listed in the output (the reference one unless it is left out).
+#include <shadowsense/backends/densenet/densenet.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <time.h>
+
+using namespace shadowsense;
+
+namespace {
+
+// The portable kernel and loops as shipped before: a 4 x 16 block indexed acc[r][j], no
+// __restrict. GCC keeps the block in memory and vectorises little of it.
+template <int MR, int NR>
+void legacy_micro_kernel(int K, const float* a, const float* b, float* out) {
+  float acc[MR][NR] = {};
+  for (int k = 0; k < K; ++k, a += MR, b += NR)
+    for (int r = 0; r < MR; ++r)
+      for (int j = 0; j < NR; ++j) acc[r][j] += a[r] * b[j];
+  std::copy(&acc[0][0], &acc[0][0] + MR * NR, out);
+}
+void legacy_affine_relu(const float* s, float* d, int n, float sc, float sh) {
+  for (int i = 0; i < n; ++i) {
+    const float v = s[i] * sc + sh;
+    d[i] = v > 0.0f ? v : 0.0f;
+  }
+}
+void legacy_bias_relu(const float* s, float* d, int n, float b) {
+  for (int i = 0; i < n; ++i) {
+    const float v = s[i] + b;
+    d[i] = v > 0.0f ? v : 0.0f;
+  }
+}
+void legacy_pack3x3(const float* s, float* d, int cols, int nr, int pw) {
+  for (int ky = 0; ky < 3; ++ky)
+    for (int kx = 0; kx < 3; ++kx, d += nr) {
+      const float* r = s + ky * pw + kx;
+      for (int j = 0; j < cols; ++j) d[j] = r[j];
+      for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+    }
+}
+void legacy_pool_affine_relu(const float* r0, const float* r1, float* d, int n, float sc,
+                             float sh) {
+  for (int j = 0; j < n; ++j) {
+    float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;
+    float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;
+    a = a > 0.0f ? a : 0.0f;
+    b = b > 0.0f ? b : 0.0f;
+    c = c > 0.0f ? c : 0.0f;
+    e = e > 0.0f ? e : 0.0f;
+    d[j] = ((a + b) + (c + e)) * 0.25f;
+  }
+}
+
+struct Candidate {
+  std::string name;
+  detail::MicroKernel kernel;
+  detail::VectorOps ops;
+};
+
+bool wanted(const std::string& name) {
+  const char* only = std::getenv("SS_BENCH_KERNELS");
+  if (!only || !*only) return true;
+  const std::string list = "," + std::string(only) + ",";
+  return list.find("," + name + ",") != std::string::npos;
+}
+
+// Every kernel the machine runs plus the legacy one; the reference first (the oracle).
+std::vector<Candidate> candidates() {
+  std::vector<Candidate> out;
+  auto kinds = detail::available_kernels();
+  std::reverse(kinds.begin(), kinds.end()); // reference, portable, then the SIMD ones
+  for (auto k : kinds) {
+    const auto mk = detail::select_micro_kernel(k);
+    out.push_back({mk.name, mk, detail::select_vector_ops(k)});
+    if (k == GemmKernelKind::portable)
+      out.push_back(
+          {"legacy-portable",
+           {GemmKernelKind::portable, 4, 16, &legacy_micro_kernel<4, 16>, "legacy-portable"},
+           {&legacy_affine_relu, &legacy_bias_relu, &legacy_pool_affine_relu, &legacy_pack3x3}});
+  }
+  return out;
+}
+
+double thread_cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
+}
+
+struct Timing {
+  double wall_ms, cpu_ms; // medians; cpu_ms: this thread's CPU time (excludes time other
+                          // processes held the core, so it is steadier on a loaded machine)
+};
+
+template <class F>
+Timing median_ms(F&& f, int reps) {
+  std::vector<double> wall, cpu;
+  for (int i = 0; i < reps; ++i) {
+    const double c0 = thread_cpu_ms();
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    wall.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    cpu.push_back(thread_cpu_ms() - c0);
+  }
+  std::sort(wall.begin(), wall.end());
+  std::sort(cpu.begin(), cpu.end());
+  return {wall[wall.size() / 2], cpu[cpu.size() / 2]};
+}
+
+void print_load() {
+  double load[3] = {0, 0, 0};
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (std::fscanf(f, "%lf %lf %lf", &load[0], &load[1], &load[2]) != 3) load[0] = -1;
+    std::fclose(f);
+  }
+  std::printf("load average (1/5/15 min): %.2f %.2f %.2f\n", load[0], load[1], load[2]);
+}
+
+ModelFile random_densenet121() {
+  const auto arch = DenseNetArchitecture::densenet121(5);
+  ModelFile m;
+  m.architecture = arch;
+  for (int i = 0; i < arch.num_classes; ++i) m.class_names.push_back("c" + std::to_string(i));
+  std::mt19937 rng(1);
+  std::normal_distribution<float> nd(0.0f, 0.05f);
+  for (const auto& s : arch.expected_tensors()) {
+    NamedTensor t{s.name, s.shape, {}};
+    std::size_t n = 1;
+    for (int d : s.shape) n *= static_cast<std::size_t>(d);
+    t.values.resize(n);
+    for (auto& v : t.values)
+      v = s.name.ends_with("running_var") ? 1.0f + std::abs(nd(rng)) : nd(rng);
+    m.tensors.push_back(std::move(t));
+  }
+  return m;
+}
+
+} // namespace
+
+TEST_CASE("GEMM kernels: GFLOP/s and difference from the reference", "[gemm]") {
+  print_load();
+  struct Shape {
+    const char* what;
+    int m, k, n;
+  };
+  // DenseNet-121 at 3x150x220: block 1 is 38 x 55 (2090 pixels), block 2 19 x 27 (513).
+  const Shape shapes[] = {{"block1 conv1 (1x1, 256 in)", 128, 256, 2090},
+                          {"block1 conv2 (3x3, padded grid)", 32, 1152, 38 * 57},
+                          {"block2 conv1 (1x1, 512 in)", 128, 512, 513}};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  detail::ThreadPool pool(1);
+  for (const auto& s : shapes) {
+    std::vector<float> w(static_cast<std::size_t>(s.m) * s.k),
+        b(static_cast<std::size_t>(s.k) * s.n);
+    for (auto& v : w) v = ud(rng);
+    for (auto& v : b) v = ud(rng);
+    std::vector<float> ref;
+    std::printf("\n%s: M=%d K=%d N=%d\n", s.what, s.m, s.k, s.n);
+    for (const auto& c : candidates()) {
+      if (!wanted(c.name)) continue;
+      detail::PackedMatrix pa;
+      pa.pack(w.data(), s.m, s.k, c.kernel.mr);
+      std::vector<detail::GemmScratch> scratch(1);
+      scratch[0].panel.resize(static_cast<std::size_t>(s.k) * c.kernel.nr);
+      scratch[0].tile.resize(static_cast<std::size_t>(c.kernel.mr) * c.kernel.nr);
+      scratch[0].index.resize(static_cast<std::size_t>(c.kernel.nr));
+      std::vector<float> out(static_cast<std::size_t>(s.m) * s.n);
+      const int nr = c.kernel.nr;
+      auto pack = [&](float* dst, int n0, int cols, int*) {
+        for (int k = 0; k < s.k; ++k) {
+          const float* src = b.data() + static_cast<std::size_t>(k) * s.n + n0;
+          float* d = dst + static_cast<std::size_t>(k) * nr;
+          for (int j = 0; j < cols; ++j) d[j] = src[j];
+          for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+        }
+      };
+      auto store = [&](int m, int n0, int cols, const float* v) {
+        std::copy_n(v, cols, out.data() + static_cast<std::size_t>(m) * s.n + n0);
+      };
+      auto run = [&] { detail::gemm(c.kernel, pa, s.n, pack, store, pool, scratch); };
+      run();
+      const int reps = c.name == "reference" ? 1 : 7;
+      const Timing t = median_ms(run, reps);
+      if (ref.empty()) ref = out;
+      double max_abs = 0, scale = 0;
+      for (std::size_t i = 0; i < out.size(); ++i) {
+        max_abs = std::max(max_abs, std::abs(double(out[i]) - double(ref[i])));
+        scale = std::max(scale, std::abs(double(ref[i])));
+      }
+      const double max_rel = max_abs / scale; // relative to the largest output
+      const double flop = 2.0 * s.m * s.k * s.n;
+      std::printf("  %-16s %2dx%-3d wall %8.3f ms %7.2f GFLOP/s | cpu %8.3f ms %7.2f GFLOP/s | "
+                  "max abs diff %.3g, / max |C| %.3g\n",
+                  c.name.c_str(), c.kernel.mr, c.kernel.nr, t.wall_ms, flop / t.wall_ms / 1e6,
+                  t.cpu_ms, flop / t.cpu_ms / 1e6, max_abs, max_rel);
+      CHECK(max_rel <= 1e-5);
+    }
+  }
+}
+
+TEST_CASE("DenseNet-121 forward per kernel, batch 1, 3x150x220, 1 thread", "[gemm]") {
+  print_load();
+  const ModelFile model = random_densenet121();
+  Tensor x(1, 3, 150, 220);
+  std::mt19937 rng(2);
+  std::normal_distribution<float> nd;
+  for (float& v : x.values()) v = nd(rng);
+  std::vector<float> ref;
+  std::printf("\n");
+  for (const auto& c : candidates()) {
+    if (!wanted(c.name)) continue;
+    DenseNet::Config cfg{.threads = 1, .run_self_test = false};
+    cfg.micro_kernel = c.kernel;
+    cfg.vector_ops = c.ops;
+    DenseNet net(model, cfg);
+    net.logits(x); // warm-up
+    const int reps = c.name == "reference"                          ? 1
+                     : c.name.find("portable") != std::string::npos ? 5
+                                                                    : 9;
+    const Timing t = median_ms([&] { net.logits(x); }, reps);
+    const auto got = net.logits(x);
+    if (ref.empty()) ref.assign(got.begin(), got.end());
+    double max_abs = 0, scale = 0;
+    for (std::size_t i = 0; i < ref.size(); ++i) {
+      max_abs = std::max(max_abs, std::abs(double(got[i]) - double(ref[i])));
+      scale = std::max(scale, std::abs(double(ref[i])));
+    }
+    const double flop = 2.0 * net.macs(150, 220);
+    std::printf("densenet121 %-16s wall %9.2f ms %6.2f GFLOP/s | cpu %9.2f ms %6.2f GFLOP/s | "
+                "reps %d | logits vs reference: max abs diff %.3g, / max |logit| %.3g\n",
+                c.name.c_str(), t.wall_ms, flop / t.wall_ms / 1e6, t.cpu_ms, flop / t.cpu_ms / 1e6,
+                reps, max_abs, max_abs / scale);
+    CHECK(max_abs <= 1e-4 * scale);
+  }
+}

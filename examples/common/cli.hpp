@@ -1,0 +1,428 @@
+// The command line of every shadowsense program: one small declarative parser and one way to
+// report errors. No third-party dependency.
+//
+// A program binds each option to a variable that already holds its default, calls parse(), and
+// wraps the body of main in cli::run():
+//
+//   int main(int argc, char** argv) {
+//     return cli::run("ss_example", [&] {
+//       std::string out;
+//       int users = 4;
+//       bool overwrite = false;
+//       cli::Parser p("ss_example", "Writes an example dataset.");
+//       p.option("--out", "DIR", "output folder", out).required();
+//       p.option("--users", "N", "number of users", users).range(1, 1000);
+//       p.flag("--overwrite", "replace an existing folder", overwrite);
+//       p.parse(argc, argv);
+//       ...
+//       return 0;
+//     });
+//   }
+//
+// Conventions shared by every program:
+//   --help, -h   usage and every option's description on stdout, exit status 0
+//   --version    "<program> shadowsense <version>" on stdout, exit status 0
+//   any error    one line "<program>: error: <message>" on stderr, exit status 2; the message
+//                names the option and what was expected
+// Values: "--opt value" or "--opt=value". Numbers are strict: the whole text must parse ("2.9"
+// is no integer, "1e12" overflows an int, "-1" is no unsigned, "nan" and "inf" are no number),
+// then the option's range is checked. An option may be given once, except list and repeated
+// options: the first occurrence replaces the default, later ones append.
+//
+// Threading: a Parser is used by one thread (declare, then parse once).
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <concepts>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+namespace cli {
+
+// A command line the program does not accept: unknown option, missing or malformed value,
+// missing required option, options that do not go together. Programs throw it too for checks
+// that span options.
+class UsageError : public shadowsense::InvalidArgument {
+public:
+  using InvalidArgument::InvalidArgument;
+};
+
+// Thrown by Parser::parse once --help or --version has been answered; run() returns `code`.
+struct Exit {
+  int code = 0;
+};
+
+namespace detail {
+
+template <class T>
+concept Integer = std::integral<T> && !std::same_as<T, bool>;
+template <class T>
+concept Number = Integer<T> || std::floating_point<T>;
+template <class T>
+concept Text = std::same_as<T, std::string> || std::same_as<T, std::filesystem::path>;
+
+inline std::string show(const std::string& v) {
+  return v;
+}
+inline std::string show(const std::filesystem::path& v) {
+  return v.string();
+}
+template <Number T>
+std::string show(T v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, r.ptr);
+}
+
+template <class T>
+std::string kind() {
+  if constexpr (std::floating_point<T>)
+    return "a number";
+  else if constexpr (std::is_unsigned_v<T>)
+    return "a non-negative integer";
+  else
+    return "an integer";
+}
+
+// What a value of T with these constraints must be, e.g. "an integer in [1, 256]".
+template <class T>
+struct Constraint {
+  bool has_range = false;
+  T lo{}, hi{};
+  std::vector<std::string> choices;
+  std::string expected() const {
+    if (!choices.empty()) {
+      std::string s = "one of ";
+      for (std::size_t i = 0; i < choices.size(); ++i) s += (i ? ", " : "") + choices[i];
+      return s;
+    }
+    if constexpr (Number<T>) {
+      if (has_range) return kind<T>() + " in [" + show(lo) + ", " + show(hi) + "]";
+      return kind<T>();
+    } else {
+      return "";
+    }
+  }
+  // Parses the whole of `text` or throws UsageError naming `option`, the text and what was
+  // expected.
+  T parse(const std::string& option, std::string_view text) const {
+    const auto fail = [&] {
+      return UsageError(option + ": expected " + expected() + ", got '" + std::string(text) + "'");
+    };
+    if constexpr (Number<T>) {
+      T v{};
+      const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
+      if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size()) throw fail();
+      if constexpr (std::floating_point<T>)
+        if (!std::isfinite(v)) throw fail();
+      if (has_range && (v < lo || v > hi)) throw fail();
+      return v;
+    } else {
+      if (!choices.empty() && std::find(choices.begin(), choices.end(), text) == choices.end())
+        throw fail();
+      return T(std::string(text));
+    }
+  }
+};
+
+struct Option {
+  std::string name, value_name, description, default_text;
+  std::function<std::string()> expected; // what a value must be (unset for flags)
+  bool takes_value = true, required = false, many = false, split = false, seen = false;
+  std::function<void(std::string_view)> assign;
+};
+
+} // namespace detail
+
+// What option() and list() return: refines the option just declared.
+template <class T>
+class Declared {
+public:
+  Declared(detail::Option& o, std::shared_ptr<detail::Constraint<T>> c)
+      : o_(&o), c_(std::move(c)) {}
+  // ensures: parse() throws UsageError unless the option was given.
+  Declared& required() {
+    o_->required = true;
+    return *this;
+  }
+  // requires: lo <= hi. ensures: values outside [lo, hi] are rejected, naming the range.
+  Declared& range(T lo, T hi) requires detail::Number<T> {
+    if (!(lo <= hi)) throw shadowsense::InvalidArgument(o_->name + ": range needs lo <= hi");
+    c_->has_range = true;
+    c_->lo = lo;
+    c_->hi = hi;
+    return *this;
+  }
+  // ensures: only these exact values are accepted.
+  Declared& choices(std::vector<std::string> values) requires detail::Text<T> {
+    c_->choices = std::move(values);
+    return *this;
+  }
+  // ensures: --help shows `text` as the default instead of the variable's initial value.
+  Declared& default_text(std::string text) {
+    o_->default_text = std::move(text);
+    return *this;
+  }
+
+private:
+  detail::Option* o_;
+  std::shared_ptr<detail::Constraint<T>> c_;
+};
+
+class Parser {
+public:
+  // program: the name in --help, --version and errors (e.g. "ss_demo"); summary: what the
+  // program does, shown by --help.
+  Parser(std::string program, std::string summary)
+      : program_(std::move(program)), summary_(std::move(summary)) {}
+
+  // Usage lines shown by --help instead of "<program> [options]" (one per mode of the program).
+  void usage(std::string line) { usage_.push_back(std::move(line)); }
+
+  // An option with one value, parsed into `target` (whose current value is the default).
+  // T: std::string, std::filesystem::path, an integer type or a floating-point type.
+  // requires: name starts with "--"; target outlives parse().
+  template <class T>
+  Declared<T> option(std::string name, std::string value_name, std::string description, T& target) {
+    auto c = std::make_shared<detail::Constraint<T>>();
+    auto& o = add(std::move(name), std::move(value_name), std::move(description),
+                  [c] { return c->expected(); });
+    if (!detail::show(target).empty()) o.default_text = detail::show(target);
+    o.assign = [c, &target, n = o.name](std::string_view v) { target = c->parse(n, v); };
+    return {o, c};
+  }
+
+  // A comma-separated list ("--tables 1,3"), each item parsed and checked like option() does;
+  // empty items are rejected. The first occurrence replaces `target`'s default, later ones append.
+  template <class T>
+  Declared<T> list(std::string name, std::string value_name, std::string description,
+                   std::vector<T>& target) {
+    return many(std::move(name), std::move(value_name), std::move(description), target, true);
+  }
+
+  // An option that may be given several times, each value one item (commas are kept).
+  template <class T>
+  Declared<T> repeated(std::string name, std::string value_name, std::string description,
+                       std::vector<T>& target) {
+    return many(std::move(name), std::move(value_name), std::move(description), target, false);
+  }
+
+  // An option without value: sets `target` to `value` when given.
+  void flag(std::string name, std::string description, bool& target, bool value = true) {
+    auto& o = add(std::move(name), "", std::move(description), nullptr);
+    o.takes_value = false;
+    o.assign = [&target, value](std::string_view) { target = value; };
+  }
+
+  // Arguments that do not start with '-' are appended to `target` (without this, they are an
+  // error).
+  void positional(std::string value_name, std::string description,
+                  std::vector<std::string>& target) {
+    positional_name_ = std::move(value_name);
+    positional_description_ = std::move(description);
+    positional_ = &target;
+  }
+
+  // Whether the option was on the command line (after parse()).
+  bool given(std::string_view name) const {
+    for (const auto& o : options_)
+      if (o->name == name) return o->seen;
+    throw shadowsense::InvalidArgument("given(): no option " + std::string(name));
+  }
+
+  // Parses argv[1..argc-1] into the bound variables.
+  // ensures: on --help / -h or --version, prints to `out` and throws Exit{0}.
+  // throws: UsageError for an unknown option, a missing or malformed value, an option given twice
+  // (except list/repeated ones) or a missing required option.
+  void parse(int argc, const char* const* argv, std::ostream& out = std::cout) {
+    for (int i = 1; i < argc; ++i) {
+      const std::string_view arg = argv[i];
+      if (arg == "--help" || arg == "-h") {
+        out << help();
+        throw Exit{0};
+      }
+      if (arg == "--version") {
+        out << program_ << " shadowsense " << shadowsense::version_string << "\n";
+        throw Exit{0};
+      }
+      if (arg.size() < 2 || arg[0] != '-') {
+        if (!positional_) throw UsageError("unexpected argument '" + std::string(arg) + "'");
+        positional_->emplace_back(arg);
+        continue;
+      }
+      const std::size_t eq = arg.starts_with("--") ? arg.find('=') : std::string_view::npos;
+      const std::string name(arg.substr(0, eq));
+      detail::Option* o = find(name);
+      if (!o) throw UsageError("unknown option '" + name + "' (see --help)");
+      if (o->seen && !o->many) throw UsageError(name + ": given more than once");
+      if (!o->takes_value) {
+        if (eq != std::string_view::npos) throw UsageError(name + ": takes no value");
+        o->assign({});
+      } else if (eq != std::string_view::npos) {
+        o->assign(arg.substr(eq + 1));
+      } else {
+        if (i + 1 >= argc)
+          throw UsageError(name + ": missing value (expected " + o->value_name +
+                           (o->expected().empty() ? "" : ", " + o->expected()) + ")");
+        o->assign(argv[++i]);
+      }
+      o->seen = true;
+    }
+    for (const auto& o : options_)
+      if (o->required && !o->seen)
+        throw UsageError("missing required option " + o->name + " " + o->value_name);
+  }
+  void parse(int argc, char** argv, std::ostream& out = std::cout) {
+    parse(argc, const_cast<const char* const*>(argv), out);
+  }
+
+  // The --help text: usage lines, summary, then one entry per option with its description,
+  // accepted values and default.
+  std::string help() const {
+    std::string s;
+    if (usage_.empty())
+      s += "usage: " + program_ + " [options]" +
+           (positional_ ? " " + positional_name_ + "..." : "") + "\n";
+    for (std::size_t i = 0; i < usage_.size(); ++i)
+      s += (i ? "       " : "usage: ") + usage_[i] + "\n";
+    s += "\n" + wrap(summary_, 0) + "\n\noptions:\n";
+    const auto entry = [&](std::string left, const std::string& text) {
+      left = "  " + left;
+      s += left.size() < 28 ? left + std::string(28 - left.size(), ' ')
+                            : left + "\n" + std::string(28, ' ');
+      s += wrap(text, 28) + "\n";
+    };
+    if (positional_) entry(positional_name_ + "...", positional_description_);
+    for (const auto& o : options_) {
+      std::string text = o->description;
+      std::vector<std::string> notes;
+      if (o->takes_value && !o->expected().empty())
+        notes.push_back(o->split ? "a comma-separated list, each " + o->expected() : o->expected());
+      if (o->many && !o->split) notes.push_back("may be repeated");
+      if (o->required)
+        notes.push_back("required");
+      else if (!o->default_text.empty())
+        notes.push_back("default " + o->default_text);
+      for (std::size_t i = 0; i < notes.size(); ++i) text += (i ? "; " : " (") + notes[i];
+      if (!notes.empty()) text += ")";
+      entry(o->takes_value ? o->name + " " + o->value_name : o->name, text);
+    }
+    entry("-h, --help", "print this help and exit");
+    entry("--version", "print the program and library version and exit");
+    return s;
+  }
+
+private:
+  // `text` broken at spaces into lines of at most 100 columns, continuation lines indented by
+  // `indent` (the first line starts at column `indent` too).
+  static std::string wrap(const std::string& text, std::size_t indent) {
+    std::string out;
+    std::size_t column = indent;
+    for (std::size_t start = 0; start < text.size();) {
+      std::size_t end = text.find(' ', start);
+      if (end == std::string::npos) end = text.size();
+      const std::size_t word = end - start;
+      if (column > indent && column + 1 + word > 100) {
+        out += "\n" + std::string(indent, ' ');
+        column = indent;
+      } else if (column > indent) {
+        out += ' ';
+        ++column;
+      }
+      out.append(text, start, word);
+      column += word;
+      start = end + 1;
+    }
+    return out;
+  }
+
+  detail::Option& add(std::string name, std::string value_name, std::string description,
+                      std::function<std::string()> expected) {
+    if (!name.starts_with("--") || name.size() < 3 || name.find('=') != std::string::npos ||
+        find(name) || name == "--help" || name == "--version")
+      throw shadowsense::InvalidArgument("cli::Parser: bad or duplicate option name '" + name +
+                                         "'");
+    auto o = std::make_unique<detail::Option>();
+    o->name = std::move(name);
+    o->value_name = std::move(value_name);
+    o->description = std::move(description);
+    o->expected = std::move(expected);
+    options_.push_back(std::move(o));
+    return *options_.back();
+  }
+  template <class T>
+  Declared<T> many(std::string name, std::string value_name, std::string description,
+                   std::vector<T>& target, bool split) {
+    auto c = std::make_shared<detail::Constraint<T>>();
+    auto& o = add(std::move(name), std::move(value_name), std::move(description),
+                  [c] { return c->expected(); });
+    o.many = true;
+    o.split = split;
+    for (std::size_t i = 0; i < target.size(); ++i) {
+      if (i) o.default_text += ',';
+      o.default_text += detail::show(target[i]);
+    }
+    o.assign = [c, &target, &o, split](std::string_view v) {
+      if (!o.seen) target.clear();
+      if (!split) return target.push_back(c->parse(o.name, v));
+      for (std::size_t start = 0;;) {
+        const std::size_t comma = v.find(',', start);
+        const std::string_view item = v.substr(start, comma - start);
+        if (item.empty())
+          throw UsageError(o.name + ": empty item in '" + std::string(v) + "' (expected " +
+                           c->expected() + " per item)");
+        target.push_back(c->parse(o.name, item));
+        if (comma == std::string_view::npos) break;
+        start = comma + 1;
+      }
+    };
+    return {o, c};
+  }
+
+  detail::Option* find(std::string_view name) const {
+    for (const auto& o : options_)
+      if (o->name == name) return o.get();
+    return nullptr;
+  }
+
+  std::string program_, summary_, positional_name_, positional_description_;
+  std::vector<std::string> usage_;
+  std::vector<std::unique_ptr<detail::Option>> options_;
+  std::vector<std::string>* positional_ = nullptr;
+};
+
+// Runs a program's body: returns what it returns; Exit{code} -> code; any exception -> one line
+// "<program>: error: <what>" on stderr (line breaks in the message become spaces) and 2.
+template <class Body>
+int run(std::string_view program, Body&& body) noexcept {
+  const auto report = [&](std::string what) {
+    for (char& ch : what)
+      if (ch == '\n' || ch == '\r') ch = ' ';
+    std::cout.flush();
+    std::cerr << program << ": error: " << what << "\n";
+    return 2;
+  };
+  try {
+    return body();
+  } catch (const Exit& e) {
+    return e.code;
+  } catch (const std::exception& e) {
+    return report(e.what());
+  } catch (...) {
+    return report("unknown exception");
+  }
+}
+
+} // namespace cli

@@ -1,0 +1,226 @@
+// Frames for the programs: a folder of images (sorted by file name), a video file, or a camera
+// index, read one frame at a time with the size limit checked before a frame is used; and an
+// atomic PNG writer. Programs only (imgcodecs, and videoio when SHADOWSENSE_HAVE_VIDEOIO).
+//
+// FrameSource::open(spec, max_side)
+//   spec: an existing folder -> its images (.png .jpg .jpeg .bmp .tif .tiff .ppm .pgm, any case),
+//         sorted by file name (byte order: name frames with zero-padded numbers); an existing
+//         file -> a video (needs videoio); a non-negative integer -> that camera (needs videoio).
+//   throws: shadowsense::IoError naming the spec when it cannot be opened, when a folder holds
+//           no image, or when videoio is needed but was not built in.
+// next(frame, name) -> false at the end.
+//   ensures: frame is CV_8UC3 (grey images are expanded); name is the file name (folders) or
+//            "frame_NNNNNN" (videos, cameras).
+//   throws:  IoError naming the file for an unreadable image or one larger than max_side.
+// Decoding limit: the programs set OPENCV_IO_MAX_IMAGE_PIXELS (limit_decoder) before the first
+// imread, so OpenCV refuses oversized images from their header, before allocating them.
+// One instance per thread.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+#include <opencv2/videoio.hpp>
+#endif
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace frames {
+
+namespace fs = std::filesystem;
+
+// Caps OpenCV's image decoders at max_side x max_side pixels (checked from the file header).
+// Call before the first cv::imread.
+inline void limit_decoder(int max_side) {
+  const std::string v = std::to_string(static_cast<long long>(max_side) * max_side);
+  ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", v.c_str(), 1);
+}
+
+inline bool is_image_file(const fs::path& p) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" || e == ".tiff" ||
+         e == ".ppm" || e == ".pgm";
+}
+
+// The images of a folder, sorted by file name.
+inline std::vector<fs::path> list_images(const fs::path& dir) {
+  std::vector<fs::path> out;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && is_image_file(e.path())) out.push_back(e.path());
+  std::sort(out.begin(), out.end(),
+            [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
+  return out;
+}
+
+// Reads one image as CV_8UC3, or throws IoError naming the file.
+inline cv::Mat read_image(const fs::path& p, int max_side) {
+  cv::Mat m;
+  try {
+    m = cv::imread(p.string(), cv::IMREAD_COLOR);
+  } catch (const cv::Exception& e) {
+    throw shadowsense::IoError("cannot read image '" + p.string() + "': " + e.what());
+  }
+  if (m.empty())
+    throw shadowsense::IoError("cannot read image '" + p.string() +
+                               "' (missing, not an image, or larger than " +
+                               std::to_string(max_side) + "x" + std::to_string(max_side) + ")");
+  if (m.cols > max_side || m.rows > max_side)
+    throw shadowsense::IoError("image '" + p.string() + "' is " + std::to_string(m.cols) + "x" +
+                               std::to_string(m.rows) + "; expected at most " +
+                               std::to_string(max_side) + " px per side");
+  return m;
+}
+
+class FrameSource {
+public:
+  static FrameSource open(const std::string& spec, int max_side) {
+    FrameSource s;
+    s.max_side_ = max_side;
+    std::error_code ec;
+    if (fs::is_directory(spec, ec)) {
+      s.files_ = list_images(spec);
+      if (s.files_.empty())
+        throw shadowsense::IoError("folder '" + spec +
+                                   "' holds no image (.png .jpg .jpeg .bmp .tif .tiff .ppm .pgm)");
+      return s;
+    }
+    const bool camera = !spec.empty() && std::all_of(spec.begin(), spec.end(), [](char c) {
+      return c >= '0' && c <= '9';
+    }) && spec.size() <= 3;
+    if (!camera && !fs::exists(spec, ec))
+      throw shadowsense::IoError("'" + spec + "' is neither a folder, a file nor a camera index");
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+    s.video_.emplace();
+    const bool ok = camera ? s.video_->open(std::stoi(spec)) : s.video_->open(spec);
+    if (!ok || !s.video_->isOpened())
+      throw shadowsense::IoError("cannot open " + std::string(camera ? "camera " : "video '") +
+                                 spec + (camera ? "" : "'") +
+                                 " (no decoder for it, or not a video)");
+    s.camera_ = camera;
+    const double fps = s.video_->get(cv::CAP_PROP_FPS);
+    if (std::isfinite(fps) && fps > 0 && fps < 10000) s.fps_ = fps;
+    const double n = s.video_->get(cv::CAP_PROP_FRAME_COUNT);
+    if (!camera && std::isfinite(n) && n > 0) s.count_ = static_cast<std::size_t>(n);
+    return s;
+#else
+    throw shadowsense::IoError("'" + spec +
+                               "' is not a folder; videos and cameras need OpenCV videoio, which "
+                               "this build does not have (install libopencv-videoio-dev)");
+#endif
+  }
+
+  bool next(cv::Mat& frame, std::string& name) {
+    if (!files_.empty()) {
+      if (index_ >= files_.size()) return false;
+      frame = read_image(files_[index_], max_side_);
+      name = files_[index_].filename().string();
+      ++index_;
+      return true;
+    }
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+    if (!video_ || !video_->read(frame) || frame.empty()) return false;
+    if (frame.cols > max_side_ || frame.rows > max_side_)
+      throw shadowsense::IoError("video frames are " + std::to_string(frame.cols) + "x" +
+                                 std::to_string(frame.rows) + "; expected at most " +
+                                 std::to_string(max_side_) + " px per side");
+    if (frame.type() == CV_8UC1) cv::cvtColor(frame, frame, cv::COLOR_GRAY2BGR);
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "frame_%06zu", index_);
+    name = buf;
+    ++index_;
+    return true;
+#else
+    return false;
+#endif
+  }
+
+  bool is_folder() const {
+    return !files_.empty();
+  }
+  bool is_camera() const {
+    return camera_;
+  }
+  // Frames per second the video declares (none for folders and some cameras).
+  std::optional<double> fps() const {
+    return fps_;
+  }
+  // Number of frames when known (folders, most video files).
+  std::optional<std::size_t> count() const {
+    if (!files_.empty()) return files_.size();
+    return count_;
+  }
+
+private:
+  std::vector<fs::path> files_;
+  std::size_t index_ = 0;
+  int max_side_ = 8192;
+  bool camera_ = false;
+  std::optional<double> fps_;
+  std::optional<std::size_t> count_;
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+  std::optional<cv::VideoCapture> video_;
+#endif
+};
+
+// Writes `bytes` to `path` atomically: a temporary file in the same folder, checked write,
+// rename. Throws IoError naming the path; the old file stays intact on failure.
+inline void write_file_atomically(const fs::path& path, const std::vector<uchar>& bytes) {
+  const fs::path tmp = path.parent_path() / (path.filename().string() + ".tmp");
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) throw shadowsense::IoError("cannot open '" + tmp.string() + "' for writing");
+    f.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+    f.flush();
+    if (!f) {
+      f.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw shadowsense::IoError("writing '" + tmp.string() + "' failed (disk full?)");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw shadowsense::IoError("cannot replace '" + path.string() + "': " + ec.message());
+  }
+}
+
+inline void write_png_atomically(const fs::path& path, const cv::Mat& image) {
+  std::vector<uchar> bytes;
+  if (!cv::imencode(".png", image, bytes))
+    throw shadowsense::IoError("cannot encode '" + path.string() + "' as PNG");
+  write_file_atomically(path, bytes);
+}
+
+// Draws a segmentation over a frame: shadow pixels tinted blue, contact red, blob boxes.
+template <class Segmentation>
+cv::Mat overlay(const cv::Mat& frame, const Segmentation& s) {
+  cv::Mat out = frame.clone();
+  cv::Mat tint(frame.size(), CV_8UC3, cv::Scalar(255, 120, 0));
+  cv::Mat mixed;
+  cv::addWeighted(frame, 0.55, tint, 0.45, 0, mixed);
+  mixed.copyTo(out, s.shadow_mask);
+  tint.setTo(cv::Scalar(0, 0, 255));
+  cv::addWeighted(frame, 0.4, tint, 0.6, 0, mixed);
+  mixed.copyTo(out, s.contact_mask);
+  for (const auto& b : s.shadows) cv::rectangle(out, b.box, cv::Scalar(255, 255, 0), 1);
+  for (const auto& b : s.contacts) cv::rectangle(out, b.box, cv::Scalar(0, 255, 255), 1);
+  return out;
+}
+
+} // namespace frames

@@ -1,0 +1,127 @@
+// The x86-64 GEMM micro-kernels (AVX-512: 8 x 32 tile, AVX2+FMA: 4 x 24 tile) and the
+// element-wise loops compiled for those instruction sets. Each function carries a
+// function-level target attribute, so the library needs no -march flag; gemm.hpp picks one at
+// run time after checking the CPU (__builtin_cpu_supports). Compiled only with GCC/Clang on
+// x86 (SHADOWSENSE_X86_KERNELS is 1), empty elsewhere.
+//
+// micro_kernel_avx512(K, a, b, out), micro_kernel_avx2(K, a, b, out): same contract as
+//   micro_kernel_reference<8, 32> and <4, 24> (gemm_reference.hpp), accumulated with FMA in k
+//   order; require the CPU to support the instruction set (undefined behaviour otherwise: call
+//   them only through gemm.hpp's selection).
+// No state; callable from any thread.
+#pragma once
+
+#include <shadowsense/backends/densenet/gemm_portable.hpp>
+#include <shadowsense/core/version.hpp>
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define SHADOWSENSE_X86_KERNELS 1
+#include <immintrin.h>
+#else
+#define SHADOWSENSE_X86_KERNELS 0
+#endif
+
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+
+#if SHADOWSENSE_X86_KERNELS
+__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
+                                                                   const float* b, float* out) {
+  constexpr int MR = 8;
+  __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
+         c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
+         c70 = c00, c71 = c00;
+  for (int k = 0; k < K; ++k, a += MR, b += 32) {
+    const __m512 b0 = _mm512_loadu_ps(b);
+    const __m512 b1 = _mm512_loadu_ps(b + 16);
+    __m512 x = _mm512_set1_ps(a[0]);
+    c00 = _mm512_fmadd_ps(x, b0, c00);
+    c01 = _mm512_fmadd_ps(x, b1, c01);
+    x = _mm512_set1_ps(a[1]);
+    c10 = _mm512_fmadd_ps(x, b0, c10);
+    c11 = _mm512_fmadd_ps(x, b1, c11);
+    x = _mm512_set1_ps(a[2]);
+    c20 = _mm512_fmadd_ps(x, b0, c20);
+    c21 = _mm512_fmadd_ps(x, b1, c21);
+    x = _mm512_set1_ps(a[3]);
+    c30 = _mm512_fmadd_ps(x, b0, c30);
+    c31 = _mm512_fmadd_ps(x, b1, c31);
+    x = _mm512_set1_ps(a[4]);
+    c40 = _mm512_fmadd_ps(x, b0, c40);
+    c41 = _mm512_fmadd_ps(x, b1, c41);
+    x = _mm512_set1_ps(a[5]);
+    c50 = _mm512_fmadd_ps(x, b0, c50);
+    c51 = _mm512_fmadd_ps(x, b1, c51);
+    x = _mm512_set1_ps(a[6]);
+    c60 = _mm512_fmadd_ps(x, b0, c60);
+    c61 = _mm512_fmadd_ps(x, b1, c61);
+    x = _mm512_set1_ps(a[7]);
+    c70 = _mm512_fmadd_ps(x, b0, c70);
+    c71 = _mm512_fmadd_ps(x, b1, c71);
+  }
+  _mm512_storeu_ps(out + 0, c00);
+  _mm512_storeu_ps(out + 16, c01);
+  _mm512_storeu_ps(out + 32, c10);
+  _mm512_storeu_ps(out + 48, c11);
+  _mm512_storeu_ps(out + 64, c20);
+  _mm512_storeu_ps(out + 80, c21);
+  _mm512_storeu_ps(out + 96, c30);
+  _mm512_storeu_ps(out + 112, c31);
+  _mm512_storeu_ps(out + 128, c40);
+  _mm512_storeu_ps(out + 144, c41);
+  _mm512_storeu_ps(out + 160, c50);
+  _mm512_storeu_ps(out + 176, c51);
+  _mm512_storeu_ps(out + 192, c60);
+  _mm512_storeu_ps(out + 208, c61);
+  _mm512_storeu_ps(out + 224, c70);
+  _mm512_storeu_ps(out + 240, c71);
+}
+
+__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
+                                                                  const float* b, float* out) {
+  constexpr int MR = 4;
+  __m256 c00 = _mm256_setzero_ps(), c01 = c00, c02 = c00, c10 = c00, c11 = c00, c12 = c00,
+         c20 = c00, c21 = c00, c22 = c00, c30 = c00, c31 = c00, c32 = c00;
+  for (int k = 0; k < K; ++k, a += MR, b += 24) {
+    const __m256 b0 = _mm256_loadu_ps(b);
+    const __m256 b1 = _mm256_loadu_ps(b + 8);
+    const __m256 b2 = _mm256_loadu_ps(b + 16);
+    __m256 x = _mm256_broadcast_ss(a + 0);
+    c00 = _mm256_fmadd_ps(x, b0, c00);
+    c01 = _mm256_fmadd_ps(x, b1, c01);
+    c02 = _mm256_fmadd_ps(x, b2, c02);
+    x = _mm256_broadcast_ss(a + 1);
+    c10 = _mm256_fmadd_ps(x, b0, c10);
+    c11 = _mm256_fmadd_ps(x, b1, c11);
+    c12 = _mm256_fmadd_ps(x, b2, c12);
+    x = _mm256_broadcast_ss(a + 2);
+    c20 = _mm256_fmadd_ps(x, b0, c20);
+    c21 = _mm256_fmadd_ps(x, b1, c21);
+    c22 = _mm256_fmadd_ps(x, b2, c22);
+    x = _mm256_broadcast_ss(a + 3);
+    c30 = _mm256_fmadd_ps(x, b0, c30);
+    c31 = _mm256_fmadd_ps(x, b1, c31);
+    c32 = _mm256_fmadd_ps(x, b2, c32);
+  }
+  _mm256_storeu_ps(out + 0, c00);
+  _mm256_storeu_ps(out + 8, c01);
+  _mm256_storeu_ps(out + 16, c02);
+  _mm256_storeu_ps(out + 24, c10);
+  _mm256_storeu_ps(out + 32, c11);
+  _mm256_storeu_ps(out + 40, c12);
+  _mm256_storeu_ps(out + 48, c20);
+  _mm256_storeu_ps(out + 56, c21);
+  _mm256_storeu_ps(out + 64, c22);
+  _mm256_storeu_ps(out + 72, c30);
+  _mm256_storeu_ps(out + 80, c31);
+  _mm256_storeu_ps(out + 88, c32);
+}
+#endif
+
+#if SHADOWSENSE_X86_KERNELS
+SHADOWSENSE_DEFINE_VECTOR_OPS(avx512, __attribute__((target("avx512f"))))
+SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
+#endif
+
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END

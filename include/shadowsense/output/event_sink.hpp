@@ -1,0 +1,161 @@
+// Event sinks: where touch events go once the pipeline has produced them (a CSV or JSON-lines
+// stream, TUIO over UDP, or a type of the user's own).
+//
+// OutputFrame is what a sink receives, once per camera frame: a plain struct the caller fills
+// (OutputFrameBuilder fills it from the TouchPipeline's per-frame result). It holds
+//   * frame_index   increasing per frame (TUIO's fseq; 1 for the first frame),
+//   * timestamp_ms  the frame's time (milliseconds, as fed to the pipeline),
+//   * frame_size    the image size in pixels (TUIO normalises positions by it),
+//   * contacts      the contacts alive in this frame (TUIO cursors): one per track whose touch
+//                   state machine is in touch or move, at its contact point (pixels),
+//   * shadows       the shadows alive in this frame (TUIO blobs): one per live track, with its
+//                   shadow box (pixels),
+//   * events        the frame's touch events, each with the track it belongs to.
+// Ids are the tracker's track ids (positive, never reused), so a contact and the shadow of the
+// same hand share an id.
+//
+// EventSink<S> (concept)
+//   requires: s.write(frame) for a const OutputFrame& frame.
+//   A sink is stateful and not thread-safe unless it says otherwise: one thread writes to it.
+//   write() may throw (an IoError when its stream or socket fails); the frame is then lost for
+//   that sink only.
+// EventSinkArchetype: the least type that models EventSink (for documentation and checks).
+// publish(frame, sinks...)
+//   ensures: frame written to every sink, in argument order.
+//   throws:  what a sink's write throws (the sinks after it are not written).
+//
+// OutputFrameBuilder
+//   build(touch_frame, frame_size) -> const OutputFrame&
+//     requires: touch_frame shaped like the TouchPipeline's TouchFrame (see TouchFrameLike:
+//               timestamp_ms; tracks with id, shadow_box, contact (optional point), state;
+//               events with track_id and event), a non-empty frame_size.
+//     ensures:  frame_index = previous + 1 (1 first); contacts: tracks in touch or move, at this
+//               frame's contact point or, during the hysteresis before a lift (no contact seen
+//               yet the machine still touching), at the last contact point seen for that track;
+//               shadows: every track with its shadow box; events copied. The reference stays
+//               valid until the next build.
+//     throws:   InvalidArgument for an empty frame_size.
+//   Threading: one instance per thread. No allocation after warm-up (buffers are reused).
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/touch_state_machine.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <concepts>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+// A contact alive in this frame (a TUIO cursor).
+struct OutputContact {
+  int id = 0;             // track id (TUIO session id)
+  cv::Point2f position{}; // contact point, image pixels
+};
+
+// A shadow alive in this frame (a TUIO blob).
+struct OutputShadow {
+  int id = 0;      // track id (TUIO session id)
+  cv::Rect box{};  // shadow bounding box, image pixels
+  double area = 0; // shadow area in pixels; 0 = unknown (the box area is used)
+};
+
+// A touch event with the track it belongs to.
+struct OutputEvent {
+  int track_id = 0;
+  TouchEvent event{};
+};
+
+struct OutputFrame {
+  std::int64_t frame_index = 0;
+  double timestamp_ms = 0;
+  cv::Size frame_size{};
+  std::vector<OutputContact> contacts;
+  std::vector<OutputShadow> shadows;
+  std::vector<OutputEvent> events;
+};
+
+template <class S>
+concept EventSink = requires(S& sink, const OutputFrame& frame) {
+  sink.write(frame);
+};
+
+// The least type that is an EventSink.
+struct EventSinkArchetype {
+  void write(const OutputFrame&) {}
+};
+static_assert(EventSink<EventSinkArchetype>);
+
+template <EventSink... Sinks>
+void publish(const OutputFrame& frame, Sinks&... sinks) {
+  (sinks.write(frame), ...);
+}
+
+// The shape of the TouchPipeline's per-frame result that OutputFrameBuilder reads.
+template <class F>
+concept TouchFrameLike = requires(const F& f) {
+  { f.timestamp_ms } -> std::convertible_to<double>;
+  { f.tracks.begin()->id } -> std::convertible_to<int>;
+  { f.tracks.begin()->shadow_box } -> std::convertible_to<cv::Rect>;
+  { f.tracks.begin()->contact } -> std::convertible_to<std::optional<cv::Point2f>>;
+  { f.tracks.begin()->state } -> std::convertible_to<TouchState>;
+  { f.events.begin()->track_id } -> std::convertible_to<int>;
+  { f.events.begin()->event } -> std::convertible_to<TouchEvent>;
+};
+
+class OutputFrameBuilder {
+public:
+  OutputFrameBuilder() {
+    frame_.contacts.reserve(16);
+    frame_.shadows.reserve(16);
+    frame_.events.reserve(32);
+    last_contacts_.reserve(16);
+    next_contacts_.reserve(16);
+  }
+
+  template <TouchFrameLike F>
+  const OutputFrame& build(const F& touch_frame, cv::Size frame_size) {
+    if (frame_size.width <= 0 || frame_size.height <= 0)
+      throw InvalidArgument(
+          "OutputFrameBuilder::build: frame_size " + std::to_string(frame_size.width) + "x" +
+          std::to_string(frame_size.height) + " is empty; expected the image size in pixels");
+    frame_.frame_index = ++index_;
+    frame_.timestamp_ms = touch_frame.timestamp_ms;
+    frame_.frame_size = frame_size;
+    frame_.contacts.clear();
+    frame_.shadows.clear();
+    frame_.events.clear();
+    next_contacts_.clear();
+    for (const auto& t : touch_frame.tracks) {
+      frame_.shadows.push_back({t.id, t.shadow_box, 0.0});
+      const bool touching = t.state == TouchState::touch || t.state == TouchState::move;
+      std::optional<cv::Point2f> at = t.contact;
+      if (!at && touching) at = last_contact(t.id);
+      if (at) next_contacts_.push_back({t.id, *at});
+      if (touching && at) frame_.contacts.push_back({t.id, *at});
+    }
+    last_contacts_.swap(next_contacts_);
+    for (const auto& e : touch_frame.events) frame_.events.push_back({e.track_id, e.event});
+    return frame_;
+  }
+
+  // The frame index the next build() will use minus one (0 before the first build).
+  std::int64_t frames_built() const { return index_; }
+
+private:
+  std::optional<cv::Point2f> last_contact(int id) const {
+    for (const OutputContact& c : last_contacts_)
+      if (c.id == id) return c.position;
+    return std::nullopt;
+  }
+
+  OutputFrame frame_;
+  std::int64_t index_ = 0;
+  std::vector<OutputContact> last_contacts_, next_contacts_;
+};
+
+SHADOWSENSE_NAMESPACE_END

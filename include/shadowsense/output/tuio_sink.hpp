@@ -1,0 +1,272 @@
+// TUIO 1.1 output: contacts as /tuio/2Dcur cursors, shadows as /tuio/2Dblb blobs, OSC over UDP
+// (default 127.0.0.1:3333, the port TUIO clients listen on).
+//
+// Per frame and per profile (2Dcur first, then 2Dblb) one OSC bundle, time tag "immediately":
+//   /tuio/2Dcur source  "name@address"            (only when Config::source is set)
+//   /tuio/2Dcur alive   s_id ...                  (int32: every contact alive in this frame)
+//   /tuio/2Dcur set     s x y X Y m               (one per contact)
+//   /tuio/2Dcur fseq    f                         (int32: OutputFrame::frame_index)
+//   /tuio/2Dblb source  "name@address"
+//   /tuio/2Dblb alive   s_id ...
+//   /tuio/2Dblb set     s x y a w h f X Y A m r   (one per shadow)
+//   /tuio/2Dblb fseq    f
+// s: session id = track id (int32); so the cursor of a hand's contact and the blob of its
+//    shadow share the session id. Every other argument is float32:
+// x, y: position normalised to 0..1 by the frame size (cursor: the contact point; blob: the
+//    centre of the shadow box); X, Y: velocity in normalised units per second; m: motion
+//    acceleration (change of speed per second, normalised units / s^2); a: angle in radians
+//    (0: the shadow box is axis-aligned); w, h: box width and height normalised by the frame
+//    width and height; f: area normalised by the frame area (the shadow's area when given,
+//    else the box's); A, r: rotation velocity and acceleration (0).
+// Velocity and acceleration come from the previous frame that held the same session id:
+//    v = (p - p_prev) / dt, m = (|v| - |v_prev|) / dt, dt in seconds from the frames'
+//    timestamps; 0 for a new session id or when dt <= 0.
+// Both profiles are sent every frame, also when empty (an empty alive list tells the client
+// that every cursor / blob is gone), so clients never keep a stale contact.
+// Large frames: when a bundle would exceed Config::max_packet_bytes (default 1472, the UDP
+// payload of a 1500-byte Ethernet frame), the set messages are split over several bundles, each
+// with the full source + alive list and the same fseq (as the reference TUIO 1.1 server does).
+//
+// TuioEncoder(config = {})
+//   throws: InvalidArgument for max_packet_bytes < 128 or a source holding a NUL.
+// encode(frame, send)
+//   requires: frame.frame_size non-empty; 0 <= frame_index <= 2^31-1; ids unique per profile
+//             and >= 0; finite positions; send callable as send(std::span<const uint8_t>).
+//   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles); the
+//             span is valid only during the call.
+//   throws:   InvalidArgument for a broken requirement or an alive list too long for one packet
+//             (about (max_packet_bytes - 60) / 4 ids); nothing is sent then. What send throws.
+//   Threading: one thread per instance. No allocation after warm-up (buffers are reused).
+// TuioSink(host = "127.0.0.1", port = 3333, config = {}): an EventSink; write(frame) encodes
+//   the frame and sends each bundle as one UDP datagram.
+//   throws: IoError (host does not resolve, socket or send fails), InvalidArgument as above.
+//   Threading: one thread per instance.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/output/osc.hpp>
+#include <shadowsense/output/udp_sender.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+class TuioEncoder {
+public:
+  struct Config {
+    std::string source;                  // "name@address" for the source message; "" = none
+    bool cursors = true;                 // send /tuio/2Dcur (contacts)
+    bool blobs = true;                   // send /tuio/2Dblb (shadows)
+    std::size_t max_packet_bytes = 1472; // largest bundle sent
+  };
+
+  TuioEncoder() : TuioEncoder(Config{}) {}
+  explicit TuioEncoder(Config config) : config_(std::move(config)) {
+    detail::require(config_.max_packet_bytes >= 128, "TuioEncoder: max_packet_bytes " +
+                                                         std::to_string(config_.max_packet_bytes) +
+                                                         " is too small; expected at least 128");
+    detail::require(config_.source.find('\0') == std::string::npos,
+                    "TuioEncoder: source holds a NUL byte");
+    for (auto* v : {&cur_prev_, &cur_next_, &blb_prev_, &blb_next_}) v->reserve(16);
+    ids_.reserve(16);
+  }
+
+  template <class Send>
+  void encode(const OutputFrame& frame, Send&& send) {
+    validate(frame);
+    const double t = frame.timestamp_ms;
+    const double w = frame.frame_size.width;
+    const double h = frame.frame_size.height;
+    if (config_.cursors) {
+      ids_.clear();
+      for (const OutputContact& c : frame.contacts) ids_.push_back(c.id);
+      cur_next_.clear();
+      for (const OutputContact& c : frame.contacts)
+        cur_next_.push_back(motion(cur_prev_, c.id, c.position.x / w, c.position.y / h, t));
+      emit(cursor_profile, frame, send, [&](std::size_t i) {
+        const Motion& m = cur_next_[i];
+        writer_.begin_message(cursor_profile);
+        writer_.add_string("set");
+        writer_.add_int(m.id);
+        for (double v : {m.x, m.y, m.vx, m.vy, m.accel}) writer_.add_float(static_cast<float>(v));
+        writer_.end_message();
+      });
+      cur_prev_.swap(cur_next_);
+    }
+    if (config_.blobs) {
+      ids_.clear();
+      for (const OutputShadow& s : frame.shadows) ids_.push_back(s.id);
+      blb_next_.clear();
+      for (const OutputShadow& s : frame.shadows) {
+        const double cx = (s.box.x + 0.5 * s.box.width) / w;
+        const double cy = (s.box.y + 0.5 * s.box.height) / h;
+        blb_next_.push_back(motion(blb_prev_, s.id, cx, cy, t));
+      }
+      emit(blob_profile, frame, send, [&](std::size_t i) {
+        const Motion& m = blb_next_[i];
+        const OutputShadow& s = frame.shadows[i];
+        const double area = s.area > 0 ? s.area : static_cast<double>(s.box.area());
+        writer_.begin_message(blob_profile);
+        writer_.add_string("set");
+        writer_.add_int(m.id);
+        const double values[] = {
+            m.x, m.y,     0.0, s.box.width / w, s.box.height / h, area / (w * h), m.vx, m.vy,
+            0.0, m.accel, 0.0};
+        for (double v : values) writer_.add_float(static_cast<float>(v));
+        writer_.end_message();
+      });
+      blb_prev_.swap(blb_next_);
+    }
+  }
+
+  static constexpr std::string_view cursor_profile = "/tuio/2Dcur";
+  static constexpr std::string_view blob_profile = "/tuio/2Dblb";
+
+private:
+  struct Motion {
+    std::int32_t id = 0;
+    double x = 0, y = 0, vx = 0, vy = 0, accel = 0; // double so velocities keep their digits
+    double t_ms = 0;
+  };
+
+  static std::size_t padded(std::size_t n) { return (n + 3) & ~std::size_t(3); }
+  // Bytes of one bundle element: size field, address, type tags, arguments.
+  static std::size_t element_bytes(std::string_view address, std::size_t tags,
+                                   std::size_t arg_bytes) {
+    return 4 + padded(address.size() + 1) + padded(tags + 2) + arg_bytes;
+  }
+
+  static Motion motion(const std::vector<Motion>& prev, int id, double x, double y, double t) {
+    Motion m{id, x, y, 0, 0, 0, t};
+    for (const Motion& p : prev) {
+      if (p.id != id) continue;
+      const double dt = (t - p.t_ms) / 1000.0;
+      if (dt > 0) {
+        m.vx = (x - p.x) / dt;
+        m.vy = (y - p.y) / dt;
+        m.accel = (std::hypot(m.vx, m.vy) - std::hypot(p.vx, p.vy)) / dt;
+      }
+      break;
+    }
+    return m;
+  }
+
+  [[noreturn]] static void fail(const std::string& what) {
+    throw InvalidArgument("TuioEncoder: " + what);
+  }
+
+  void validate(const OutputFrame& f) const {
+    if (f.frame_size.width <= 0 || f.frame_size.height <= 0)
+      fail("frame_size is empty; expected the image size in pixels");
+    if (f.frame_index < 0 || f.frame_index > std::numeric_limits<std::int32_t>::max())
+      fail("frame_index " + std::to_string(f.frame_index) +
+           " does not fit TUIO's int32 fseq; expected 0..2147483647");
+    if (!std::isfinite(f.timestamp_ms)) fail("timestamp_ms is not finite");
+    for (std::size_t i = 0; i < f.contacts.size(); ++i) {
+      const OutputContact& c = f.contacts[i];
+      if (c.id < 0)
+        fail("contact id " + std::to_string(c.id) + " is negative; expected a track id");
+      if (!std::isfinite(c.position.x) || !std::isfinite(c.position.y))
+        fail("contact " + std::to_string(c.id) + " has a non-finite position");
+      for (std::size_t j = 0; j < i; ++j)
+        if (f.contacts[j].id == c.id)
+          fail("contact id " + std::to_string(c.id) +
+               " appears twice in one frame; expected unique session ids");
+    }
+    for (std::size_t i = 0; i < f.shadows.size(); ++i) {
+      const OutputShadow& s = f.shadows[i];
+      if (s.id < 0) fail("shadow id " + std::to_string(s.id) + " is negative; expected a track id");
+      if (!std::isfinite(s.area) || s.area < 0)
+        fail("shadow " + std::to_string(s.id) + " has a negative or non-finite area");
+      for (std::size_t j = 0; j < i; ++j)
+        if (f.shadows[j].id == s.id)
+          fail("shadow id " + std::to_string(s.id) +
+               " appears twice in one frame; expected unique session ids");
+    }
+    check_fits(cursor_profile, f.contacts.size(), 5);
+    check_fits(blob_profile, f.shadows.size(), 11);
+  }
+
+  std::size_t bundle_overhead(std::string_view profile, std::size_t alive) const {
+    std::size_t n = 16; // "#bundle" + time tag
+    if (!config_.source.empty())
+      n += element_bytes(profile, 2, padded(7) + padded(config_.source.size() + 1));
+    n += element_bytes(profile, 1 + alive, padded(6) + 4 * alive); // alive s...
+    n += element_bytes(profile, 2, padded(5) + 4);                 // fseq f
+    return n;
+  }
+  static std::size_t set_bytes(std::string_view profile, std::size_t floats) {
+    return element_bytes(profile, 2 + floats, padded(4) + 4 + 4 * floats);
+  }
+  void check_fits(std::string_view profile, std::size_t alive, std::size_t floats) const {
+    const std::size_t need =
+        bundle_overhead(profile, alive) + (alive ? set_bytes(profile, floats) : 0);
+    if (need > config_.max_packet_bytes)
+      fail(std::to_string(alive) + " alive ids in " + std::string(profile) + " need a " +
+           std::to_string(need) + "-byte bundle, more than max_packet_bytes (" +
+           std::to_string(config_.max_packet_bytes) + ")");
+  }
+
+  template <class Send, class AddSet>
+  void emit(std::string_view profile, const OutputFrame& frame, Send& send, AddSet&& add_set) {
+    const std::size_t n = ids_.size();
+    const std::size_t floats = profile == cursor_profile ? 5 : 11;
+    const std::size_t per_set = set_bytes(profile, floats);
+    const std::size_t fseq_bytes = element_bytes(profile, 2, padded(5) + 4);
+    std::size_t i = 0;
+    do {
+      writer_.clear();
+      writer_.begin_bundle(osc_immediately);
+      if (!config_.source.empty()) {
+        writer_.begin_message(profile);
+        writer_.add_string("source");
+        writer_.add_string(config_.source);
+        writer_.end_message();
+      }
+      writer_.begin_message(profile);
+      writer_.add_string("alive");
+      for (std::int32_t id : ids_) writer_.add_int(id);
+      writer_.end_message();
+      while (i < n && writer_.size() + per_set + fseq_bytes <= config_.max_packet_bytes)
+        add_set(i++);
+      writer_.begin_message(profile);
+      writer_.add_string("fseq");
+      writer_.add_int(static_cast<std::int32_t>(frame.frame_index));
+      writer_.end_message();
+      writer_.end_bundle();
+      send(writer_.bytes());
+    } while (i < n);
+  }
+
+  Config config_;
+  OscWriter writer_;
+  std::vector<std::int32_t> ids_;
+  std::vector<Motion> cur_prev_, cur_next_, blb_prev_, blb_next_;
+};
+
+class TuioSink {
+public:
+  TuioSink() : TuioSink("127.0.0.1", 3333) {}
+  TuioSink(const std::string& host, std::uint16_t port, TuioEncoder::Config config = {})
+      : encoder_(std::move(config)), sender_(host, port) {}
+
+  void write(const OutputFrame& frame) {
+    encoder_.encode(frame, [this](std::span<const std::uint8_t> b) { sender_.send(b); });
+  }
+
+  const std::string& destination() const { return sender_.destination(); }
+
+private:
+  TuioEncoder encoder_;
+  UdpSender sender_;
+};
+static_assert(EventSink<TuioSink>);
+
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,240 @@
+// ss_classify end to end: a folder and a video of the same frames give the same lines, --truth
+// counts what the per-frame lines say, JSON/CSV stay valid for awkward paths, and every bad
+// argument is an error on stderr with exit status 2.
+#include <shadowsense/core/error.hpp>
+
+#include <doctest/doctest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+#include <opencv2/videoio.hpp>
+#endif
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
+
+#ifdef SS_CLASSIFY_PROGRAM
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Run {
+  int status = -1;
+  std::string out, err;
+};
+
+std::string quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+Run run(const std::string& args) {
+  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "classify_program";
+  fs::create_directories(dir);
+  const std::string cmd = quote(SS_CLASSIFY_PROGRAM) + " " + args + " >" +
+                          quote((dir / "out.txt").string()) + " 2>" +
+                          quote((dir / "err.txt").string());
+  const int rc = std::system(cmd.c_str());
+  Run r;
+  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+  r.out = slurp(dir / "out.txt");
+  r.err = slurp(dir / "err.txt");
+  return r;
+}
+
+std::vector<std::string> lines(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+
+// Frames with a bright blob at a moving place on a textured background.
+cv::Mat frame(int k) {
+  cv::Mat img(120, 160, CV_8UC3);
+  cv::randu(img, cv::Scalar::all(60), cv::Scalar::all(140));
+  cv::circle(img, {20 + 20 * k, 40 + 8 * k}, 18, cv::Scalar(20, 20, 20), cv::FILLED);
+  return img;
+}
+
+std::string numbered(const char* stem, int i) { // (avoids a GCC 12 -Wrestrict false positive)
+  return std::string(stem).append(std::to_string(i)).append(".png");
+}
+
+fs::path fresh(const std::string& name) {
+  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+} // namespace
+
+TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 on stderr") {
+  auto help = run("--help");
+  CHECK(help.status == 0);
+  CHECK(help.out.find("usage: ss_classify") == 0);
+  CHECK(help.err.empty());
+  auto version = run("--version");
+  CHECK(version.status == 0);
+  CHECK(version.out.find("ss_classify (shadowsense) 0.") == 0);
+  const fs::path dir = fresh("classify_args");
+  cv::imwrite((dir / "a.png").string(), frame(0));
+  const std::string d = quote(dir.string());
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"", "INPUT is required"},
+      {"--threads 0 " + d, "--threads '0': expected a whole number in 1..64"},
+      {"--threads 2x " + d, "--threads '2x'"},
+      {"--threads", "--threads needs a value"},
+      {"--format xml " + d, "--format 'xml': expected csv or json"},
+      {"--bogus " + d, "unknown option '--bogus'"},
+      {d + " " + d, "more than one INPUT"},
+      {"--model /nonexistent.ssm " + d, "/nonexistent.ssm"},
+      {"--model " + d + " " + d, "is a directory"},
+      {"--model /dev/zero " + d, "not a regular file"},
+      {quote((dir / "missing").string()), "no such folder or file"},
+      {quote((dir / "a.png").string()) + " --truth", ""},
+  };
+  for (const auto& [args, message] : bad) {
+    CAPTURE(args);
+    const auto r = run(args);
+    CHECK(r.status == 2);
+    CHECK(r.out.find("frame,") == std::string::npos);
+    CHECK(r.err.find("ss_classify: ") == 0);
+    CHECK(r.err.find(message) != std::string::npos);
+  }
+  fs::create_directories(dir / "empty");
+  const auto empty = run(quote((dir / "empty").string()));
+  CHECK(empty.status == 2);
+  CHECK(empty.err.find("no images found") != std::string::npos);
+}
+
+TEST_CASE("--truth: accuracy and confusion counts agree with the per-frame labels") {
+  const fs::path dir = fresh("classify_truth");
+  int k = 0;
+  for (const char* cls : {"palm", "punch"})
+    for (int i = 0; i < 3; ++i) {
+      fs::create_directories(dir / cls / (i == 2 ? "nested" : ""));
+      cv::imwrite((dir / cls / (i == 2 ? "nested" : "") / numbered("f", i)).string(), frame(k++));
+    }
+  const auto r = run("--truth " + quote(dir.string()));
+  REQUIRE(r.status == 0);
+  const auto out = lines(r.out);
+  REQUIRE(out.size() == 7);
+  CHECK(out[0] == "frame,source,dark,label,nothing,hug,palm,point,punch,two_hands");
+  int correct = 0;
+  std::map<std::string, int> predicted_for_palm;
+  for (std::size_t i = 1; i < out.size(); ++i) {
+    const bool palm = out[i].find("/palm/") != std::string::npos;
+    std::stringstream row(out[i]);
+    std::string frame_no, source, dark, label;
+    std::getline(row, frame_no, ',');
+    std::getline(row, source, ',');
+    std::getline(row, dark, ',');
+    std::getline(row, label, ',');
+    CHECK(frame_no == std::to_string(i - 1));
+    CHECK(dark == "0"); // the shipped model normalises lighting: never brightened
+    if (label == (palm ? "palm" : "punch")) ++correct;
+    if (palm) ++predicted_for_palm[label];
+  }
+  // Sorted by path: palm/f0, palm/f1, palm/nested/f2, then punch.
+  CHECK(out[3].find("/palm/nested/f2.png") != std::string::npos);
+  char expected[64];
+  std::snprintf(expected, sizeof expected, "accuracy %.2f%% (%d of 6 frames)", 100.0 * correct / 6,
+                correct);
+  CHECK(r.err.find(expected) != std::string::npos);
+  CHECK(r.err.find("rows: true class, columns: predicted") != std::string::npos);
+  // The palm row of the confusion matrix holds what the lines said.
+  std::string palm_row;
+  for (const auto& l : lines(r.err))
+    if (l.find("      palm") == 0) palm_row = l;
+  std::stringstream cells(palm_row);
+  std::string name;
+  cells >> name;
+  for (const char* cls : {"nothing", "hug", "palm", "point", "punch", "two_hands"}) {
+    int n = -1;
+    cells >> n;
+    CHECK(n == predicted_for_palm[cls]);
+  }
+  // A folder whose name is not a class of the model is an error naming the image.
+  fs::create_directories(dir / "wave");
+  cv::imwrite((dir / "wave" / "x.png").string(), frame(0));
+  const auto unknown = run("--truth " + quote(dir.string()));
+  CHECK(unknown.status == 2);
+  CHECK(unknown.err.find("true class 'wave'") != std::string::npos);
+}
+
+TEST_CASE("awkward paths stay valid JSON and CSV") {
+  const fs::path dir = fresh("classify_paths");
+  const fs::path odd = dir / "we\"ird,dir";
+  fs::create_directories(odd);
+  cv::imwrite((odd / "f.png").string(), frame(1));
+  const auto json = run("--format json " + quote(dir.string()));
+  REQUIRE(json.status == 0);
+  CHECK(json.out.find("\"source\":\"" + dir.string() + "/we\\\"ird,dir/f.png\"") !=
+        std::string::npos);
+  CHECK(json.out.find("\"probabilities\":{\"nothing\":") != std::string::npos);
+  const auto csv = run(quote(dir.string()));
+  REQUIRE(csv.status == 0);
+  CHECK(csv.out.find("0,\"" + dir.string() + "/we\"\"ird,dir/f.png\",0,") != std::string::npos);
+}
+
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+TEST_CASE("a video file gives the same lines as its decoded frames in a folder") {
+  const fs::path dir = fresh("classify_video");
+  const fs::path video = dir / "clip.avi";
+  {
+    cv::VideoWriter w(video.string(), cv::CAP_OPENCV_MJPEG,
+                      cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 10.0, {160, 120});
+    REQUIRE(w.isOpened());
+    for (int k = 0; k < 5; ++k) w.write(frame(k));
+  }
+  // The frames as ss_classify's reader decodes them, written losslessly to a folder.
+  cv::VideoCapture cap(video.string());
+  REQUIRE(cap.isOpened());
+  fs::create_directories(dir / "frames");
+  int n = 0;
+  for (cv::Mat f; cap.read(f) && !f.empty(); ++n)
+    cv::imwrite((dir / "frames" / numbered("f", n)).string(), f);
+  REQUIRE(n == 5);
+  const auto from_video = lines(run(quote(video.string())).out);
+  const auto from_folder = lines(run(quote((dir / "frames").string())).out);
+  REQUIRE(from_video.size() == 6);
+  REQUIRE(from_folder.size() == 6);
+  CHECK(from_video[0] == from_folder[0]);
+  for (std::size_t i = 1; i < 6; ++i) {
+    // Same frame number, dark flag, label and probabilities; only the source differs.
+    const auto tail = [](const std::string& l) {
+      const auto a = l.find(',');
+      return l.substr(0, a) + l.substr(l.find(',', a + 1));
+    };
+    CHECK(tail(from_video[i]) == tail(from_folder[i]));
+    CHECK(from_video[i].find(video.string() + "#" + std::to_string(i - 1)) != std::string::npos);
+  }
+  const auto truth = run("--truth " + quote(video.string()));
+  CHECK(truth.status == 2);
+  CHECK(truth.err.find("--truth needs a folder of images") != std::string::npos);
+}
+#endif
+
+#else
+TEST_CASE("ss_classify is not built (SHADOWSENSE_BUILD_EXAMPLES=OFF): nothing to test") {}
+#endif

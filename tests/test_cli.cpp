@@ -1,0 +1,355 @@
+// The programs' shared command line (examples/common/cli.hpp), JSON writer (json.hpp) and atomic
+// file replacement (atomic_file.hpp).
+#include <doctest/doctest.h>
+
+#include "common/atomic_file.hpp"
+#include "common/cli.hpp"
+#include "common/json.hpp"
+
+#include <csignal>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/resource.h>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Parses `args` (without the program name) with the options every test declares.
+struct Fixture {
+  std::string out;
+  fs::path model = "models/default.ssm";
+  int users = 4;
+  std::uint64_t seed = 1;
+  unsigned frames = 20;
+  double level = 0.5;
+  bool overwrite = false, normalise = true;
+  std::string mode = "relative";
+  std::vector<int> tables{1, 2, 3, 4};
+  std::vector<std::string> speed, images;
+  cli::Parser p{"ss_test", "Tests the parser."};
+  std::ostringstream printed;
+
+  Fixture() {
+    p.option("--out", "DIR", "output folder", out).required();
+    p.option("--model", "PATH", "model file", model);
+    p.option("--users", "N", "number of users", users).range(1, 1000);
+    p.option("--seed", "S", "random seed", seed);
+    p.option("--frames", "F", "frames per gesture", frames);
+    p.option("--lighting-level", "L", "light level", level).range(0.0, 1.0);
+    p.option("--mode", "M", "thresholds", mode).choices({"relative", "fixed_ranges"});
+    p.flag("--overwrite", "replace an existing folder", overwrite);
+    p.flag("--no-lighting-normalise", "paper preprocessing", normalise, false);
+    p.list("--tables", "LIST", "tables to compute", tables).range(1, 4);
+    p.repeated("--speed", "MODEL[@WxH]", "time a model", speed);
+  }
+  void parse(std::vector<const char*> args) {
+    args.insert(args.begin(), "ss_test");
+    p.parse(static_cast<int>(args.size()), args.data(), printed);
+  }
+  // The UsageError message of parsing `args`, or "" if it parsed.
+  std::string error(std::vector<const char*> args) {
+    try {
+      parse(std::move(args));
+    } catch (const cli::UsageError& e) {
+      return e.what();
+    }
+    return "";
+  }
+};
+
+std::string read(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+} // namespace
+
+TEST_CASE("values in both forms, defaults kept, flags, lists and repeated options") {
+  Fixture f;
+  f.parse({"--out", "data", "--users=7", "--seed", "18446744073709551615", "--lighting-level", "0",
+           "--overwrite", "--no-lighting-normalise", "--tables", "3,1", "--tables=4", "--speed",
+           "a,b.ssm", "--speed=c.ssm@80x44", "--mode=fixed_ranges"});
+  CHECK(f.out == "data");
+  CHECK(f.users == 7);
+  CHECK(f.seed == 18446744073709551615ull);
+  CHECK(f.level == 0.0);
+  CHECK(f.overwrite);
+  CHECK_FALSE(f.normalise);
+  CHECK(f.tables == std::vector<int>{3, 1, 4});
+  CHECK(f.speed == std::vector<std::string>{"a,b.ssm", "c.ssm@80x44"});
+  CHECK(f.mode == "fixed_ranges");
+  CHECK(f.model == fs::path("models/default.ssm")); // untouched default
+  CHECK(f.frames == 20u);
+  CHECK(f.p.given("--users"));
+  CHECK_FALSE(f.p.given("--model"));
+  CHECK(f.printed.str().empty());
+
+  Fixture g; // a value may start with '-' and may be empty after '='
+  g.parse({"--out=", "--lighting-level", "1"});
+  CHECK(g.out.empty());
+  CHECK(g.level == 1.0);
+}
+
+TEST_CASE("--help and --version print on the given stream and exit 0") {
+  Fixture f;
+  try {
+    f.parse({"--users", "2", "--help"});
+    FAIL("no Exit");
+  } catch (const cli::Exit& e) {
+    CHECK(e.code == 0);
+  }
+  const std::string h = f.printed.str();
+  CHECK(h.starts_with("usage: ss_test [options]\n\nTests the parser.\n"));
+  CHECK(h.find(
+            "  --users N                 number of users (an integer in [1, 1000]; default 4)\n") !=
+        std::string::npos);
+  CHECK(h.find("\n  --out DIR                 output folder (required)\n") != std::string::npos);
+  CHECK(h.find("\n  --lighting-level L        light level (a number in [0, 1]; default 0.5)\n") !=
+        std::string::npos);
+  CHECK(h.find("(one of relative, fixed_ranges; default relative)") != std::string::npos);
+  CHECK(
+      h.find(
+          "  --tables LIST             tables to compute (a comma-separated list, each an integer "
+          "in [1, 4];\n                            default 1,2,3,4)\n") != std::string::npos);
+  CHECK(h.find("  --speed MODEL[@WxH]       time a model (may be repeated)\n") !=
+        std::string::npos);
+  CHECK(h.find("  --no-lighting-normalise   paper preprocessing\n") != std::string::npos);
+  CHECK(h.find("--help") != std::string::npos);
+
+  Fixture v;
+  try {
+    v.parse({"--version"});
+    FAIL("no Exit");
+  } catch (const cli::Exit& e) {
+    CHECK(e.code == 0);
+  }
+  CHECK(v.printed.str() ==
+        std::string("ss_test shadowsense ") + shadowsense::version_string + "\n");
+  Fixture s;
+  CHECK_THROWS_AS(s.parse({"-h"}), cli::Exit);
+}
+
+TEST_CASE("strict numbers: the whole text, the type's range and the option's range") {
+  const auto err = [](std::vector<const char*> args) {
+    Fixture f;
+    args.insert(args.begin(), {"--out", "x"});
+    return f.error(std::move(args));
+  };
+  CHECK(err({"--users", "2.9"}) == "--users: expected an integer in [1, 1000], got '2.9'");
+  CHECK(err({"--users", "abc"}) == "--users: expected an integer in [1, 1000], got 'abc'");
+  CHECK(err({"--users", "1e12"}) == "--users: expected an integer in [1, 1000], got '1e12'");
+  CHECK(err({"--users", "99999999999"}) ==
+        "--users: expected an integer in [1, 1000], got '99999999999'");
+  CHECK(err({"--users", "0"}) == "--users: expected an integer in [1, 1000], got '0'");
+  CHECK(err({"--users", "1001"}) == "--users: expected an integer in [1, 1000], got '1001'");
+  CHECK(err({"--users", " 5"}) == "--users: expected an integer in [1, 1000], got ' 5'");
+  CHECK(err({"--users", "5 "}) == "--users: expected an integer in [1, 1000], got '5 '");
+  CHECK(err({"--users", "+5"}) == "--users: expected an integer in [1, 1000], got '+5'");
+  CHECK(err({"--users="}) == "--users: expected an integer in [1, 1000], got ''");
+  CHECK(err({"--seed", "-1"}) == "--seed: expected a non-negative integer, got '-1'");
+  CHECK(err({"--seed", "18446744073709551616"}) ==
+        "--seed: expected a non-negative integer, got '18446744073709551616'");
+  CHECK(err({"--frames", "4294967296"}) ==
+        "--frames: expected a non-negative integer, got '4294967296'");
+  CHECK(err({"--lighting-level", "nan"}) ==
+        "--lighting-level: expected a number in [0, 1], got 'nan'");
+  CHECK(err({"--lighting-level", "inf"}) ==
+        "--lighting-level: expected a number in [0, 1], got 'inf'");
+  CHECK(err({"--lighting-level", "1.0000001"}) ==
+        "--lighting-level: expected a number in [0, 1], got '1.0000001'");
+  CHECK(err({"--lighting-level", "0.5x"}) ==
+        "--lighting-level: expected a number in [0, 1], got '0.5x'");
+  CHECK(err({"--mode", "fixed"}) == "--mode: expected one of relative, fixed_ranges, got 'fixed'");
+  CHECK(err({"--tables", "1,5"}) == "--tables: expected an integer in [1, 4], got '5'");
+  CHECK(err({"--tables", "1,,2"}) ==
+        "--tables: empty item in '1,,2' (expected an integer in [1, 4] per item)");
+  CHECK(err({"--tables", "2,"}) ==
+        "--tables: empty item in '2,' (expected an integer in [1, 4] per item)");
+}
+
+TEST_CASE("unknown, repeated, valueless and missing options") {
+  Fixture f;
+  CHECK(f.error({"--out", "x", "--bogus"}) == "unknown option '--bogus' (see --help)");
+  Fixture g;
+  CHECK(g.error({"--out", "x", "--bogus=1"}) == "unknown option '--bogus' (see --help)");
+  Fixture h;
+  CHECK(h.error({"--out", "x", "--users"}) ==
+        "--users: missing value (expected N, an integer in [1, 1000])");
+  Fixture i;
+  CHECK(i.error({"--users", "3"}) == "missing required option --out DIR");
+  Fixture n;
+  CHECK(n.error({"--out"}) == "--out: missing value (expected DIR)");
+  Fixture j;
+  CHECK(j.error({"--out", "x", "--out", "y"}) == "--out: given more than once");
+  Fixture k;
+  CHECK(k.error({"--out", "x", "--overwrite=yes"}) == "--overwrite: takes no value");
+  Fixture l;
+  CHECK(l.error({"--out", "x", "stray"}) == "unexpected argument 'stray'");
+  Fixture m;
+  CHECK(m.error({"--out", "x", "-u"}) == "unknown option '-u' (see --help)");
+}
+
+TEST_CASE("positional arguments when declared") {
+  Fixture f;
+  f.p.positional("IMAGE", "images to classify", f.images);
+  f.parse({"a.png", "--out", "x", "b.png", "-"});
+  CHECK(f.images == std::vector<std::string>{"a.png", "b.png", "-"});
+  CHECK(f.p.help().starts_with("usage: ss_test [options] IMAGE...\n"));
+}
+
+TEST_CASE("declaring a bad option is a programming error") {
+  cli::Parser p("ss_test", "x");
+  int n = 0;
+  bool b = false;
+  p.option("--n", "N", "n", n);
+  CHECK_THROWS_AS(p.option("--n", "N", "again", n), shadowsense::InvalidArgument);
+  CHECK_THROWS_AS(p.option("-n", "N", "single dash", n), shadowsense::InvalidArgument);
+  CHECK_THROWS_AS(p.flag("--help", "reserved", b), shadowsense::InvalidArgument);
+  CHECK_THROWS_AS(p.option("--m", "M", "m", n).range(2, 1), shadowsense::InvalidArgument);
+}
+
+TEST_CASE("run(): exit codes and one error line") {
+  CHECK(cli::run("ss_test", [] { return 0; }) == 0);
+  CHECK(cli::run("ss_test", [] { return 3; }) == 3);
+  CHECK(cli::run("ss_test", []() -> int { throw cli::Exit{0}; }) == 0);
+  std::ostringstream err;
+  auto* old = std::cerr.rdbuf(err.rdbuf());
+  const int a = cli::run("ss_test", []() -> int { throw cli::UsageError("--x: bad"); });
+  const int b = cli::run("ss_test", []() -> int { throw shadowsense::IoError("line\nbreak"); });
+  std::cerr.rdbuf(old);
+  CHECK(a == 2);
+  CHECK(b == 2);
+  CHECK(err.str() == "ss_test: error: --x: bad\nss_test: error: line break\n");
+}
+
+TEST_CASE("JSON: nesting, commas, layouts and exact numbers") {
+  cli::JsonWriter j;
+  j.begin_object();
+  j.field("n", 3).field("u", std::uint64_t{18446744073709551615ull}).field("neg", -2);
+  j.field("x", 0.1).field("tiny", 1e-300).field("f", 0.5f).field("yes", true);
+  j.key("none").value(nullptr);
+  j.key("list").begin_array(cli::JsonWriter::compact).value(1).value(2.5);
+  j.begin_array().value("a").end_array().end_array();
+  j.key("empty").begin_object().end_object();
+  j.key("rows").begin_array().begin_object(cli::JsonWriter::compact).field("k", "v").end_object();
+  j.end_array();
+  j.end_object();
+  CHECK(j.str() == "{\n"
+                   "  \"n\": 3,\n"
+                   "  \"u\": 18446744073709551615,\n"
+                   "  \"neg\": -2,\n"
+                   "  \"x\": 0.1,\n"
+                   "  \"tiny\": 1e-300,\n"
+                   "  \"f\": 0.5,\n"
+                   "  \"yes\": true,\n"
+                   "  \"none\": null,\n"
+                   "  \"list\": [1, 2.5, [\"a\"]],\n"
+                   "  \"empty\": {},\n"
+                   "  \"rows\": [\n"
+                   "    {\"k\": \"v\"}\n"
+                   "  ]\n"
+                   "}");
+}
+
+TEST_CASE("JSON strings: escapes and UTF-8") {
+  const auto json = [](std::string_view s) {
+    cli::JsonWriter j;
+    j.value(s);
+    return j.str();
+  };
+  CHECK(json("plain") == "\"plain\"");
+  CHECK(json("a\"b\\c/d") == "\"a\\\"b\\\\c/d\"");
+  CHECK(json("\n\t\r\b\f") == "\"\\n\\t\\r\\u0008\\u000c\"");
+  CHECK(json(std::string_view("\0\x1f\x7f", 3)) == "\"\\u0000\\u001f\\u007f\"");
+  CHECK(json("caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x91\x8b") ==
+        "\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x91\x8b\"");
+  CHECK(json("bad \xff end") == "\"bad \\ufffd end\"");
+  CHECK(json("cut \xe2\x82") == "\"cut \\ufffd\\ufffd\"");
+  CHECK(json("overlong \xc0\xaf") == "\"overlong \\ufffd\\ufffd\"");
+  CHECK(json("surrogate \xed\xa0\x80") == "\"surrogate \\ufffd\\ufffd\\ufffd\"");
+  CHECK(json("too big \xf4\x90\x80\x80") == "\"too big \\ufffd\\ufffd\\ufffd\\ufffd\"");
+}
+
+TEST_CASE("JSON: non-finite numbers and misuse are errors") {
+  cli::JsonWriter j;
+  j.begin_object();
+  CHECK_THROWS_WITH_AS(j.field("accuracy", std::nan("")),
+                       "JSON output: the value of \"accuracy\" is nan; expected a finite number",
+                       shadowsense::InvalidArgument);
+  cli::JsonWriter k;
+  k.begin_array();
+  CHECK_THROWS_AS(k.value(std::numeric_limits<double>::infinity()), shadowsense::InvalidArgument);
+  CHECK_THROWS_AS(k.key("x"), std::logic_error);
+  CHECK_THROWS_AS(k.end_object(), std::logic_error);
+  CHECK_THROWS_AS(k.str(), std::logic_error); // incomplete
+  k.end_array();
+  CHECK(k.str() == "[]");
+  CHECK_THROWS_AS(k.value(1), std::logic_error); // a second document
+  cli::JsonWriter m;
+  m.begin_object();
+  CHECK_THROWS_AS(m.value(1), std::logic_error); // no key
+  m.key("a");
+  CHECK_THROWS_AS(m.end_object(), std::logic_error); // key without value
+}
+
+TEST_CASE("atomic write: replaces the file, checks every step, leaves no temporary file") {
+  const fs::path d = fresh_dir("cli_atomic");
+  const fs::path target = d / "score.json";
+  cli::write_file_atomically(target, "first");
+  CHECK(read(target) == "first");
+  cli::write_file_atomically(target, "second, longer content");
+  CHECK(read(target) == "second, longer content");
+  cli::write_file_atomically(target, "");
+  CHECK(read(target).empty());
+  cli::write_file_atomically(target, "good");
+
+  // The target is a folder: rename fails, the folder and the temporary file are handled.
+  fs::create_directories(d / "folder" / "inside");
+  CHECK_THROWS_AS(cli::write_file_atomically(d / "folder", "x"), shadowsense::IoError);
+  CHECK(fs::is_directory(d / "folder" / "inside"));
+  // The folder does not exist.
+  CHECK_THROWS_AS(cli::write_file_atomically(d / "missing" / "f.json", "x"), shadowsense::IoError);
+  // A write that fails part-way (the file-size limit stands in for a full disk): the old file
+  // stays as it was and the error names the file.
+  {
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit old_limit{};
+    REQUIRE(getrlimit(RLIMIT_FSIZE, &old_limit) == 0);
+    rlimit small = old_limit;
+    small.rlim_cur = 1000;
+    REQUIRE(setrlimit(RLIMIT_FSIZE, &small) == 0);
+    std::string message;
+    try {
+      cli::write_file_atomically(target, std::string(5000, 'x'));
+    } catch (const shadowsense::IoError& e) {
+      message = e.what();
+    }
+    REQUIRE(setrlimit(RLIMIT_FSIZE, &old_limit) == 0);
+    std::signal(SIGXFSZ, old_handler);
+    CHECK(message.starts_with("cannot write '" + target.string() +
+                              "': write failed after 1000 of 5000 bytes: "));
+  }
+  CHECK(read(target) == "good");
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"folder", "score.json"});
+
+  cli::JsonWriter j;
+  j.begin_array(cli::JsonWriter::compact).value("a\"b").end_array();
+  j.save(target);
+  CHECK(read(target) == "[\"a\\\"b\"]\n");
+}

@@ -1,0 +1,196 @@
+// Every GEMM micro-kernel and element-wise loop set this CPU runs (AVX-512, AVX2+FMA, NEON,
+// portable) against the reference kernel (plain loops, double accumulation), and the DenseNet
+// forward pass per kernel on the committed fixtures against torchvision's logits embedded in
+// them. Needs only the DenseNet headers and doctest (no OpenCV, no Python), so it also runs
+// cross-compiled for aarch64 under qemu-user (.ci/steps/50_aarch64.sh).
+#include <shadowsense/backends/densenet/densenet.hpp>
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cfloat>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+using namespace shadowsense;
+
+namespace {
+
+std::vector<detail::MicroKernel> kernels_under_test() {
+  std::vector<detail::MicroKernel> out;
+  for (auto k : detail::available_kernels())
+    if (k != GemmKernelKind::reference) out.push_back(detail::select_micro_kernel(k));
+  return out;
+}
+
+// The reference kernel at any tile size (it is a template; the dispatch uses 4 x 8).
+void reference_tile(int mr, int nr, int K, const float* a, const float* b, float* out) {
+  for (int r = 0; r < mr; ++r)
+    for (int j = 0; j < nr; ++j) {
+      double acc = 0;
+      for (int k = 0; k < K; ++k) acc += double(a[k * mr + r]) * double(b[k * nr + j]);
+      out[r * nr + j] = static_cast<float>(acc);
+    }
+}
+
+} // namespace
+
+TEST_CASE("the automatic kernel is the CPU's SIMD kernel: NEON on aarch64") {
+  const auto k = detail::select_micro_kernel(GemmKernelKind::automatic);
+  MESSAGE("automatic kernel: ", std::string(k.name));
+#if defined(__aarch64__)
+  CHECK(k.kind == GemmKernelKind::neon);
+  CHECK(std::string(k.name) == "neon");
+#elif SHADOWSENSE_X86_KERNELS
+  CHECK_FALSE(detail::cpu_has(GemmKernelKind::neon));
+  CHECK_THROWS_WITH_AS(detail::select_micro_kernel(GemmKernelKind::neon),
+                       doctest::Contains("not supported"), InvalidArgument);
+#endif
+  CHECK(detail::available_kernels().back() == GemmKernelKind::reference);
+  CHECK(detail::cpu_has(GemmKernelKind::portable));
+}
+
+TEST_CASE("micro-kernels equal the reference within the float dot-product error bound") {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
+  for (const auto& mk : kernels_under_test()) {
+    const std::string name = mk.name;
+    CAPTURE(name);
+    for (int K : {1, 2, 7, 147, 1152}) {
+      CAPTURE(K);
+      std::vector<float> a(static_cast<std::size_t>(K) * mk.mr),
+          b(static_cast<std::size_t>(K) * mk.nr);
+      for (auto& v : a) v = ud(rng);
+      for (auto& v : b) v = ud(rng);
+      std::vector<float> got(static_cast<std::size_t>(mk.mr) * mk.nr, -1.0f), ref(got.size());
+      mk.fn(K, a.data(), b.data(), got.data());
+      reference_tile(mk.mr, mk.nr, K, a.data(), b.data(), ref.data());
+      for (int r = 0; r < mk.mr; ++r)
+        for (int j = 0; j < mk.nr; ++j) {
+          double abs_sum = 0; // sum |a b|: the float error of a K-term sum is below K eps times it
+          for (int k = 0; k < K; ++k)
+            abs_sum += std::abs(double(a[k * mk.mr + r]) * double(b[k * mk.nr + j]));
+          const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
+          CAPTURE(r);
+          CAPTURE(j);
+          CHECK(std::abs(double(got[i]) - double(ref[i])) <=
+                (K + 1) * double(FLT_EPSILON) * abs_sum);
+        }
+    }
+  }
+}
+
+TEST_CASE("micro-kernels: K = 0 gives zeros, NaN and Inf propagate") {
+  for (const auto& mk : kernels_under_test()) {
+    const std::string name = mk.name;
+    CAPTURE(name);
+    std::vector<float> out(static_cast<std::size_t>(mk.mr) * mk.nr, 5.0f);
+    mk.fn(0, nullptr, nullptr, out.data());
+    for (float v : out) CHECK(v == 0.0f);
+    const int K = 3;
+    std::vector<float> a(static_cast<std::size_t>(K) * mk.mr, 1.0f),
+        b(static_cast<std::size_t>(K) * mk.nr, 1.0f);
+    a[1] = std::numeric_limits<float>::quiet_NaN(); // row 1, k = 0
+    b[static_cast<std::size_t>(mk.nr) + 2] =
+        std::numeric_limits<float>::infinity(); // column 2, k = 1
+    mk.fn(K, a.data(), b.data(), out.data());
+    for (int r = 0; r < mk.mr; ++r)
+      for (int j = 0; j < mk.nr; ++j) {
+        const float v = out[static_cast<std::size_t>(r) * mk.nr + j];
+        CAPTURE(r);
+        CAPTURE(j);
+        if (r == 1)
+          CHECK(std::isnan(v));
+        else if (j == 2)
+          CHECK(std::isinf(v));
+        else
+          CHECK(v == 3.0f);
+      }
+  }
+}
+
+TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmetic to 1 ulp)") {
+  const auto ref = detail::select_vector_ops(GemmKernelKind::reference);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> ud(-3.0f, 3.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (auto kind : detail::available_kernels()) {
+    const auto ops = detail::select_vector_ops(kind);
+    const std::string name = detail::select_micro_kernel(kind).name;
+    CAPTURE(name);
+    for (int n : {0, 1, 3, 4, 5, 8, 15, 16, 17, 33, 64}) {
+      CAPTURE(n);
+      std::vector<float> s(static_cast<std::size_t>(4 * n + 200));
+      for (auto& v : s) v = ud(rng);
+      if (n > 2) s[2] = nan;
+      const float sc = 0.7f, sh = -0.3f;
+      // Each value is x * sc + sh (one product and one sum, fused or not) then ReLU: within 1
+      // ulp of the scale of its terms.
+      auto close = [](float got, float want, float scale) {
+        if (std::isnan(want)) return std::isnan(got);
+        return std::abs(double(got) - double(want)) <= 2.0 * FLT_EPSILON * scale;
+      };
+      std::vector<float> d(static_cast<std::size_t>(n) + 8, 9.0f), e(d);
+      ops.affine_relu(s.data(), d.data(), n, sc, sh);
+      ref.affine_relu(s.data(), e.data(), n, sc, sh);
+      for (int i = 0; i < n; ++i) CHECK(close(d[i], e[i], std::abs(s[i] * sc) + std::abs(sh)));
+      CHECK(d[n] == 9.0f); // nothing written past n
+      ops.bias_relu(s.data(), d.data(), n, sh);
+      ref.bias_relu(s.data(), e.data(), n, sh);
+      for (int i = 0; i < n; ++i) CHECK((d[i] == e[i] || (std::isnan(d[i]) && std::isnan(e[i]))));
+      if (n > 2) CHECK(std::isnan(d[2])); // ReLU propagates NaN
+      ops.pool_affine_relu(s.data(), s.data() + 2 * n + 7, d.data(), n, sc, sh);
+      ref.pool_affine_relu(s.data(), s.data() + 2 * n + 7, e.data(), n, sc, sh);
+      for (int i = 0; i < n; ++i) {
+        float scale = 0;
+        for (int q : {2 * i, 2 * i + 1, 2 * n + 7 + 2 * i, 2 * n + 8 + 2 * i})
+          scale += std::abs(s[static_cast<std::size_t>(q)] * sc) + std::abs(sh);
+        CHECK(close(d[i], e[i], scale));
+      }
+      const int nr = 24, pw = n + 2;
+      if (n <= nr) {
+        std::vector<float> p(9 * nr, 9.0f), q(9 * nr, 8.0f);
+        std::vector<float> grid(static_cast<std::size_t>(3 * pw + nr + 2));
+        for (auto& v : grid) v = ud(rng);
+        ops.pack3x3(grid.data(), p.data(), n, nr, pw);
+        ref.pack3x3(grid.data(), q.data(), n, nr, pw);
+        CHECK(p == q);
+      }
+    }
+  }
+}
+
+TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision and the reference") {
+  for (const std::string file : {"densenet_tiny.ssdn", "densenet_tiny_extreme_bn.ssdn"}) {
+    CAPTURE(file);
+    const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/" + file);
+    REQUIRE(m.self_test.has_value());
+    const auto& st = *m.self_test;
+    DenseNet reference(m, {.kernel = GemmKernelKind::reference, .run_self_test = false});
+    const std::vector<float> ref(reference.logits(st.input).begin(),
+                                 reference.logits(st.input).end());
+    for (auto kind : detail::available_kernels())
+      for (int threads : {1, 2}) {
+        DenseNet net(m, {.threads = threads, .kernel = kind, .run_self_test = false});
+        const std::string name = net.kernel_name();
+        CAPTURE(name);
+        CAPTURE(threads);
+        const auto got = net.logits(st.input);
+        REQUIRE(got.size() == st.logits.size());
+        double vs_torch = 0, vs_ref = 0;
+        for (std::size_t i = 0; i < got.size(); ++i) {
+          const double t = st.logits[i], d = std::abs(double(got[i]) - t);
+          vs_torch = std::max(vs_torch, d);
+          vs_ref = std::max(vs_ref, std::abs(double(got[i]) - double(ref[i])));
+          CAPTURE(i);
+          CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
+          CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
+        }
+        MESSAGE(file, " ", name, " threads=", threads, ": max abs diff vs torchvision ", vs_torch,
+                ", vs reference kernel ", vs_ref);
+      }
+  }
+}

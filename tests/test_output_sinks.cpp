@@ -1,0 +1,184 @@
+// Event sinks: the CSV and JSON-lines text exactly, quoting and escaping, stream failures, a
+// user-defined sink through publish(), and OutputFrameBuilder on a TouchPipeline-shaped frame.
+#include <shadowsense/output/csv_sink.hpp>
+#include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/output/json_lines_sink.hpp>
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace shadowsense;
+
+namespace {
+// Two events of one frame: track 3 starts touching (no position on appear), track 4 moves left.
+OutputFrame sample_frame() {
+  OutputFrame f;
+  f.frame_index = 12;
+  f.timestamp_ms = 396.5;
+  f.frame_size = {200, 100};
+  f.events.push_back(
+      {3, TouchEvent{396.5, TouchState::none, TouchState::appear, Direction::none, std::nullopt}});
+  f.events.push_back({4, TouchEvent{396.5, TouchState::touch, TouchState::move, Direction::left,
+                                    cv::Point2f(101.5f, 0.1f)}});
+  return f;
+}
+
+// The TouchPipeline's per-frame result has this shape (sense/touch_pipeline.hpp).
+struct PipelineTrack {
+  int id = 0;
+  bool matched = false;
+  cv::Rect shadow_box{};
+  cv::Point2f position{};
+  std::optional<cv::Point2f> contact{};
+  TouchState state = TouchState::none;
+};
+struct PipelineEvent {
+  int track_id = 0;
+  TouchEvent event{};
+};
+struct PipelineFrame {
+  double timestamp_ms = 0;
+  std::vector<PipelineTrack> tracks;
+  std::vector<PipelineEvent> events;
+};
+static_assert(TouchFrameLike<PipelineFrame>);
+
+// A user's own sink: counts events per frame.
+struct CountingSink {
+  std::vector<std::size_t> events_per_frame;
+  void write(const OutputFrame& f) { events_per_frame.push_back(f.events.size()); }
+};
+static_assert(EventSink<CountingSink>);
+static_assert(!EventSink<int>);
+} // namespace
+
+TEST_CASE("CsvSink writes a header and one row per event, exactly") {
+  std::ostringstream out;
+  CsvSink sink(out);
+  sink.write(sample_frame());
+  sink.write(OutputFrame{}); // no events: nothing
+  CHECK(out.str() == "source,frame,timestamp_ms,track_id,from,to,direction,x,y\n"
+                     ",12,396.5,3,none,appear,none,,\n"
+                     ",12,396.5,4,touch,move,left,101.5,0.1\n");
+}
+
+TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") {
+  std::ostringstream out;
+  CsvSink::Config config;
+  config.source = "run \"7\", cam,0";
+  config.header = false;
+  CsvSink sink(out, config);
+  OutputFrame f = sample_frame();
+  f.events.resize(1);
+  sink.write(f);
+  CHECK(out.str() == "\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,\n");
+  std::string field;
+  detail::append_csv_field(field, " lead");
+  CHECK(field == "\" lead\"");
+  field.clear();
+  detail::append_csv_field(field, "two\nlines");
+  CHECK(field == "\"two\nlines\"");
+  field.clear();
+  detail::append_csv_field(field, "plain");
+  CHECK(field == "plain");
+}
+
+TEST_CASE("JsonLinesSink writes one object per event per line, strings escaped") {
+  std::ostringstream out;
+  JsonLinesSink::Config config;
+  config.source = "a\"b\\c\n\x01";
+  JsonLinesSink sink(out, config);
+  sink.write(sample_frame());
+  CHECK(out.str() ==
+        "{\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
+        "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null}\n"
+        "{\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":4,"
+        "\"from\":\"touch\",\"to\":\"move\",\"direction\":\"left\",\"x\":101.5,\"y\":0.1}\n");
+  std::ostringstream plain;
+  JsonLinesSink no_source(plain);
+  OutputFrame f = sample_frame();
+  f.events.resize(1);
+  f.events[0].event.timestamp_ms = std::numeric_limits<double>::quiet_NaN();
+  no_source.write(f);
+  CHECK(plain.str() == "{\"frame\":12,\"timestamp_ms\":null,\"track_id\":3,\"from\":\"none\","
+                       "\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null}\n");
+}
+
+TEST_CASE("a failed stream is an IoError, at construction and on write") {
+  std::ostringstream bad;
+  bad.setstate(std::ios::badbit);
+  CHECK_THROWS_AS(CsvSink{bad}, IoError);
+  CHECK_THROWS_AS(JsonLinesSink{bad}, IoError);
+  std::ostringstream out;
+  CsvSink csv(out);
+  JsonLinesSink json(out);
+  out.setstate(std::ios::failbit);
+  CHECK_THROWS_WITH_AS(csv.write(sample_frame()), doctest::Contains("CsvSink: writing"), IoError);
+  CHECK_THROWS_WITH_AS(json.write(sample_frame()), doctest::Contains("JsonLinesSink: writing"),
+                       IoError);
+}
+
+TEST_CASE("publish() writes one frame to a user-defined sink and the library's sinks in order") {
+  CountingSink counter;
+  EventSinkArchetype archetype;
+  std::ostringstream out;
+  CsvSink::Config no_header;
+  no_header.header = false;
+  CsvSink csv(out, no_header);
+  publish(sample_frame(), counter, archetype, csv);
+  publish(OutputFrame{}, counter, csv);
+  CHECK(counter.events_per_frame == std::vector<std::size_t>{2, 0});
+  const std::string text = out.str();
+  CHECK(std::count(text.begin(), text.end(), '\n') == 2);
+  CHECK(text.rfind(",12,396.5,4,touch,move,left,101.5,0.1\n") == text.find('\n') + 1);
+}
+
+TEST_CASE("OutputFrameBuilder: contacts while touching (last point during the hysteresis), "
+          "shadows for every track, events copied, frame index counting from 1") {
+  OutputFrameBuilder builder;
+  PipelineFrame f;
+  f.timestamp_ms = 0;
+  f.tracks.push_back(
+      {1, true, cv::Rect(10, 10, 40, 30), {30, 25}, cv::Point2f(20, 15), TouchState::touch});
+  f.tracks.push_back(
+      {2, true, cv::Rect(100, 10, 20, 20), {110, 20}, std::nullopt, TouchState::appear});
+  f.events.push_back(
+      {1, TouchEvent{0, TouchState::none, TouchState::appear, Direction::none, std::nullopt}});
+  f.events.push_back({1, TouchEvent{0, TouchState::appear, TouchState::touch, Direction::none,
+                                    cv::Point2f(20, 15)}});
+  const OutputFrame& a = builder.build(f, {200, 100});
+  CHECK(a.frame_index == 1);
+  CHECK(a.frame_size == cv::Size(200, 100));
+  REQUIRE(a.contacts.size() == 1);
+  CHECK(a.contacts[0].id == 1);
+  CHECK(a.contacts[0].position == cv::Point2f(20, 15));
+  REQUIRE(a.shadows.size() == 2);
+  CHECK(a.shadows[1].id == 2);
+  CHECK(a.shadows[1].box == cv::Rect(100, 10, 20, 20));
+  REQUIRE(a.events.size() == 2);
+  CHECK(a.events[1].event.to == TouchState::touch);
+
+  // Contact lost for a frame but the machine still touches (hysteresis): the last point stays.
+  f.timestamp_ms = 33;
+  f.events.clear();
+  f.tracks[0].contact.reset();
+  const OutputFrame& b = builder.build(f, {200, 100});
+  CHECK(b.frame_index == 2);
+  REQUIRE(b.contacts.size() == 1);
+  CHECK(b.contacts[0].position == cv::Point2f(20, 15));
+  CHECK(b.events.empty());
+
+  // Lifted: no contact any more.
+  f.timestamp_ms = 200;
+  f.tracks[0].state = TouchState::lift;
+  const OutputFrame& c = builder.build(f, {200, 100});
+  CHECK(c.contacts.empty());
+  CHECK(c.shadows.size() == 2);
+  CHECK_THROWS_AS(builder.build(f, {0, 100}), InvalidArgument);
+}

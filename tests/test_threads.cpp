@@ -1,0 +1,164 @@
+// Threading contracts (issue 11): what must be safe (separate instances in separate threads
+// give exactly the single-thread results; atomic writes racing on one target), and the owner
+// check that turns a shared instance into a clear error. Also built and run under
+// ThreadSanitizer in CI (.ci/steps/tsan.sh), so keep it small.
+#include <shadowsense/core/atomic_file.hpp>
+#include <shadowsense/core/thread_owner.hpp>
+#include <shadowsense/eval.hpp>
+
+#include <doctest/doctest.h>
+
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <thread>
+#include <vector>
+
+using namespace shadowsense;
+namespace fs = std::filesystem;
+
+namespace {
+
+// A stateful type following the "one instance per thread" contract with the owner check.
+class Counter {
+public:
+  // Enters, then calls hold() while still inside (to make an overlap deterministic).
+  template <class F>
+  int bump(F hold) {
+    const auto guard = owner_.enter("Counter");
+    hold();
+    return ++value_;
+  }
+  int nested() {
+    const auto guard = owner_.enter("Counter");
+    return bump([] {});
+  }
+  bool busy() const { return owner_.owned(); }
+
+private:
+  ThreadOwner owner_;
+  int value_ = 0;
+};
+
+std::vector<cv::Mat> tracking_frames(int n) {
+  sim::Renderer renderer(sim::Rig::tracking_box());
+  std::vector<cv::Mat> frames;
+  for (int i = 0; i < n; ++i)
+    frames.push_back(sim::render_random_tracking_frame(
+                         renderer, sim::all_track_categories[static_cast<std::size_t>(i % 5)],
+                         1000 + static_cast<std::uint64_t>(i))
+                         .image.clone());
+  return frames;
+}
+
+bool same(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() &&
+         (a.empty() || cv::countNonZero(a != b) == 0);
+}
+
+} // namespace
+
+TEST_CASE("the owner check: a second thread inside the same instance gets ConcurrentUseError") {
+  Counter c;
+  std::atomic<int> stage{0};
+  std::thread a([&] {
+    c.bump([&] {
+      stage = 1;
+      while (stage.load() != 2) std::this_thread::yield();
+    });
+  });
+  while (stage.load() != 1) std::this_thread::yield();
+  CHECK(c.busy());
+  CHECK_THROWS_WITH_AS(c.bump([] {}),
+                       "Counter: one instance is used from two threads at once; this type is "
+                       "not internally synchronised: give each thread its own instance (or "
+                       "serialise the calls)",
+                       ConcurrentUseError);
+  stage = 2;
+  a.join();
+  CHECK_FALSE(c.busy());
+  // Calls that do not overlap are fine from any thread; nested calls from the owner too.
+  CHECK(c.bump([] {}) == 2);
+  std::thread b([&] { CHECK(c.nested() == 3); });
+  b.join();
+  CHECK_FALSE(c.busy());
+  // A copy is a new instance with its own owner.
+  Counter d = c;
+  CHECK_FALSE(d.busy());
+}
+
+TEST_CASE("Segmenter: two instances in two threads give the single-thread masks exactly") {
+  const std::vector<cv::Mat> frames = tracking_frames(6);
+  Segmenter::Config config;
+  auto run = [&](std::vector<Segmentation>& out) {
+    Segmenter s(config);
+    for (const cv::Mat& f : frames) out.push_back(s.segment(f));
+  };
+  std::vector<Segmentation> one, a, b;
+  run(one);
+  std::thread ta([&] { run(a); });
+  std::thread tb([&] { run(b); });
+  ta.join();
+  tb.join();
+  REQUIRE(a.size() == one.size());
+  REQUIRE(b.size() == one.size());
+  int shadow_pixels = 0;
+  for (std::size_t i = 0; i < one.size(); ++i) {
+    CAPTURE(i);
+    shadow_pixels += cv::countNonZero(one[i].shadow_mask);
+    CHECK(same(a[i].shadow_mask, one[i].shadow_mask));
+    CHECK(same(b[i].shadow_mask, one[i].shadow_mask));
+    CHECK(same(a[i].contact_mask, one[i].contact_mask));
+    CHECK(same(b[i].contact_mask, one[i].contact_mask));
+    CHECK(a[i].shadow_box == one[i].shadow_box);
+    CHECK(b[i].contact_box == one[i].contact_box);
+  }
+  CHECK(shadow_pixels > 0); // the frames really hold shadows
+}
+
+TEST_CASE("Classifier: two instances in two threads give the single-thread probabilities") {
+  const auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  std::vector<cv::Mat> frames;
+  cv::RNG rng(7);
+  for (int i = 0; i < 6; ++i) {
+    cv::Mat f(60, 80, CV_8UC3);
+    rng.fill(f, cv::RNG::UNIFORM, 0, 256);
+    frames.push_back(f);
+  }
+  auto run = [&](std::vector<std::vector<float>>& out) {
+    auto clf = make_densenet_classifier(model, {.threads = 1});
+    for (const cv::Mat& f : frames) out.push_back(clf.classify(f, false).probabilities);
+  };
+  std::vector<std::vector<float>> one, a, b;
+  run(one);
+  std::thread ta([&] { run(a); });
+  std::thread tb([&] { run(b); });
+  ta.join();
+  tb.join();
+  CHECK(a == one); // bit-identical: same code, same inputs, no shared state
+  CHECK(b == one);
+}
+
+TEST_CASE("atomic writes racing on one target: always one complete version, no temp files") {
+  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "threads" / "race";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path target = dir / "shared.txt";
+  auto content = [](int t) { return std::string(20000 + t, static_cast<char>('a' + t)); };
+  std::vector<std::thread> pool;
+  for (int t = 0; t < 4; ++t)
+    pool.emplace_back([&, t] {
+      for (int k = 0; k < 5; ++k) write_file_atomically(target, content(t), Sync::deferred);
+    });
+  for (auto& th : pool) th.join();
+  std::ifstream in(target, std::ios::binary);
+  const std::string got{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  bool matches_one = false;
+  for (int t = 0; t < 4; ++t) matches_one = matches_one || got == content(t);
+  CHECK(matches_one);
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
+  CHECK(files == 1);
+}
