@@ -193,7 +193,8 @@ TEST_CASE("one Classifier used from two threads at once throws instead of mixing
   std::thread first([&] { first_label = clf.classify(input).label; });
   while (!entered.load()) std::this_thread::yield();
   // The first call is inside the backend: a concurrent call is refused, naming the contract.
-  CHECK_THROWS_WITH_AS(clf.classify(input), doctest::Contains("one instance per thread"), Error);
+  CHECK_THROWS_WITH_AS(clf.classify(input), doctest::Contains("its own instance"),
+                       ConcurrentUseError);
   CHECK_THROWS_WITH_AS(clf.classify_batch(input), doctest::Contains("two threads at once"), Error);
   CHECK_THROWS_AS(clf.classify(cv::Mat(8, 8, CV_8UC3, cv::Scalar::all(9))), Error);
   release.store(true);

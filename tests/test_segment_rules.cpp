@@ -135,7 +135,8 @@ TEST_CASE("one Segmenter entered from two threads at once: the second gets a cle
   const cv::Mat img(32, 32, CV_8UC3, cv::Scalar::all(100));
   std::thread first([&] { seg.segment(img); });
   while (!inside.load()) std::this_thread::yield();
-  CHECK_THROWS_WITH_AS(seg.segment(img), doctest::Contains("two threads at once"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(seg.segment(img), doctest::Contains("two threads at once"),
+                       ConcurrentUseError);
   go.store(true);
   first.join();
   CHECK_NOTHROW(seg.segment(img)); // sequential use from another thread is fine

@@ -18,9 +18,9 @@
 //   throws: InvalidArgument for a bad frame or tensor; Error when the backend returns the
 //           wrong number of logits or NaN/Inf.
 // Threading: ONE INSTANCE PER THREAD. classify() reuses the encoder's buffers and the
-//   backend's; a cheap check (one atomic flag) throws Error when two threads call into the
-//   same instance at once, instead of returning another thread's probabilities. Movable
-//   (not while in use), not copyable.
+//   backend's; an owner check (core/thread_owner.hpp) throws ConcurrentUseError when two
+//   threads call into the same instance at once, instead of returning another thread's
+//   probabilities. Movable (not while in use), not copyable.
 #pragma once
 
 #include <shadowsense/classify/backend.hpp>
@@ -29,6 +29,7 @@
 #include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
+#include <shadowsense/core/thread_owner.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
@@ -43,38 +44,6 @@
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
-
-namespace detail {
-// Detects two threads inside one object at once: enter() sets a flag and throws if it was
-// already set; the returned guard clears it. Moving yields a fresh, unset flag.
-class ConcurrentUseCheck {
-public:
-  ConcurrentUseCheck() = default;
-  ConcurrentUseCheck(ConcurrentUseCheck&&) noexcept {}
-  ConcurrentUseCheck& operator=(ConcurrentUseCheck&&) noexcept { return *this; }
-
-  class Guard {
-  public:
-    explicit Guard(std::atomic<bool>& f) : f_(f) {}
-    Guard(const Guard&) = delete;
-    Guard& operator=(const Guard&) = delete;
-    ~Guard() { f_.store(false, std::memory_order_release); }
-
-  private:
-    std::atomic<bool>& f_;
-  };
-  [[nodiscard]] Guard enter(const char* who) {
-    if (busy_.exchange(true, std::memory_order_acquire))
-      throw Error(std::string(who) +
-                  ": called from two threads at once; an instance is not thread-safe, use one "
-                  "instance per thread");
-    return Guard(busy_);
-  }
-
-private:
-  std::atomic<bool> busy_{false};
-};
-} // namespace detail
 
 // Softmax through log-sum-exp in double: exp never overflows (logits of +-1e4 or more are
 // fine) and the probabilities sum to 1 up to rounding. Throws on NaN/Inf logits.
@@ -183,7 +152,7 @@ private:
   Backend backend_;
   FrameEncoder encoder_;
   Tensor input_;
-  detail::ConcurrentUseCheck busy_;
+  ThreadOwner busy_;
 };
 
 SHADOWSENSE_NAMESPACE_END

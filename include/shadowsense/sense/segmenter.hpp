@@ -40,17 +40,17 @@
 //             and the contact point.
 //   throws:   InvalidArgument for a bad image.
 // Threading: a Segmenter holds per-frame scratch and the model; use one instance per thread.
-// A cheap owner check (thread_owner.hpp) throws InvalidArgument when one instance is entered
-// from two threads at once (compiled out with SHADOWSENSE_NO_THREAD_CHECK). Copies are
+// A cheap owner check (core/thread_owner.hpp) throws ConcurrentUseError when one instance is
+// entered from two threads at once (compiled out with SHADOWSENSE_NO_THREAD_CHECK). Copies are
 // independent.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/image_check.hpp>
+#include <shadowsense/core/thread_owner.hpp>
 #include <shadowsense/sense/blobs.hpp>
 #include <shadowsense/sense/hover_height.hpp>
 #include <shadowsense/sense/pixel_rule.hpp>
-#include <shadowsense/sense/thread_owner.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -131,7 +131,7 @@ public:
   // and channel, the median over the frames of the frame over its reference (robust to a
   // passing shadow in one), then smoothed over Config::profile_smoothing px inside the skin.
   void set_empty_skin(const std::vector<cv::Mat>& empty_frames) {
-    detail::OwnerCheck::Scope scope(owner_, "Segmenter");
+    const auto guard = owner_.enter("Segmenter");
     detail::require(!empty_frames.empty(),
                     "Segmenter::set_empty_skin: no frames; expected at least one empty-skin frame");
     for (std::size_t i = 0; i < empty_frames.size(); ++i) {
@@ -172,7 +172,7 @@ public:
   // Sets the empty-skin model directly (CV_32FC3, 1 = lit skin at the reference brightness, as
   // returned by empty_skin_model(); smoothed here like set_empty_skin's).
   void set_empty_skin_profile(const cv::Mat& profile) {
-    detail::OwnerCheck::Scope scope(owner_, "Segmenter");
+    const auto guard = owner_.enter("Segmenter");
     detail::validate_empty_skin(profile, "Segmenter::set_empty_skin_profile");
     require_size(profile, "Segmenter::set_empty_skin_profile: the model");
     model_ = profile.clone();
@@ -222,7 +222,7 @@ public:
 
   // Segments one BGR frame into `out` (buffers reused across calls).
   void segment(const cv::Mat& bgr, Segmentation& out) {
-    detail::OwnerCheck::Scope scope(owner_, "Segmenter");
+    const auto guard = owner_.enter("Segmenter");
     require_colour_image(bgr, "Segmenter::segment: image");
     require_size(bgr, "Segmenter::segment: image");
     if (!profile_.empty())
@@ -499,7 +499,7 @@ private:
 
   Config config_;
   Rule rule_;
-  detail::OwnerCheck owner_;
+  ThreadOwner owner_;
   cv::Mat colour_blur_, blurred_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat model_;                         // the model as set (unsmoothed)

@@ -27,13 +27,13 @@
 //             reported (with those timestamps); then tracks and machines are cleared and the next
 //             update starts a new stream (track ids continue to grow; the segmenter keeps its
 //             model).
-// Threading: one instance per thread; an owner check (thread_owner.hpp) throws InvalidArgument
-// when one instance is used from two threads at once.
+// Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
+// ConcurrentUseError when one instance is used from two threads at once.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/core/thread_owner.hpp>
 #include <shadowsense/sense/segmenter.hpp>
-#include <shadowsense/sense/thread_owner.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
 
@@ -86,7 +86,7 @@ public:
   }
 
   const TouchFrame& update(const cv::Mat& frame, double timestamp_ms) {
-    detail::OwnerCheck::Scope scope(owner_, "TouchPipeline");
+    const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::update");
     segmenter_.segment(frame, seg_);
     result_ = {};
@@ -126,7 +126,7 @@ public:
   }
 
   const TouchFrame& flush(double timestamp_ms) {
-    detail::OwnerCheck::Scope scope(owner_, "TouchPipeline");
+    const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::flush");
     result_ = {};
     result_.timestamp_ms = timestamp_ms;
@@ -194,7 +194,7 @@ private:
   std::vector<Detection> detections_;
   TouchFrame result_;
   std::optional<double> last_t_;
-  detail::OwnerCheck owner_;
+  ThreadOwner owner_;
 };
 
 // The pipeline users have: with the Segmenter (calibrated rule).

@@ -31,13 +31,13 @@
 //    the direction with most votes; a tie in votes goes to the direction whose votes carry the
 //    larger summed displacement, then to the order right, left, front, back.
 //
-// Threading: one instance per thread; an owner check (thread_owner.hpp) throws InvalidArgument
-// when one instance is updated from two threads at once.
+// Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
+// ConcurrentUseError when one instance is updated from two threads at once.
 #pragma once
 
 #include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
-#include <shadowsense/sense/thread_owner.hpp>
+#include <shadowsense/core/thread_owner.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -133,7 +133,7 @@ public:
   // Throws InvalidArgument for a non-finite timestamp, one not greater than the previous one, or a
   // non-finite contact position.
   const std::vector<TouchEvent>& update(double timestamp_ms, const TouchObservation& obs) {
-    detail::OwnerCheck::Scope scope(owner_, "TouchStateMachine");
+    const auto guard = owner_.enter("TouchStateMachine");
     detail::require(std::isfinite(timestamp_ms), "TouchStateMachine::update: timestamp_ms is not "
                                                  "finite; expected a finite time in milliseconds");
     if (last_t_)
@@ -308,7 +308,7 @@ private:
   std::array<int, 4> votes_{};
   std::array<double, 4> vote_weight_{};
   std::vector<TouchEvent> events_;
-  detail::OwnerCheck owner_;
+  ThreadOwner owner_;
 };
 
 // Replays a whole sequence (one observation per timestamp) and returns the voted direction.

@@ -9,12 +9,12 @@
 //             not change its velocity (0.5 px of jitter over 0.1 ms would otherwise be 5 px/ms and
 //             throw the next prediction far outside the gate).
 //   throws:   InvalidArgument.
-// Threading: one instance per thread; an owner check (thread_owner.hpp) throws InvalidArgument
-// when one instance is updated from two threads at once.
+// Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
+// ConcurrentUseError when one instance is updated from two threads at once.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
-#include <shadowsense/sense/thread_owner.hpp>
+#include <shadowsense/core/thread_owner.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -74,7 +74,7 @@ public:
   // or coasting), ordered by id. Unmatched detections start new tracks. Throws InvalidArgument for
   // a non-finite or non-increasing timestamp or a non-finite detection position.
   const std::vector<Track>& update(std::span<const Detection> detections, double timestamp_ms) {
-    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    const auto guard = owner_.enter("ContactTracker");
     detail::require(std::isfinite(timestamp_ms),
                     "ContactTracker::update: timestamp_ms is not finite");
     if (last_t_)
@@ -163,13 +163,13 @@ public:
   // Drops every track and forgets the previous timestamp (a new stream) but keeps the ids
   // growing, so an id is never reused.
   void clear_tracks() {
-    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    const auto guard = owner_.enter("ContactTracker");
     tracks_.clear();
     last_t_.reset();
   }
   // Back to the initial state (ids start at 1 again).
   void reset() {
-    detail::OwnerCheck::Scope scope(owner_, "ContactTracker");
+    const auto guard = owner_.enter("ContactTracker");
     tracks_.clear();
     last_t_.reset();
     next_id_ = 1;
@@ -187,7 +187,7 @@ private:
   std::vector<unsigned char> det_used_;
   std::optional<double> last_t_;
   int next_id_ = 1;
-  detail::OwnerCheck owner_;
+  ThreadOwner owner_;
 };
 
 SHADOWSENSE_NAMESPACE_END
