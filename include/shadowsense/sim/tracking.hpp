@@ -53,11 +53,11 @@ inline TrackCategory track_category_from_string(std::string_view s) {
 }
 
 // The dataset format's slide gesture label (io/labels.hpp).
-using shadowsense::slide_gesture_from_string;
-using shadowsense::SlideGesture;
 using shadowsense::all_directions;
 using shadowsense::Direction;
 using shadowsense::movement_direction_from_string;
+using shadowsense::slide_gesture_from_string;
+using shadowsense::SlideGesture;
 using shadowsense::to_string;
 
 // Unit vector of a direction in image axes (x right, y down): front = up = -y.
