@@ -12,7 +12,6 @@
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/train.hpp>
 
-#include "common/atomic_file.hpp"
 #include "common/cli.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -298,7 +297,7 @@ int main(int argc, char** argv) {
           r.scene != "nothing near")
         shots.push_back(annotated_shot(frame, seg, tracks, r, fsm.state()));
     }
-    cli::write_file_atomically(out / "events.csv", csv.str());
+    ss::write_file_atomically(out / "events.csv", csv.str());
     const fs::path strip_path = out / "demo_strip.png";
     write_strip(shots, strip_path);
     const double secs =

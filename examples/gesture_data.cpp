@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> levels{"daylight", "dusk", "night"};
     int users = 4, first_user = 0, frames = 20;
     std::uint64_t seed = 1;
-    bool randomise = false;
+    bool randomise = false, overwrite = false;
     cli::Parser p("ss_gesture_data",
                   "Writes a gesture-classification dataset (six classes on the robot rig): "
                   "DIR/<class>/<session>_<frame>.png and DIR/metadata.csv.");
@@ -64,14 +64,19 @@ int main(int argc, char** argv) {
     p.option("--seed", "S", "random seed", seed).range(0, std::uint64_t{1} << 30);
     p.flag("--randomise", "domain randomisation (fabric, light, camera, lens, noise, body)",
            randomise);
+    p.flag("--overwrite", "write into a non-empty folder (its old metadata.csv goes first)",
+           overwrite);
     p.parse(argc, argv);
     for (const auto& l : levels) level_of(l); // check every lighting before writing anything
+    // A new or empty folder, or --overwrite: then the old metadata.csv is removed before any
+    // frame is written, so the folder never pairs an old csv with new frames.
+    ss::sim::internal::prepare_output(out, overwrite, {"metadata.csv"});
     fs::create_directories(out);
     for (auto g : ss::sim::all_gestures)
       fs::create_directories(fs::path(out) / ss::sim::to_string(g));
-    const fs::path csv_tmp = fs::path(out) / "metadata.csv.tmp";
-    std::ofstream csv(csv_tmp);
-    if (!csv) throw ss::IoError("cannot write " + csv_tmp.string());
+    // The csv is written last and atomically: the dataset is complete exactly when it exists.
+    ss::AtomicFileWriter csv_file(fs::path(out) / "metadata.csv");
+    std::ostream& csv = csv_file.stream();
     csv << "file_name,class,user,lighting,lighting_level,session,frame_index,timestamp_ms,"
            "shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h,"
            "contact_cx,contact_cy,px_per_cm\n";
@@ -113,9 +118,7 @@ int main(int argc, char** argv) {
       }
       std::cout << "user " << u << ": " << written << " frames\n" << std::flush;
     }
-    csv.close();
-    if (!csv) throw ss::IoError("cannot finish " + csv_tmp.string());
-    fs::rename(csv_tmp, fs::path(out) / "metadata.csv"); // complete only once every image exists
+    csv_file.commit(); // complete only once every image exists
     std::cout << "wrote " << written << " frames to " << out << "\n";
     return 0;
   });

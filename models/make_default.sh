@@ -10,7 +10,7 @@ set -e
 BUILD=${1:-build}
 WORK=${2:-/tmp/shadowsense-default}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
-"$BUILD/examples/ss_gesture_data" --out "$WORK/backbone" --users 12 --first-user 100 \
+"$BUILD/examples/ss_gesture_data" --out "$WORK/backbone" --overwrite --users 12 --first-user 100 \
   --frames 12 --seed 2
 /usr/bin/python3 "$SRC/tools/train.py" "$WORK/backbone" -o "$SRC/models/default.ssm" \
   --mode scratch --growth-rate 8 --block-config 3 3 3 --init-features 16 \

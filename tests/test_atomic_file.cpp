@@ -99,7 +99,8 @@ TEST_CASE("a folder that does not exist: IoError naming the path, nothing create
   } catch (const IoError& e) {
     CHECK(std::string(e.what()) == target.string() +
                                        ": cannot create a temporary file in its folder: No such "
-                                       "file or directory");
+                                       "file or directory (the previous file, if any, is "
+                                       "unchanged)");
   }
   CHECK(entries(dir).empty());
 }
@@ -158,7 +159,9 @@ TEST_CASE("a full disk (RLIMIT_FSIZE in a child) fails with IoError; old file in
         }
       } catch (const IoError& e) {
         const std::string m = e.what();
-        const std::string want = target.string() + ": writing failed: File too large";
+        const std::string want = target.string() +
+                                 ": writing failed: File too large (the previous file, if "
+                                 "any, is unchanged)";
         ::_exit(m == want ? 0 : 4);
       } catch (...) {
         ::_exit(5);

@@ -1,8 +1,7 @@
-// The programs' shared command line (examples/common/cli.hpp), JSON writer (json.hpp) and atomic
-// file replacement (atomic_file.hpp).
+// The programs' shared command line (examples/common/cli.hpp) and JSON writer (json.hpp); the
+// atomic file replacement they use is core/atomic_file.hpp (tests/test_atomic_file.cpp).
 #include <doctest/doctest.h>
 
-#include "common/atomic_file.hpp"
 #include "common/cli.hpp"
 #include "common/json.hpp"
 
@@ -305,51 +304,15 @@ TEST_CASE("JSON: non-finite numbers and misuse are errors") {
   CHECK_THROWS_AS(m.end_object(), std::logic_error); // key without value
 }
 
-TEST_CASE("atomic write: replaces the file, checks every step, leaves no temporary file") {
-  const fs::path d = fresh_dir("cli_atomic");
+TEST_CASE("JsonWriter::save replaces the file through core/atomic_file.hpp, never half-written") {
+  const fs::path d = fresh_dir("cli_json_save");
   const fs::path target = d / "score.json";
-  cli::write_file_atomically(target, "first");
-  CHECK(read(target) == "first");
-  cli::write_file_atomically(target, "second, longer content");
-  CHECK(read(target) == "second, longer content");
-  cli::write_file_atomically(target, "");
-  CHECK(read(target).empty());
-  cli::write_file_atomically(target, "good");
-
-  // The target is a folder: rename fails, the folder and the temporary file are handled.
-  fs::create_directories(d / "folder" / "inside");
-  CHECK_THROWS_AS(cli::write_file_atomically(d / "folder", "x"), shadowsense::IoError);
-  CHECK(fs::is_directory(d / "folder" / "inside"));
-  // The folder does not exist.
-  CHECK_THROWS_AS(cli::write_file_atomically(d / "missing" / "f.json", "x"), shadowsense::IoError);
-  // A write that fails part-way (the file-size limit stands in for a full disk): the old file
-  // stays as it was and the error names the file.
-  {
-    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
-    rlimit old_limit{};
-    REQUIRE(getrlimit(RLIMIT_FSIZE, &old_limit) == 0);
-    rlimit small = old_limit;
-    small.rlim_cur = 1000;
-    REQUIRE(setrlimit(RLIMIT_FSIZE, &small) == 0);
-    std::string message;
-    try {
-      cli::write_file_atomically(target, std::string(5000, 'x'));
-    } catch (const shadowsense::IoError& e) {
-      message = e.what();
-    }
-    REQUIRE(setrlimit(RLIMIT_FSIZE, &old_limit) == 0);
-    std::signal(SIGXFSZ, old_handler);
-    CHECK(message.starts_with("cannot write '" + target.string() +
-                              "': write failed after 1000 of 5000 bytes: "));
-  }
-  CHECK(read(target) == "good");
-  std::vector<std::string> names;
-  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
-  std::sort(names.begin(), names.end());
-  CHECK(names == std::vector<std::string>{"folder", "score.json"});
-
   cli::JsonWriter j;
   j.begin_array(cli::JsonWriter::compact).value("a\"b").end_array();
   j.save(target);
   CHECK(read(target) == "[\"a\\\"b\"]\n");
+  CHECK_THROWS_AS(j.save(d / "missing" / "f.json"), shadowsense::IoError);
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
+  CHECK(names == std::vector<std::string>{"score.json"}); // no temporary file left
 }

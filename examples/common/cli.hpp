@@ -335,7 +335,8 @@ private:
       if (end == std::string::npos) end = text.size();
       const std::size_t word = end - start;
       if (column > indent && column + 1 + word > 100) {
-        out += "\n" + std::string(indent, ' ');
+        out += '\n';
+        out.append(indent, ' ');
         column = indent;
       } else if (column > indent) {
         out += ' ';

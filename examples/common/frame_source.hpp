@@ -17,6 +17,7 @@
 // One instance per thread.
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
@@ -175,36 +176,12 @@ private:
 #endif
 };
 
-// Writes `bytes` to `path` atomically: a temporary file in the same folder, checked write,
-// rename. Throws IoError naming the path; the old file stays intact on failure.
-inline void write_file_atomically(const fs::path& path, const std::vector<uchar>& bytes) {
-  const fs::path tmp = path.parent_path() / (path.filename().string() + ".tmp");
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw shadowsense::IoError("cannot open '" + tmp.string() + "' for writing");
-    f.write(reinterpret_cast<const char*>(bytes.data()),
-            static_cast<std::streamsize>(bytes.size()));
-    f.flush();
-    if (!f) {
-      f.close();
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw shadowsense::IoError("writing '" + tmp.string() + "' failed (disk full?)");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw shadowsense::IoError("cannot replace '" + path.string() + "': " + ec.message());
-  }
-}
-
 inline void write_png_atomically(const fs::path& path, const cv::Mat& image) {
   std::vector<uchar> bytes;
   if (!cv::imencode(".png", image, bytes))
     throw shadowsense::IoError("cannot encode '" + path.string() + "' as PNG");
-  write_file_atomically(path, bytes);
+  shadowsense::write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 // Draws a segmentation over a frame: shadow pixels tinted blue, contact red, blob boxes.

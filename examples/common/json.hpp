@@ -17,7 +17,7 @@
 // Threading: one writer per thread.
 #pragma once
 
-#include "atomic_file.hpp"
+#include <shadowsense/core/atomic_file.hpp>
 
 #include <shadowsense/core/error.hpp>
 
@@ -105,7 +105,9 @@ public:
     return out_;
   }
   // Writes str() plus a final newline to `path` with write_file_atomically (throws IoError).
-  void save(const std::filesystem::path& path) const { write_file_atomically(path, str() + "\n"); }
+  void save(const std::filesystem::path& path) const {
+    shadowsense::write_file_atomically(path, str() + "\n");
+  }
 
 private:
   struct Level {

@@ -226,7 +226,9 @@ private:
   [[noreturn]] void fail_now(const char* step, int err, bool remove_tmp) {
     if (remove_tmp) discard();
     committed_ = true; // unusable from here on
-    SHADOWSENSE_THROW(IoError(target_.string() + ": " + step + ": " + detail::errno_text(err)));
+    // The target is never touched before the rename, so every failure leaves it as it was.
+    SHADOWSENSE_THROW(IoError(target_.string() + ": " + step + ": " + detail::errno_text(err) +
+                              " (the previous file, if any, is unchanged)"));
   }
 
   std::filesystem::path target_;

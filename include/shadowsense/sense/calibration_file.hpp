@@ -31,6 +31,7 @@
 // Plain functions; no shared state (any thread).
 #pragma once
 
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/sense/pixel_rule.hpp>
 
@@ -291,29 +292,7 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
 
 // Writes `c` (version 2) atomically; see above.
 inline void save_calibration(const SegmenterCalibration& c, const std::string& path) {
-  const std::string text = calibration_to_string(c);
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path tmp = target.parent_path() / (target.filename().string() + ".tmp");
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) throw IoError("save_calibration: cannot open '" + tmp.string() + "' for writing");
-    f.write(text.data(), static_cast<std::streamsize>(text.size()));
-    f.flush();
-    if (!f) {
-      f.close();
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw IoError("save_calibration: writing '" + tmp.string() + "' failed (disk full?); '" +
-                    path + "' is unchanged");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw IoError("save_calibration: cannot replace '" + path + "': " + ec.message());
-  }
+  write_file_atomically(path, calibration_to_string(c));
 }
 
 inline SegmenterCalibration load_calibration(const std::string& path) {

@@ -35,6 +35,7 @@
 #pragma once
 
 #include <shadowsense/classify/preprocess_params.hpp>
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -481,51 +482,16 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
 
 namespace detail {
 
-// Writes bytes to path atomically: a fresh temporary file in path's folder (O_EXCL), every
-// write checked, fsync, close, rename over path. On failure the temporary file is removed, an
-// existing file at path is untouched and IoError names the path and the OS error.
+// Writes bytes to path atomically through core/atomic_file.hpp (the one atomic writer); a
+// folder as path is refused first with a message naming what was being written.
 inline void write_bytes_atomically(const std::filesystem::path& path,
                                    std::span<const std::uint8_t> bytes, const char* what) {
-  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : ".";
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw IoError(std::string(what) + " '" + path.string() +
-                  "' is a directory, expected a file path to write");
-  std::string tmpl = (dir / ("." + path.filename().string() + ".tmp-XXXXXX")).string();
-  const int fd = ::mkstemp(tmpl.data());
-  if (fd < 0)
-    throw IoError("cannot create a temporary file next to " + std::string(what) + " '" +
-                  path.string() + "': " + std::strerror(errno));
-  auto fail = [&](const std::string& step) {
-    const std::string err = std::strerror(errno);
-    ::close(fd);
-    ::unlink(tmpl.c_str());
-    throw IoError(step + " " + std::string(what) + " '" + path.string() + "' failed: " + err +
-                  " (the previous file, if any, is unchanged)");
-  };
-  std::size_t done = 0;
-  while (done < bytes.size()) {
-    const ::ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      if (n == 0) errno = ENOSPC;
-      fail("writing");
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fchmod(fd, 0644) != 0) fail("setting permissions of");
-  if (::fsync(fd) != 0) fail("flushing");
-  if (::close(fd) != 0) {
-    const std::string err = std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw IoError("closing " + std::string(what) + " '" + path.string() + "' failed: " + err);
-  }
-  if (::rename(tmpl.c_str(), path.c_str()) != 0) {
-    const std::string err = std::strerror(errno);
-    ::unlink(tmpl.c_str());
-    throw IoError("renaming the temporary file onto " + std::string(what) + " '" + path.string() +
-                  "' failed: " + err + " (the previous file, if any, is unchanged)");
-  }
+    SHADOWSENSE_THROW(IoError(std::string(what) + " '" + path.string() +
+                              "' is a directory, expected a file path to write"));
+  write_file_atomically(
+      path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
 }
 
 // Magic, version and architecture (the header: at most model_header_max_bytes bytes).
