@@ -43,7 +43,7 @@ TEST_CASE("a metadata.csv without frames is rejected") {
   const fs::path dir = fresh_folder("no_frames");
   write_metadata(dir / "metadata.csv", {}, false);
   CHECK_THROWS_WITH_AS(load_gesture_samples(dir, {"a", "b"}),
-                       doctest::Contains("metadata.csv: no frames"), DatasetError);
+                       doctest::Contains("metadata.csv:2: no data rows"), DatasetError);
 }
 
 TEST_CASE("a class the model does not know is rejected naming file, line and class") {

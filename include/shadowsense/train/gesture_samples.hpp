@@ -30,7 +30,7 @@ struct GestureSample {
   std::filesystem::path path;
   int label = -1; // index into GestureSamples::class_names
   int user = 0;
-  sim::Lighting lighting = sim::Lighting::daylight;
+  Lighting lighting = Lighting::daylight;
   double lighting_level = 1.0;
   std::string session;
   double timestamp_ms = 0;
@@ -47,8 +47,8 @@ struct GestureSamples {
 // Images taken in the dark get the brightness factor (paper 5.1.2): the night preset, or a
 // custom level below 0.25. tools/train.py uses the same rule.
 inline bool is_dark(const GestureSample& f) {
-  return f.lighting == sim::Lighting::night ||
-         (f.lighting == sim::Lighting::custom && f.lighting_level < 0.25);
+  return f.lighting == Lighting::night ||
+         (f.lighting == Lighting::custom && f.lighting_level < 0.25);
 }
 
 // Reads folder/metadata.csv. Every class must be one of class_names (the model's order).
