@@ -65,3 +65,15 @@ TEST_CASE("direct error sites in core and io raise through the user's SHADOWSENS
       [] { (void)read_metadata("/nonexistent/shadowsense/metadata.csv"); });
   CHECK(m.find("/nonexistent/shadowsense/metadata.csv") != std::string::npos);
 }
+
+TEST_CASE("the dataset reader's row errors also arrive through the user's handler, located") {
+  const std::string m = handled_message<DatasetError>([] {
+    (void)parse_metadata("file_name,class,user,lighting,lighting_level,session,frame_index,"
+                         "timestamp_ms,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,"
+                         "contact_w,contact_h,contact_cx,contact_cy,px_per_cm\n"
+                         "a.png,palm,1,noon,0.5,s,0,0,,,,,,,,,,,1\n",
+                         "d/metadata.csv");
+  });
+  CHECK(m == "d/metadata.csv:2: column 4 'lighting': unknown lighting 'noon'; expected daylight, "
+             "dusk, night or custom; got 'noon'");
+}
