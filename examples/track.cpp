@@ -6,9 +6,13 @@
 //   frame,timestamp_ms,track_id,from,to,direction,x,y
 // Timestamps: folders use --fps (frame i at i * 1000 / fps ms) or --timestamps CSV
 // (file,timestamp_ms); videos use their declared frame rate (or --fps); cameras the clock.
-// Options: --annotate DIR (one annotated PNG per frame, atomic writes), --show (a window, when
+// Options: --tuio HOST[:PORT] (TUIO 1.1 over UDP as well: /tuio/2Dcur contacts, /tuio/2Dblb
+// shadows; output/tuio_sink.hpp), --annotate DIR (one annotated PNG per frame, atomic writes),
+// --show (a window, when
 // OpenCV highgui is built in), --max-frames N. A progress line goes to stderr for long inputs.
 // Exit status: 0 done, 2 bad command line or input (message on stderr).
+#include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/output/tuio_sink.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
@@ -45,6 +49,8 @@ struct UsageError : std::runtime_error {
 
 struct Options {
   std::string input, calibration, timestamps, format = "csv";
+  std::string tuio_host; // empty: no TUIO output
+  std::uint16_t tuio_port = 3333;
   fs::path annotate;
   double fps = 0; // 0 = not given
   long long max_frames = -1;
@@ -62,6 +68,7 @@ const char* kHelp =
     "  --fps F              frame rate of a folder (default 30) or override for a video\n"
     "  --timestamps CSV     folder timestamps: lines file,timestamp_ms (header optional)\n"
     "  --format csv|json    event lines as CSV (default, with a header) or JSON lines\n"
+    "  --tuio HOST[:PORT]   also send TUIO 1.1 over UDP (default port 3333), e.g. 127.0.0.1\n"
     "  --annotate DIR       write an annotated PNG per frame into DIR\n"
     "  --show               show the annotated frames in a window (OpenCV highgui)\n"
     "  --max-frames N       stop after N frames\n"
@@ -91,6 +98,20 @@ long long parse_integer(const std::string& flag, const std::string& text, long l
     throw UsageError(flag + ": expected an integer in [" + std::to_string(lo) + ", " +
                      std::to_string(hi) + "], got '" + text + "'");
   return v;
+}
+
+// --tuio HOST[:PORT]: the host as given (a name or an IPv4 address), the port 1..65535.
+void parse_tuio(const std::string& spec, Options& o) {
+  const auto colon = spec.rfind(':');
+  o.tuio_host = spec.substr(0, colon);
+  if (o.tuio_host.empty()) throw UsageError("--tuio: expected HOST[:PORT], got '" + spec + "'");
+  if (colon == std::string::npos) return;
+  const std::string port = spec.substr(colon + 1);
+  unsigned value = 0;
+  const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
+  if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
+    throw UsageError("--tuio: expected a port in [1, 65535] after ':', got '" + port + "'");
+  o.tuio_port = static_cast<std::uint16_t>(value);
 }
 
 // Returns nullopt when --help or --version was answered.
@@ -125,6 +146,8 @@ std::optional<Options> parse(int argc, char** argv) {
       o.format = value();
       if (o.format != "csv" && o.format != "json")
         throw UsageError("--format: expected csv or json, got '" + o.format + "'");
+    } else if (a == "--tuio") {
+      parse_tuio(value(), o);
     } else if (a == "--annotate")
       o.annotate = value();
     else if (a == "--fps")
@@ -229,6 +252,10 @@ int run(const Options& o) {
   sc.calibration = cal;
   sc.max_image_side = o.max_side;
   TouchPipeline pipeline{Segmenter(sc)};
+  std::optional<TuioSink> tuio;
+  if (!o.tuio_host.empty()) tuio.emplace(o.tuio_host, o.tuio_port);
+  OutputFrameBuilder tuio_frames; // TouchFrame -> the sinks' per-frame value
+  cv::Size frame_size;
   frames::FrameSource src = frames::FrameSource::open(o.input, o.max_side);
   std::optional<std::map<std::string, double>> stamps;
   if (!o.timestamps.empty()) {
@@ -266,6 +293,8 @@ int run(const Options& o) {
       throw InvalidArgument("frame " + std::to_string(i) + " ('" + name + "'): " + e.what());
     }
     for (const TrackEvent& e : r->events) print_event(o, i, e);
+    frame_size = frame.size();
+    if (tuio) tuio->write(tuio_frames.build(*r, frame_size));
     if (!o.annotate.empty() || o.show) {
       const cv::Mat a = annotate(frame, pipeline, *r);
       if (!o.annotate.empty()) {
@@ -292,7 +321,9 @@ int run(const Options& o) {
   }
   if (i == 0) throw IoError("'" + o.input + "' gave no frame");
   const double step = stamps || src.is_camera() ? 1.0 : 1000.0 / fps;
-  for (const TrackEvent& e : pipeline.flush(last_t + step).events) print_event(o, i, e);
+  const TouchFrame& last = pipeline.flush(last_t + step);
+  for (const TrackEvent& e : last.events) print_event(o, i, e);
+  if (tuio) tuio->write(tuio_frames.build(last, frame_size)); // the lifts reach the clients
   std::cout.flush();
   if (show_progress) std::cerr << "\r" << kProgram << ": " << i << " frames\n";
   if (!std::cout) throw IoError("writing the events to stdout failed");

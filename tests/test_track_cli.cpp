@@ -2,6 +2,7 @@
 // on the same frames in memory (for the video: the frames decoded back from it); its command
 // line follows the programs' convention.
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/output/osc.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
 #include <doctest/doctest.h>
@@ -11,7 +12,11 @@
 #include <opencv2/videoio.hpp>
 #endif
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstdlib>
@@ -124,6 +129,37 @@ Run run(const std::string& args) {
   return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, read_all(out), read_all(err)};
 }
 
+// A UDP socket on 127.0.0.1 with an ephemeral port; receive() waits at most 1 s.
+struct LocalUdp {
+  int fd = -1;
+  std::uint16_t port = 0;
+  LocalUdp() {
+    fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+    REQUIRE(fd >= 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
+    socklen_t len = sizeof a;
+    REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0);
+    port = ntohs(a.sin_port);
+    const int buffer = 1 << 20; // every datagram of the run fits while the program runs
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &buffer, sizeof buffer);
+    timeval tv{1, 0};
+    REQUIRE(::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) == 0);
+  }
+  LocalUdp(const LocalUdp&) = delete;
+  LocalUdp& operator=(const LocalUdp&) = delete;
+  ~LocalUdp() { ::close(fd); }
+  std::optional<std::vector<std::uint8_t>> receive() const {
+    std::vector<std::uint8_t> b(65536);
+    const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
+    if (n < 0) return std::nullopt;
+    b.resize(static_cast<std::size_t>(n));
+    return b;
+  }
+};
+
 } // namespace
 
 TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same frames") {
@@ -225,3 +261,47 @@ TEST_CASE("ss_track tests need the examples (SHADOWSENSE_BUILD_EXAMPLES)") {
   MESSAGE("skipped: ss_track is not built");
 }
 #endif
+
+TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame, the touch as a "
+          "cursor") {
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames_tuio";
+  fs::remove_all(folder);
+  fs::create_directories(folder);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "f%03zu.png", i);
+    REQUIRE(cv::imwrite((folder / name).string(), frames[i]));
+  }
+  const LocalUdp udp;
+  const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
+                    "' --fps 13 --quiet --tuio 127.0.0.1:" + std::to_string(udp.port));
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  int cur_frames = 0, blb_frames = 0, cursor_sets = 0;
+  std::vector<std::int32_t> last_alive{-1};
+  while (const auto packet = udp.receive()) {
+    std::vector<OscMessage> messages;
+    osc_collect_messages(osc_decode(*packet), messages);
+    for (const OscMessage& m : messages) {
+      REQUIRE(!m.arguments.empty());
+      const std::string& command = std::get<std::string>(m.arguments[0]);
+      if (m.address == "/tuio/2Dcur" && command == "fseq") ++cur_frames;
+      if (m.address == "/tuio/2Dblb" && command == "fseq") ++blb_frames;
+      if (m.address == "/tuio/2Dcur" && command == "set") ++cursor_sets;
+      if (m.address == "/tuio/2Dcur" && command == "alive") {
+        last_alive.clear();
+        for (std::size_t k = 1; k < m.arguments.size(); ++k)
+          last_alive.push_back(std::get<std::int32_t>(m.arguments[k]));
+      }
+    }
+  }
+  // Every frame plus the end-of-stream flush, on both profiles.
+  CHECK(cur_frames == static_cast<int>(frames.size()) + 1);
+  CHECK(blb_frames == static_cast<int>(frames.size()) + 1);
+  CHECK(cursor_sets >= 6);   // the finger touches and slides for at least 6 frames
+  CHECK(last_alive.empty()); // the lift removed the cursor by the end
+  CHECK(run("--input x --calibration y --tuio :3333").status == 2);
+  CHECK(run("--input x --calibration y --tuio 127.0.0.1:0").status == 2);
+  CHECK(run("--input x --calibration y --tuio 127.0.0.1:65536").status == 2);
+}
