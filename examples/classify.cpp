@@ -85,8 +85,8 @@ int parse_int(const std::string& flag, const std::string& v, int lo, int hi) {
   int x = 0;
   const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
   if (v.empty() || r.ec != std::errc() || r.ptr != v.data() + v.size() || x < lo || x > hi)
-    throw UsageError(flag + " '" + v + "': expected a whole number in " + std::to_string(lo) +
-                     ".." + std::to_string(hi));
+    throw UsageError(flag + ": expected a whole number in " + std::to_string(lo) + ".." +
+                     std::to_string(hi) + ", got '" + v + "'");
   return x;
 }
 
@@ -103,7 +103,7 @@ std::optional<Options> parse(int argc, char** argv) {
       std::cout << usage;
       return std::nullopt;
     } else if (a == "--version") {
-      std::cout << "ss_classify (shadowsense) " << ss::version_string << "\n";
+      std::cout << "ss_classify shadowsense " << ss::version_string << "\n";
       return std::nullopt;
     } else if (a == "--model") {
       o.model = value();
@@ -334,7 +334,7 @@ int main(int argc, char** argv) {
     const auto options = parse(argc, argv);
     return options ? run(*options) : 0;
   } catch (const std::exception& e) {
-    std::cerr << "ss_classify: " << e.what() << "\n";
+    std::cerr << "ss_classify: error: " << e.what() << "\n";
     return 2;
   }
 }

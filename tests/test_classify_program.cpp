@@ -95,14 +95,14 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
   CHECK(help.err.empty());
   auto version = run("--version");
   CHECK(version.status == 0);
-  CHECK(version.out.find("ss_classify (shadowsense) 0.") == 0);
+  CHECK(version.out.find("ss_classify shadowsense 0.") == 0);
   const fs::path dir = fresh("classify_args");
   cv::imwrite((dir / "a.png").string(), frame(0));
   const std::string d = quote(dir.string());
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"", "INPUT is required"},
-      {"--threads 0 " + d, "--threads '0': expected a whole number in 1..64"},
-      {"--threads 2x " + d, "--threads '2x'"},
+      {"--threads 0 " + d, "--threads: expected a whole number in 1..64, got '0'"},
+      {"--threads 2x " + d, "--threads: expected a whole number in 1..64, got '2x'"},
       {"--threads", "--threads needs a value"},
       {"--format xml " + d, "--format 'xml': expected csv or json"},
       {"--bogus " + d, "unknown option '--bogus'"},
