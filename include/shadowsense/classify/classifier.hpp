@@ -139,8 +139,8 @@ private:
       try {
         softmax(logits.subspan(i * classes, classes), c.probabilities);
       } catch (const InvalidArgument&) {
-        throw Error("Classifier: the backend returned NaN or Inf logits for image " +
-                    std::to_string(i) + ", expected finite values");
+        SHADOWSENSE_THROW(Error("Classifier: the backend returned NaN or Inf logits for image " +
+                                std::to_string(i) + ", expected finite values"));
       }
       const auto row = logits.subspan(i * classes, classes); // argmax on logits: no ties
       c.index = static_cast<int>(std::max_element(row.begin(), row.end()) - row.begin());

@@ -49,7 +49,7 @@ public:
     try {
       config_.params.validate();
     } catch (const InvalidArgument& e) {
-      throw InvalidArgument(std::string("Preprocessor config: ") + e.what());
+      SHADOWSENSE_THROW(InvalidArgument(std::string("Preprocessor config: ") + e.what()));
     }
     detail::require(config_.input_order == ChannelOrder::rgb ||
                         config_.input_order == ChannelOrder::bgr,

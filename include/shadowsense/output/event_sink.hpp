@@ -120,9 +120,9 @@ public:
   template <TouchFrameLike F>
   const OutputFrame& build(const F& touch_frame, cv::Size frame_size) {
     if (frame_size.width <= 0 || frame_size.height <= 0)
-      throw InvalidArgument(
+      SHADOWSENSE_THROW(InvalidArgument(
           "OutputFrameBuilder::build: frame_size " + std::to_string(frame_size.width) + "x" +
-          std::to_string(frame_size.height) + " is empty; expected the image size in pixels");
+          std::to_string(frame_size.height) + " is empty; expected the image size in pixels"));
     frame_.frame_index = ++index_;
     frame_.timestamp_ms = touch_frame.timestamp_ms;
     frame_.frame_size = frame_size;

@@ -177,7 +177,7 @@ private:
   static std::size_t padded(std::size_t n) { return (n + 3) & ~std::size_t(3); }
 
   [[noreturn]] static void fail(const std::string& what) {
-    throw InvalidArgument("OscWriter::" + what);
+    SHADOWSENSE_THROW(InvalidArgument("OscWriter::" + what));
   }
   void require_can_begin(const char* what) const {
     if (in_message_) fail(std::string(what) + ": a message is still open; call end_message first");
@@ -277,7 +277,7 @@ public:
 
 private:
   [[noreturn]] static void fail(std::size_t at, const std::string& what) {
-    throw OscError("osc_decode: at byte " + std::to_string(at) + ": " + what);
+    SHADOWSENSE_THROW(OscError("osc_decode: at byte " + std::to_string(at) + ": " + what));
   }
   static std::string printable(char c) {
     if (c >= 0x20 && c < 0x7f) return std::string(1, c);
@@ -330,8 +330,8 @@ inline void osc_encode_into(const OscPacket& p, OscWriter& w) {
 
 inline OscPacket osc_decode(std::span<const std::uint8_t> bytes) {
   if (bytes.empty() || bytes.size() % 4 != 0)
-    throw OscError("osc_decode: packet of " + std::to_string(bytes.size()) +
-                   " bytes; expected a positive multiple of 4");
+    SHADOWSENSE_THROW(OscError("osc_decode: packet of " + std::to_string(bytes.size()) +
+                               " bytes; expected a positive multiple of 4"));
   return detail::OscReader(bytes).packet(0, bytes.size(), 0);
 }
 

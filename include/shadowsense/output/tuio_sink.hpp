@@ -160,7 +160,7 @@ private:
   }
 
   [[noreturn]] static void fail(const std::string& what) {
-    throw InvalidArgument("TuioEncoder: " + what);
+    SHADOWSENSE_THROW(InvalidArgument("TuioEncoder: " + what));
   }
 
   void validate(const OutputFrame& f) const {

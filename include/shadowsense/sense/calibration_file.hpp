@@ -134,8 +134,8 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
   bool header = false;
   std::vector<std::string> seen;
   auto fail = [&](const std::string& what) {
-    throw ModelFileError(source + (line_no > 0 ? ":" + std::to_string(line_no) : std::string()) +
-                         ": " + what);
+    SHADOWSENSE_THROW(ModelFileError(
+        source + (line_no > 0 ? ":" + std::to_string(line_no) : std::string()) + ": " + what));
   };
   while (std::getline(in, line)) {
     ++line_no;
@@ -191,7 +191,7 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
       try {
         std::size_t used = 0;
         v = std::stof(tok, &used);
-        if (used != tok.size() || !std::isfinite(v)) throw std::invalid_argument(tok);
+        if (used != tok.size() || !std::isfinite(v)) SHADOWSENSE_THROW(std::invalid_argument(tok));
       } catch (const std::exception&) {
         fail("key '" + key + "': '" + tok + "' is not a finite number");
       }
@@ -240,15 +240,16 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
     if (ls >> extra) fail("unexpected extra value '" + extra + "' after key '" + key + "'");
   }
   if (!header)
-    throw ModelFileError(source + ": empty; expected a shadowsense segmenter calibration");
+    SHADOWSENSE_THROW(
+        ModelFileError(source + ": empty; expected a shadowsense segmenter calibration"));
   for (const char* k : {"mode", "shadow_range", "contact_range", "shadow_darkness",
                         "contact_darkness", "contact_warmth", "reference_percentile"})
     if (std::find(seen.begin(), seen.end(), k) == seen.end())
-      throw ModelFileError(source + ": key '" + k + "' is missing");
+      SHADOWSENSE_THROW(ModelFileError(source + ": key '" + k + "' is missing"));
   try {
     detail::validate_calibration(c, source);
   } catch (const InvalidArgument& e) {
-    throw ModelFileError(e.what());
+    SHADOWSENSE_THROW(ModelFileError(e.what()));
   }
   return c;
 }
@@ -279,14 +280,14 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
                                ? text.substr(start + 1, n - start - 2)
                                : std::string();
   if (last.size() != 12 || last.compare(0, 4, "end ") != 0)
-    throw ModelFileError(source +
-                         ": truncated or damaged: the last line is not 'end <crc32>'; the file "
-                         "was cut short or not written completely - save the calibration again");
+    SHADOWSENSE_THROW(ModelFileError(
+        source + ": truncated or damaged: the last line is not 'end <crc32>'; the file "
+                 "was cut short or not written completely - save the calibration again"));
   const std::uint32_t actual = detail::calibration_crc32(text.data(), start + 1);
   if (last.substr(4) != detail::crc_hex(actual))
-    throw ModelFileError(source + ": checksum mismatch (file says " + last.substr(4) +
-                         ", contents give " + detail::crc_hex(actual) +
-                         "): the file is damaged or was edited");
+    SHADOWSENSE_THROW(ModelFileError(source + ": checksum mismatch (file says " + last.substr(4) +
+                                     ", contents give " + detail::crc_hex(actual) +
+                                     "): the file is damaged or was edited"));
   return detail::parse_calibration(text.substr(0, start + 1), source, 2);
 }
 
@@ -300,17 +301,18 @@ inline SegmenterCalibration load_calibration(const std::string& path) {
   std::error_code ec;
   const auto status = fs::status(path, ec);
   if (ec || !fs::exists(status))
-    throw IoError("load_calibration: cannot open '" + path + "' for reading: no such file");
+    SHADOWSENSE_THROW(
+        IoError("load_calibration: cannot open '" + path + "' for reading: no such file"));
   if (!fs::is_regular_file(status))
-    throw IoError(
-        "load_calibration: '" + path +
-        "' is not a regular file (a folder, FIFO or device); expected a calibration file");
+    SHADOWSENSE_THROW(
+        IoError("load_calibration: '" + path +
+                "' is not a regular file (a folder, FIFO or device); expected a calibration file"));
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec || size > detail::kMaxCalibrationFileBytes)
-    throw IoError("load_calibration: '" + path + "' is " + std::to_string(size) +
-                  " bytes; a calibration file is at most 512 MiB");
+    SHADOWSENSE_THROW(IoError("load_calibration: '" + path + "' is " + std::to_string(size) +
+                              " bytes; a calibration file is at most 512 MiB"));
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw IoError("load_calibration: cannot open '" + path + "' for reading");
+  if (!f) SHADOWSENSE_THROW(IoError("load_calibration: cannot open '" + path + "' for reading"));
   std::string text(static_cast<std::size_t>(size), '\0');
   f.read(text.data(), static_cast<std::streamsize>(size));
   text.resize(static_cast<std::size_t>(f.gcount()));

@@ -50,8 +50,8 @@ inline std::string_view to_string(Gesture g) {
 inline Gesture gesture_from_string(std::string_view s) {
   for (Gesture g : all_gestures)
     if (to_string(g) == s) return g;
-  throw InvalidArgument("unknown gesture class '" + std::string(s) +
-                        "'; expected nothing, hug, palm, point, punch or two_hands");
+  SHADOWSENSE_THROW(InvalidArgument("unknown gesture class '" + std::string(s) +
+                                    "'; expected nothing, hug, palm, point, punch or two_hands"));
 }
 
 // Where and how a gesture is performed (robot skin plane, cm). Unused fields are ignored.

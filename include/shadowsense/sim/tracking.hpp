@@ -48,8 +48,8 @@ inline std::string_view to_string(TrackCategory c) {
 inline TrackCategory track_category_from_string(std::string_view s) {
   for (TrackCategory c : all_track_categories)
     if (to_string(c) == s) return c;
-  throw InvalidArgument("unknown tracking category '" + std::string(s) +
-                        "'; expected nothing, hover, palm, fist or finger");
+  SHADOWSENSE_THROW(InvalidArgument("unknown tracking category '" + std::string(s) +
+                                    "'; expected nothing, hover, palm, fist or finger"));
 }
 
 // The dataset format's slide gesture label (io/labels.hpp).

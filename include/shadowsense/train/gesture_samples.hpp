@@ -102,7 +102,7 @@ inline std::vector<std::filesystem::path> find_images(const std::filesystem::pat
         }
     }
   } catch (const fs::filesystem_error& e) {
-    throw IoError(folder.string() + ": cannot list the folder: " + e.what());
+    SHADOWSENSE_THROW(IoError(folder.string() + ": cannot list the folder: " + e.what()));
   }
   std::sort(out.begin(), out.end());
   return out;
@@ -224,7 +224,7 @@ extract_features(FeatureExtractor& fx, FrameEncoder& enc, const GestureSamples& 
     } catch (const IoError&) {
       throw;
     } catch (const Error& e) { // name the frame: wrong geometry for the model, bad pixels
-      throw DatasetError(f.path.string() + ": " + e.what());
+      SHADOWSENSE_THROW(DatasetError(f.path.string() + ": " + e.what()));
     }
     for (int c = 0; c < fx.dim(); ++c)
       out(static_cast<Eigen::Index>(k), c) = v[static_cast<std::size_t>(c)];

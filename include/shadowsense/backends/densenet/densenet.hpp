@@ -526,10 +526,10 @@ private:
       const double ref = st.logits[i];
       const double diff = std::abs(double(got[i]) - ref);
       if (!(diff <= double(st.tolerance) * std::max(1.0, std::abs(ref))))
-        throw ModelFileError("model self-test failed: logit " + std::to_string(i) + " is " +
-                             std::to_string(got[i]) + ", expected " + std::to_string(ref) + " (+-" +
-                             std::to_string(st.tolerance) +
-                             " x max(1, |logit|)); the conversion or this build is broken");
+        SHADOWSENSE_THROW(ModelFileError(
+            "model self-test failed: logit " + std::to_string(i) + " is " + std::to_string(got[i]) +
+            ", expected " + std::to_string(ref) + " (+-" + std::to_string(st.tolerance) +
+            " x max(1, |logit|)); the conversion or this build is broken"));
     }
   }
 

@@ -217,7 +217,7 @@ struct ModelFile {
   const NamedTensor& tensor(std::string_view name) const {
     for (const auto& t : tensors)
       if (t.name == name) return t;
-    throw ModelFileError("model file: no tensor named '" + std::string(name) + "'");
+    SHADOWSENSE_THROW(ModelFileError("model file: no tensor named '" + std::string(name) + "'"));
   }
   NamedTensor& tensor(std::string_view name) {
     return const_cast<NamedTensor&>(std::as_const(*this).tensor(name));
@@ -283,11 +283,11 @@ public:
 
   void need(std::size_t n, const char* what) const {
     if (bytes.size() - pos < n)
-      throw ModelFileError("model file truncated in the " + std::string(section) +
-                           " section: " + what + " needs " + std::to_string(n) +
-                           " bytes at offset " + std::to_string(pos) + ", but the file has only " +
-                           std::to_string(bytes.size() - pos) + " left (" +
-                           std::to_string(bytes.size()) + " bytes in total)");
+      SHADOWSENSE_THROW(ModelFileError(
+          "model file truncated in the " + std::string(section) + " section: " + what + " needs " +
+          std::to_string(n) + " bytes at offset " + std::to_string(pos) +
+          ", but the file has only " + std::to_string(bytes.size() - pos) + " left (" +
+          std::to_string(bytes.size()) + " bytes in total)"));
   }
   std::uint32_t u32(const char* what) {
     need(4, what);
@@ -310,9 +310,9 @@ public:
   }
   int count_value(std::uint32_t v, const char* what, std::uint32_t lo, std::uint32_t hi) const {
     if (v < lo || v > hi)
-      throw ModelFileError("model file " + std::string(section) + " section: " + what + " is " +
-                           std::to_string(v) + ", expected " + std::to_string(lo) + ".." +
-                           std::to_string(hi));
+      SHADOWSENSE_THROW(ModelFileError("model file " + std::string(section) + " section: " + what +
+                                       " is " + std::to_string(v) + ", expected " +
+                                       std::to_string(lo) + ".." + std::to_string(hi)));
     return static_cast<int>(v);
   }
   void floats(std::vector<float>& v, std::size_t n, const char* what) {
@@ -393,11 +393,13 @@ inline void ModelFile::validate() const {
     for (std::size_t k = 0; k < t.values.size(); ++k) {
       const float v = t.values[k];
       if (!std::isfinite(v))
-        throw ModelFileError("model file: tensor '" + t.name + "' value " + std::to_string(k) +
-                             " is " + std::to_string(v) + ", expected a finite number");
+        SHADOWSENSE_THROW(ModelFileError("model file: tensor '" + t.name + "' value " +
+                                         std::to_string(k) + " is " + std::to_string(v) +
+                                         ", expected a finite number"));
       if (var && v < 0.0f)
-        throw ModelFileError("model file: tensor '" + t.name + "' value " + std::to_string(k) +
-                             " is negative (" + std::to_string(v) + "), expected a variance >= 0");
+        SHADOWSENSE_THROW(ModelFileError("model file: tensor '" + t.name + "' value " +
+                                         std::to_string(k) + " is negative (" + std::to_string(v) +
+                                         "), expected a variance >= 0"));
     }
   }
   if (self_test) {
@@ -501,21 +503,22 @@ inline void read_model_header(ModelReader& r, ModelFile& m) {
   r.section = "header";
   r.need(model_file_magic.size(), "the magic number");
   if (std::memcmp(r.bytes.data(), model_file_magic.data(), model_file_magic.size()) != 0)
-    throw ModelFileError("not a shadowsense model file: wrong magic number, expected the "
-                         "8 bytes \"SSDNMOD\\n\" at the start");
+    SHADOWSENSE_THROW(
+        ModelFileError("not a shadowsense model file: wrong magic number, expected the "
+                       "8 bytes \"SSDNMOD\\n\" at the start"));
   r.pos = model_file_magic.size();
   const std::uint32_t version = r.u32("the format version");
   if (version < model_file_min_version)
-    throw ModelFileError("model file format version " + std::to_string(version) +
-                         " is too old, this library reads versions " +
-                         std::to_string(model_file_min_version) + ".." +
-                         std::to_string(model_file_version) +
-                         ": regenerate it with tools/densenet_to_model.py");
+    SHADOWSENSE_THROW(ModelFileError("model file format version " + std::to_string(version) +
+                                     " is too old, this library reads versions " +
+                                     std::to_string(model_file_min_version) + ".." +
+                                     std::to_string(model_file_version) +
+                                     ": regenerate it with tools/densenet_to_model.py"));
   if (version > model_file_version)
-    throw ModelFileError("model file format version " + std::to_string(version) +
-                         " is newer than this library (reads versions " +
-                         std::to_string(model_file_min_version) + ".." +
-                         std::to_string(model_file_version) + "): update shadowsense");
+    SHADOWSENSE_THROW(ModelFileError("model file format version " + std::to_string(version) +
+                                     " is newer than this library (reads versions " +
+                                     std::to_string(model_file_min_version) + ".." +
+                                     std::to_string(model_file_version) + "): update shadowsense"));
   m.format_version = version;
   r.section = "architecture";
   auto& a = m.architecture;
@@ -524,7 +527,8 @@ inline void read_model_header(ModelReader& r, ModelFile& m) {
   a.init_features = r.count("init_features", 1, 65536);
   {
     const std::uint32_t classes = r.u32("num_classes");
-    if (classes == 0) throw ModelFileError("model architecture: zero classes, expected at least 1");
+    if (classes == 0)
+      SHADOWSENSE_THROW(ModelFileError("model architecture: zero classes, expected at least 1"));
     a.num_classes = r.count_value(classes, "num_classes", 1, 1 << 20);
   }
   a.bn_eps = r.f32("bn_eps");
@@ -563,24 +567,27 @@ inline ModelFile ModelFile::load(const std::filesystem::path& path) {
   std::error_code ec;
   const auto st = std::filesystem::status(path, ec);
   if (ec || !std::filesystem::exists(st))
-    throw IoError("cannot open model file '" + name +
-                  "' for reading: " + (ec ? ec.message() : std::string("no such file")));
+    SHADOWSENSE_THROW(IoError("cannot open model file '" + name + "' for reading: " +
+                              (ec ? ec.message() : std::string("no such file"))));
   if (std::filesystem::is_directory(st))
-    throw IoError("model file '" + name + "' is a directory, expected a model file");
+    SHADOWSENSE_THROW(IoError("model file '" + name + "' is a directory, expected a model file"));
   if (!std::filesystem::is_regular_file(st))
-    throw IoError("model file '" + name +
-                  "' is not a regular file (a FIFO, socket or device), expected a model file");
+    SHADOWSENSE_THROW(
+        IoError("model file '" + name +
+                "' is not a regular file (a FIFO, socket or device), expected a model file"));
   const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (ec) throw IoError("cannot read the size of model file '" + name + "': " + ec.message());
+  if (ec)
+    SHADOWSENSE_THROW(
+        IoError("cannot read the size of model file '" + name + "': " + ec.message()));
   std::ifstream f(path, std::ios::binary);
-  if (!f) throw IoError("cannot open model file '" + name + "' for reading");
+  if (!f) SHADOWSENSE_THROW(IoError("cannot open model file '" + name + "' for reading"));
   auto read = [&](std::vector<std::uint8_t>& into, std::size_t from, std::size_t n) {
     into.resize(from + n);
     f.read(reinterpret_cast<char*>(into.data() + from), static_cast<std::streamsize>(n));
     if (f.bad() || static_cast<std::size_t>(f.gcount()) != n)
-      throw IoError("reading model file '" + name + "' failed after " +
-                    std::to_string(from + static_cast<std::size_t>(f.gcount())) + " of " +
-                    std::to_string(size) + " bytes");
+      SHADOWSENSE_THROW(IoError("reading model file '" + name + "' failed after " +
+                                std::to_string(from + static_cast<std::size_t>(f.gcount())) +
+                                " of " + std::to_string(size) + " bytes"));
   };
   try {
     // The header alone first: a wrong magic, version or architecture, or a size no model of
@@ -596,15 +603,16 @@ inline ModelFile ModelFile::load(const std::filesystem::path& path) {
       const std::uint64_t limit =
           std::min(model_file_max_bytes, detail::model_max_bytes(m.architecture));
       if (size > limit)
-        throw ModelFileError("model file has " + std::to_string(size) +
-                             " bytes, expected at most " + std::to_string(limit) +
-                             " for its architecture (the file is not a model file or has data "
-                             "appended)");
+        SHADOWSENSE_THROW(
+            ModelFileError("model file has " + std::to_string(size) + " bytes, expected at most " +
+                           std::to_string(limit) +
+                           " for its architecture (the file is not a model file or has data "
+                           "appended)"));
     }
     read(bytes, head, static_cast<std::size_t>(size - head));
     return from_bytes(bytes);
   } catch (const ModelFileError& e) {
-    throw ModelFileError(name + ": " + e.what());
+    SHADOWSENSE_THROW(ModelFileError(name + ": " + e.what()));
   }
 }
 
@@ -651,15 +659,16 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     NamedTensor t;
     t.name = r.str("a tensor name");
     if (t.name != e.name)
-      throw ModelFileError("model file tensors section: tensor " +
-                           std::to_string(m.tensors.size()) + " is named '" + t.name +
-                           "', expected '" + e.name + "'");
+      SHADOWSENSE_THROW(ModelFileError("model file tensors section: tensor " +
+                                       std::to_string(m.tensors.size()) + " is named '" + t.name +
+                                       "', expected '" + e.name + "'"));
     const int ndim = r.count("a tensor's number of dimensions", 1, 4);
     for (int d = 0; d < ndim; ++d) t.shape.push_back(r.count("a tensor dimension", 1, 1u << 30));
     if (t.shape != e.shape)
-      throw ModelFileError("model file tensors section: tensor '" + t.name + "' has shape " +
-                           detail::shape_to_string(t.shape) + ", expected " +
-                           detail::shape_to_string(e.shape) + " for this architecture");
+      SHADOWSENSE_THROW(ModelFileError("model file tensors section: tensor '" + t.name +
+                                       "' has shape " + detail::shape_to_string(t.shape) +
+                                       ", expected " + detail::shape_to_string(e.shape) +
+                                       " for this architecture"));
     r.floats(t.values, detail::shape_elements(t.shape), "tensor values");
     m.tensors.push_back(std::move(t));
   }
@@ -673,9 +682,9 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     const int w = r.count("self-test width", 1, 4096);
     const std::size_t count = static_cast<std::size_t>(n) * c * h * w;
     if (count > model_self_test_max_values)
-      throw ModelFileError("model file self-test section: input of " + std::to_string(count) +
-                           " values, expected at most " +
-                           std::to_string(model_self_test_max_values));
+      SHADOWSENSE_THROW(ModelFileError("model file self-test section: input of " +
+                                       std::to_string(count) + " values, expected at most " +
+                                       std::to_string(model_self_test_max_values)));
     r.need(count * 4, "self-test input");
     st.input.resize(n, c, h, w);
     std::vector<float> tmp;
@@ -690,15 +699,16 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
   const std::size_t body = r.pos;
   const std::uint32_t stored = r.u32("the CRC-32 checksum");
   if (r.pos != bytes.size())
-    throw ModelFileError("model file has " + std::to_string(bytes.size() - r.pos) +
-                         " unexpected bytes after the checksum, expected the file to end at "
-                         "byte " +
-                         std::to_string(r.pos));
+    SHADOWSENSE_THROW(
+        ModelFileError("model file has " + std::to_string(bytes.size() - r.pos) +
+                       " unexpected bytes after the checksum, expected the file to end at "
+                       "byte " +
+                       std::to_string(r.pos)));
   const std::uint32_t actual = detail::crc32(bytes.first(body));
   if (stored != actual)
-    throw ModelFileError("model file checksum mismatch: stored " + std::to_string(stored) +
-                         ", computed " + std::to_string(actual) +
-                         " (the file is corrupted or was edited)");
+    SHADOWSENSE_THROW(ModelFileError(
+        "model file checksum mismatch: stored " + std::to_string(stored) + ", computed " +
+        std::to_string(actual) + " (the file is corrupted or was edited)"));
   m.validate(); // NaN/Inf, negative variances, self-test consistency
   return m;
 }
