@@ -119,8 +119,12 @@ public:
   std::string_view raw(std::size_t col) const { return fields_[col]; }
   bool empty(std::size_t col) const { return fields_[col].empty(); }
 
+  // Text fields hold exactly what the writers can write back: not empty, no quote or line
+  // break (fields are never quoted in this format).
   std::string text(std::size_t col) const {
     if (fields_[col].empty()) fail(col, "must not be empty");
+    if (fields_[col].find_first_of("\"\n\r") != std::string_view::npos)
+      fail(col, "holds a quote or a line break; fields are never quoted in this format");
     return std::string(fields_[col]);
   }
   int integer(std::size_t col, int lo, int hi) const {
