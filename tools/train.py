@@ -37,7 +37,6 @@ so the C++ Classifier encodes frames the same way without flags. The output (and
   /usr/bin/python3 tools/train.py DATA -o model.ssm --mode transfer --backbone base.ssm
 """
 import argparse
-import csv
 import io
 import os
 import random
@@ -186,30 +185,6 @@ def read_class_folders(root):
     if not rows:
         raise SystemExit(f"{root}: no metadata.csv and no images in class sub-folders "
                          f"(expected root/<class>/*.png)")
-    return rows
-
-
-def read_metadata(root):
-    path = os.path.join(root, "metadata.csv")
-    if not os.path.isfile(path):
-        return read_class_folders(root)
-    rows = []
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        need = {"file_name", "class", "user", "lighting", "session", "timestamp_ms"}
-        missing = need - set(reader.fieldnames or [])
-        if missing:
-            raise SystemExit(f"{path}: missing columns {sorted(missing)}")
-        for line, r in enumerate(reader, start=2):
-            try:
-                r["timestamp_ms"] = float(r["timestamp_ms"])
-                r["lighting_level"] = float(r.get("lighting_level") or "nan")
-            except ValueError as e:
-                raise SystemExit(f"{path}:{line}: {e}")
-            r["path"] = os.path.join(root, r["file_name"])
-            rows.append(r)
-    if not rows:
-        raise SystemExit(f"{path}: no rows")
     return rows
 
 
@@ -457,7 +432,12 @@ def main(argv=None):
     random.seed(args.seed)
     gen = torch.Generator().manual_seed(args.seed)
 
-    rows = dataset_reader.rows_for_training(args.data)
+    # A dataset folder is read (and checked) by the shared reader; a plain class-per-folder
+    # tree has no metadata.csv.
+    if os.path.isfile(os.path.join(args.data, "metadata.csv")):
+        rows = dataset_reader.rows_for_training(args.data)
+    else:
+        rows = read_class_folders(args.data)
     classes = csv_list(args.classes) or sorted({r["class"] for r in rows})
     train_rows, val_rows = select(rows, args)
     print(f"{len(train_rows)} training and {len(val_rows)} validation images, classes "
