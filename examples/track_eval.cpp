@@ -184,7 +184,8 @@ SlideResults evaluate_slides(const Options& o, Segmenter& seg) {
   Segmentation s;
   int annotated = 0;
   for (const SequenceRow& q : seqs) {
-    const Metadata md = read_metadata(o.slides / q.sequence / "metadata.csv");
+    // Checked against its sequences.csv row (folder inside the dataset, frames, labels).
+    const Metadata md = read_sequence_metadata(o.slides / "sequences.csv", q);
     std::vector<double> ts;
     std::vector<TouchObservation> obs;
     bool any_contact = false;
@@ -199,7 +200,11 @@ SlideResults evaluate_slides(const Options& o, Segmenter& seg) {
       ts.push_back(row.timestamp_ms);
       obs.push_back({s.shadow_box.has_value(), s.contact_point});
       any_contact = any_contact || s.contact_point.has_value();
-      fsm.update(row.timestamp_ms, obs.back());
+      try {
+        fsm.update(row.timestamp_ms, obs.back());
+      } catch (const InvalidArgument& e) { // e.g. a timestamp that goes back: name the row
+        throw DatasetError(md.csv_path.string() + ":" + std::to_string(row.line) + ": " + e.what());
+      }
       if (draw) {
         cv::Mat a = img.clone();
         std::string label = to_string(fsm.state());
