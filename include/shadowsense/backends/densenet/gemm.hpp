@@ -147,7 +147,8 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
   case GemmKernelKind::reference:
     return {kind, 4, 8, &micro_kernel_reference<4, 8>, "reference"};
   default:
-    return {GemmKernelKind::portable, 4, 8, &micro_kernel_portable<4, 8>, "portable"};
+    return {GemmKernelKind::portable, portable_mr, portable_nr,
+            &micro_kernel_portable<portable_mr, portable_nr>, "portable"};
   }
 }
 

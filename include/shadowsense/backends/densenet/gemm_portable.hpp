@@ -1,20 +1,30 @@
-// The portable GEMM micro-kernel and element-wise loops: plain C++ shaped so the compiler's
-// auto-vectoriser turns them into SIMD code for whatever baseline the build targets (SSE2 on
-// x86-64, Advanced SIMD on aarch64, anything else GCC/Clang vectorise for):
-// - a fixed-size register block (MR x NR accumulators, NR a multiple of 4 lanes) held in a
-//   local array the compiler keeps in registers, fully unrolled (#pragma GCC unroll) so it
-//   vectorises at -O2 as well as -O3;
+// The portable GEMM micro-kernel and element-wise loops: plain C++ shaped so the compiler
+// turns it into SIMD code for whatever baseline the build targets (SSE2 on x86-64, Advanced
+// SIMD on aarch64, anything else GCC/Clang vectorise for):
+// - a fixed-size register block of MR x NR accumulators (NR a multiple of 4 lanes); with
+//   GCC/Clang written as generic 4-lane vectors (__attribute__((vector_size(16))), which the
+//   compiler lowers to the target's SIMD registers, or to scalar code where there are none),
+//   elsewhere as plain unrolled loops. The dispatch uses 2 x 24 (portable_mr x portable_nr):
+//   12 accumulators + a broadcast + a temporary fit the 16 SSE registers with no spill, and
+//   each step costs 2 broadcasts (shuffles) per 12 vector multiplies and 12 adds;
 // - __restrict on every pointer (no aliasing between panels, tile and outputs);
-// - unit-stride inner loops without branches in the loop body.
-// The same op bodies are instantiated with x86 target attributes in gemm_x86.hpp.
+// - unit-stride inner loops without branches in the loop body; the full-panel case of the
+//   element-wise loops (n == portable_nr) inlined with a constant length.
+// The same element-wise bodies (SHADOWSENSE_DEFINE_VECTOR_OPS) are instantiated with x86 target
+// attributes in gemm_x86.hpp.
 //
 // micro_kernel_portable<MR, NR>(K, a, b, out): same contract as micro_kernel_reference
-//   (gemm_reference.hpp), accumulated in float in k order: out differs from the reference
-//   only by float rounding.
+//   (gemm_reference.hpp), accumulated in float in k order (a multiply-add may be fused where
+//   the target has FMA and the compiler contracts): out differs from the reference only by
+//   float rounding.
+// affine_relu_portable, bias_relu_portable, pool_affine_relu_portable, pack3x3_portable: the
+//   VectorOps contracts of gemm.hpp (any n, cols <= nr; exact copies for pack3x3).
 // No state; callable from any thread.
 #pragma once
 
 #include <shadowsense/core/version.hpp>
+
+#include <cstring>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
@@ -28,10 +38,44 @@ namespace detail {
 #define SHADOWSENSE_UNROLL(n)
 #endif
 
+#if defined(__GNUC__) // GCC and Clang, any target: generic 4-lane vectors
+using PortableVec4 = float __attribute__((vector_size(16)));
+#endif
+
 template <int MR, int NR>
 inline void micro_kernel_portable(int K, const float* __restrict a, const float* __restrict b,
                                   float* __restrict out) {
   static_assert(MR >= 1 && NR % 4 == 0, "the register block is whole 4-lane vectors wide");
+#if defined(__GNUC__)
+  // The block as MR x NR/4 generic vectors: GCC's SLP vectoriser turns the equivalent scalar
+  // loop into extra lane shuffles (a reversal per B vector and per accumulator); with explicit
+  // vectors every step is one broadcast of a[r] and MR * NR/4 vector multiply-adds.
+  constexpr int NV = NR / 4;
+  PortableVec4 acc[MR][NV];
+  SHADOWSENSE_UNROLL(16)
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(16)
+    for (int j = 0; j < NV; ++j) acc[r][j] = PortableVec4{0.0f, 0.0f, 0.0f, 0.0f};
+  }
+  for (int k = 0; k < K; ++k, a += MR, b += NR) {
+    SHADOWSENSE_UNROLL(16)
+    for (int r = 0; r < MR; ++r) {
+      const float s = a[r];
+      const PortableVec4 x = {s, s, s, s};
+      SHADOWSENSE_UNROLL(16)
+      for (int j = 0; j < NV; ++j) {
+        PortableVec4 v;
+        std::memcpy(&v, b + 4 * j, sizeof v);
+        acc[r][j] += x * v;
+      }
+    }
+  }
+  SHADOWSENSE_UNROLL(16)
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(16)
+    for (int j = 0; j < NV; ++j) std::memcpy(out + r * NR + 4 * j, &acc[r][j], sizeof acc[r][j]);
+  }
+#else
   float acc[MR * NR];
   SHADOWSENSE_UNROLL(64)
   for (int i = 0; i < MR * NR; ++i) acc[i] = 0.0f;
@@ -45,11 +89,12 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
   }
   SHADOWSENSE_UNROLL(64)
   for (int i = 0; i < MR * NR; ++i) out[i] = acc[i];
+#endif
 }
 
 // Element-wise loops, one definition per instruction set (ATTR: a target attribute or empty).
 // ReLU is (v < 0 ? 0 : v): NaN propagates, as in PyTorch.
-#define SHADOWSENSE_DEFINE_VECTOR_OPS(SUFFIX, ATTR)                                                \
+#define SHADOWSENSE_DEFINE_ELEMENTWISE_OPS(SUFFIX, ATTR)                                           \
   ATTR inline void affine_relu_##SUFFIX(const float* __restrict s, float* __restrict d, int n,     \
                                         float sc, float sh) {                                      \
     for (int i = 0; i < n; ++i) {                                                                  \
@@ -63,16 +108,6 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
       const float v = s[i] + b;                                                                    \
       d[i] = v < 0.0f ? 0.0f : v;                                                                  \
     }                                                                                              \
-  }                                                                                                \
-  /* the 9 taps of a 3x3 convolution on the padded grid: row t = s[ky * pw + kx + j] */            \
-  ATTR inline void pack3x3_##SUFFIX(const float* __restrict s, float* __restrict d, int cols,      \
-                                    int nr, int pw) {                                              \
-    for (int ky = 0; ky < 3; ++ky)                                                                 \
-      for (int kx = 0; kx < 3; ++kx, d += nr) {                                                    \
-        const float* __restrict r = s + ky * pw + kx;                                              \
-        for (int j = 0; j < cols; ++j) d[j] = r[j];                                                \
-        for (int j = cols; j < nr; ++j) d[j] = 0.0f;                                               \
-      }                                                                                            \
   }                                                                                                \
   /* d[j] = mean of relu(affine) over the 2x2 window at columns 2j, 2j+1 of rows r0, r1 */         \
   ATTR inline void pool_affine_relu_##SUFFIX(const float* __restrict r0,                           \
@@ -89,7 +124,66 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
     }                                                                                              \
   }
 
-SHADOWSENSE_DEFINE_VECTOR_OPS(portable, )
+#define SHADOWSENSE_DEFINE_PACK3X3(SUFFIX, ATTR)                                                   \
+  /* the 9 taps of a 3x3 convolution on the padded grid: row t = s[ky * pw + kx + j] */            \
+  ATTR inline void pack3x3_##SUFFIX(const float* __restrict s, float* __restrict d, int cols,      \
+                                    int nr, int pw) {                                              \
+    for (int ky = 0; ky < 3; ++ky)                                                                 \
+      for (int kx = 0; kx < 3; ++kx, d += nr) {                                                    \
+        const float* __restrict r = s + ky * pw + kx;                                              \
+        for (int j = 0; j < cols; ++j) d[j] = r[j];                                                \
+        for (int j = cols; j < nr; ++j) d[j] = 0.0f;                                               \
+      }                                                                                            \
+  }
+
+#define SHADOWSENSE_DEFINE_VECTOR_OPS(SUFFIX, ATTR)                                                \
+  SHADOWSENSE_DEFINE_ELEMENTWISE_OPS(SUFFIX, ATTR)                                                 \
+  SHADOWSENSE_DEFINE_PACK3X3(SUFFIX, ATTR)
+
+// The portable kernel's register block (gemm.hpp dispatches micro_kernel_portable<these>).
+inline constexpr int portable_mr = 2;
+inline constexpr int portable_nr = 24;
+
+SHADOWSENSE_DEFINE_ELEMENTWISE_OPS(portable_any, )
+
+inline void pool_affine_relu_portable(const float* __restrict r0, const float* __restrict r1,
+                                      float* __restrict d, int n, float sc, float sh) {
+  pool_affine_relu_portable_any(r0, r1, d, n, sc, sh);
+}
+// affine_relu / bias_relu mostly run on one full panel row (n == portable_nr): that case is
+// inlined with a constant n (straight-line vector code, no loop tail).
+inline void affine_relu_portable(const float* __restrict s, float* __restrict d, int n, float sc,
+                                 float sh) {
+  if (n == portable_nr)
+    affine_relu_portable_any(s, d, portable_nr, sc, sh);
+  else
+    affine_relu_portable_any(s, d, n, sc, sh);
+}
+inline void bias_relu_portable(const float* __restrict s, float* __restrict d, int n, float b) {
+  if (n == portable_nr)
+    bias_relu_portable_any(s, d, portable_nr, b);
+  else
+    bias_relu_portable_any(s, d, n, b);
+}
+
+// pack3x3 for the portable kernel: a full panel (cols == nr == portable_nr, all but the last
+// panel of a layer) is 9 fixed-size row copies the compiler inlines as vector moves; the
+// generic loops become a library memcpy/memset call per row (18 calls per channel).
+inline void pack3x3_portable(const float* __restrict s, float* __restrict d, int cols, int nr,
+                             int pw) {
+  if (cols == portable_nr && nr == portable_nr) {
+    for (int ky = 0; ky < 3; ++ky)
+      for (int kx = 0; kx < 3; ++kx, d += portable_nr)
+        std::memcpy(d, s + ky * pw + kx, portable_nr * sizeof(float));
+    return;
+  }
+  for (int ky = 0; ky < 3; ++ky)
+    for (int kx = 0; kx < 3; ++kx, d += nr) {
+      const float* __restrict r = s + ky * pw + kx;
+      for (int j = 0; j < cols; ++j) d[j] = r[j];
+      for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+    }
+}
 
 } // namespace detail
 SHADOWSENSE_NAMESPACE_END
