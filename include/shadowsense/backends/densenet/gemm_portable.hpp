@@ -57,19 +57,28 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
     SHADOWSENSE_UNROLL(16)
     for (int j = 0; j < NV; ++j) acc[r][j] = PortableVec4{0.0f, 0.0f, 0.0f, 0.0f};
   }
-  for (int k = 0; k < K; ++k, a += MR, b += NR) {
+  // One k step: acc[r][:] += a[r] * b[:].
+  auto step = [&acc](const float* __restrict ak, const float* __restrict bk) {
     SHADOWSENSE_UNROLL(16)
     for (int r = 0; r < MR; ++r) {
-      const float s = a[r];
+      const float s = ak[r];
       const PortableVec4 x = {s, s, s, s};
       SHADOWSENSE_UNROLL(16)
       for (int j = 0; j < NV; ++j) {
         PortableVec4 v;
-        std::memcpy(&v, b + 4 * j, sizeof v);
+        std::memcpy(&v, bk + 4 * j, sizeof v);
         acc[r][j] += x * v;
       }
     }
+  };
+  // Two k steps per iteration (still in k order): the loop bookkeeping is shared, which the
+  // SSE2 front end notices (measured +5% on 2 x 24); four steps spill accumulators.
+  int k = 0;
+  for (; k + 2 <= K; k += 2, a += 2 * MR, b += 2 * NR) {
+    step(a, b);
+    step(a + MR, b + NR);
   }
+  if (k < K) step(a, b);
   SHADOWSENSE_UNROLL(16)
   for (int r = 0; r < MR; ++r) {
     SHADOWSENSE_UNROLL(16)
