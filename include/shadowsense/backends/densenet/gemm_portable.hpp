@@ -1,12 +1,12 @@
-// The portable GEMM micro-kernel and element-wise loops: plain C++ shaped so the compiler
-// turns it into SIMD code for whatever baseline the build targets (SSE2 on x86-64, Advanced
-// SIMD on aarch64, anything else GCC/Clang vectorise for):
-// - a fixed-size register block of MR x NR accumulators (NR a multiple of 4 lanes); with
-//   GCC/Clang written as generic 4-lane vectors (__attribute__((vector_size(16))), which the
-//   compiler lowers to the target's SIMD registers, or to scalar code where there are none),
-//   elsewhere as plain unrolled loops. The dispatch uses 2 x 24 (portable_mr x portable_nr):
-//   12 accumulators + a broadcast + a temporary fit the 16 SSE registers with no spill, and
-//   each step costs 2 broadcasts (shuffles) per 12 vector multiplies and 12 adds;
+// The portable GEMM micro-kernel and element-wise loops: C++ shaped so the compiler turns it
+// into SIMD code for whatever baseline the build targets (SSE2 on x86-64, Advanced SIMD on
+// aarch64, AVX/FMA when the build enables them, anything else GCC/Clang vectorise for):
+// - a fixed-size register block of MR x NR accumulators; with GCC/Clang written as generic
+//   vectors (__attribute__((vector_size)), which the compiler lowers to the target's SIMD
+//   registers, or to scalar code where there are none), elsewhere as plain unrolled loops.
+//   The dispatch uses portable_mr x portable_nr = 2 x 24 with 4-lane vectors (12 accumulators
+//   + a broadcast + a temporary fit the 16 SSE registers with no spill; each k step costs 2
+//   broadcasts per 12 vector multiply-adds), 4 x 24 with 8 lanes when __AVX__ is defined;
 // - __restrict on every pointer (no aliasing between panels, tile and outputs);
 // - unit-stride inner loops without branches in the loop body; the full-panel case of the
 //   element-wise loops (n == portable_nr) inlined with a constant length.
@@ -19,6 +19,8 @@
 //   float rounding.
 // affine_relu_portable, bias_relu_portable, pool_affine_relu_portable, pack3x3_portable: the
 //   VectorOps contracts of gemm.hpp (any n, cols <= nr; exact copies for pack3x3).
+// portable_mr / portable_nr depend on __AVX__: build every translation unit of a program with
+// the same instruction-set flags (as for any inline code).
 // No state; callable from any thread.
 #pragma once
 
@@ -38,8 +40,16 @@ namespace detail {
 #define SHADOWSENSE_UNROLL(n)
 #endif
 
-#if defined(__GNUC__) // GCC and Clang, any target: generic 4-lane vectors
-using PortableVec4 = float __attribute__((vector_size(16)));
+// Vector lanes of the portable kernel: 4 (16 bytes: SSE2, Advanced SIMD), 8 where the build
+// enables AVX (e.g. -march=x86-64-v3).
+#if defined(__AVX__)
+inline constexpr int portable_lanes = 8;
+#else
+inline constexpr int portable_lanes = 4;
+#endif
+
+#if defined(__GNUC__) // GCC and Clang, any target: generic vectors
+using PortableVec = float __attribute__((vector_size(portable_lanes * sizeof(float))));
 #endif
 
 template <int MR, int NR>
@@ -47,26 +57,31 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
                                   float* __restrict out) {
   static_assert(MR >= 1 && NR % 4 == 0, "the register block is whole 4-lane vectors wide");
 #if defined(__GNUC__)
-  // The block as MR x NR/4 generic vectors: GCC's SLP vectoriser turns the equivalent scalar
-  // loop into extra lane shuffles (a reversal per B vector and per accumulator); with explicit
-  // vectors every step is one broadcast of a[r] and MR * NR/4 vector multiply-adds.
-  constexpr int NV = NR / 4;
-  PortableVec4 acc[MR][NV];
+  // The block as MR x NV generic vectors: GCC's SLP vectoriser turns the equivalent scalar
+  // loop into extra lane shuffles (a reversal per B vector and per accumulator) or worse; with
+  // explicit vectors every step is one broadcast of a[r] and MR * NV vector multiply-adds.
+  static_assert(NR % portable_lanes == 0, "the register block is whole vectors wide");
+  constexpr int NV = NR / portable_lanes;
+  PortableVec acc[MR][NV];
   SHADOWSENSE_UNROLL(16)
   for (int r = 0; r < MR; ++r) {
     SHADOWSENSE_UNROLL(16)
-    for (int j = 0; j < NV; ++j) acc[r][j] = PortableVec4{0.0f, 0.0f, 0.0f, 0.0f};
+    for (int j = 0; j < NV; ++j) acc[r][j] = PortableVec{};
   }
   // One k step: acc[r][:] += a[r] * b[:].
   auto step = [&acc](const float* __restrict ak, const float* __restrict bk) {
     SHADOWSENSE_UNROLL(16)
     for (int r = 0; r < MR; ++r) {
       const float s = ak[r];
-      const PortableVec4 x = {s, s, s, s};
+#if defined(__AVX__)
+      const PortableVec x = {s, s, s, s, s, s, s, s};
+#else
+      const PortableVec x = {s, s, s, s};
+#endif
       SHADOWSENSE_UNROLL(16)
       for (int j = 0; j < NV; ++j) {
-        PortableVec4 v;
-        std::memcpy(&v, bk + 4 * j, sizeof v);
+        PortableVec v;
+        std::memcpy(&v, bk + portable_lanes * j, sizeof v);
         acc[r][j] += x * v;
       }
     }
@@ -82,7 +97,8 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
   SHADOWSENSE_UNROLL(16)
   for (int r = 0; r < MR; ++r) {
     SHADOWSENSE_UNROLL(16)
-    for (int j = 0; j < NV; ++j) std::memcpy(out + r * NR + 4 * j, &acc[r][j], sizeof acc[r][j]);
+    for (int j = 0; j < NV; ++j)
+      std::memcpy(out + r * NR + portable_lanes * j, &acc[r][j], sizeof acc[r][j]);
   }
 #else
   float acc[MR * NR];
@@ -150,7 +166,8 @@ inline void micro_kernel_portable(int K, const float* __restrict a, const float*
   SHADOWSENSE_DEFINE_PACK3X3(SUFFIX, ATTR)
 
 // The portable kernel's register block (gemm.hpp dispatches micro_kernel_portable<these>).
-inline constexpr int portable_mr = 2;
+// 12 accumulators either way: 2 x (24 / 4) with 4 lanes, 4 x (24 / 8) with 8.
+inline constexpr int portable_mr = portable_lanes == 8 ? 4 : 2;
 inline constexpr int portable_nr = 24;
 
 SHADOWSENSE_DEFINE_ELEMENTWISE_OPS(portable_any, )
