@@ -3,7 +3,7 @@
 // "packer" (fused im2col / BatchNorm+ReLU / average pooling), so no im2col matrix is ever
 // materialised. This header is the dispatch and the driver; the kernels live apart:
 //   gemm_reference.hpp  plain loops, the oracle every other kernel is tested against
-//   gemm_portable.hpp   plain C++ the compiler auto-vectorises (any CPU)
+//   gemm_portable.hpp   C++ the compiler vectorises for its target (any CPU)
 //   gemm_x86.hpp        AVX-512 and AVX2+FMA intrinsics, picked at run time (no -march needed)
 //   gemm_neon.hpp       aarch64 Advanced SIMD intrinsics, compiled in on aarch64
 // Summation order differs from PyTorch's only by float rounding.
@@ -147,7 +147,8 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
   case GemmKernelKind::reference:
     return {kind, 4, 8, &micro_kernel_reference<4, 8>, "reference"};
   default:
-    return {GemmKernelKind::portable, 4, 8, &micro_kernel_portable<4, 8>, "portable"};
+    return {GemmKernelKind::portable, portable_mr, portable_nr,
+            &micro_kernel_portable<portable_mr, portable_nr>, "portable"};
   }
 }
 
