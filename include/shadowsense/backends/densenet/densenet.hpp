@@ -115,15 +115,16 @@ public:
 
 private:
   void run(const Tensor& input) {
-    detail::require(!input.empty() && input.c() == 3,
-                    "DenseNet: input is " +
-                        (input.empty() ? std::string("empty") : input.shape_string()) +
-                        ", expected n x 3 x h x w");
-    detail::require(accepts(input.h(), input.w()),
-                    "DenseNet: input " + input.shape_string() +
-                        " is too small for the pooling stages, expected h and w with "
-                        "ceil(ceil(size / 2) / 2) >= " +
-                        std::to_string(1 << (arch_.block_config.size() - 1)));
+    if (!(!input.empty() && input.c() == 3))
+      SHADOWSENSE_THROW(InvalidArgument(
+          "DenseNet: input is " + (input.empty() ? std::string("empty") : input.shape_string()) +
+          ", expected n x 3 x h x w"));
+    if (!(accepts(input.h(), input.w())))
+      SHADOWSENSE_THROW(
+          InvalidArgument("DenseNet: input " + input.shape_string() +
+                          " is too small for the pooling stages, expected h and w with "
+                          "ceil(ceil(size / 2) / 2) >= " +
+                          std::to_string(1 << (arch_.block_config.size() - 1))));
     detail::require(input.all_finite(),
                     "DenseNet: input holds NaN or Inf values, expected finite numbers");
     ensure_buffers(input.h(), input.w());
@@ -138,12 +139,12 @@ private:
       // A NaN or Inf anywhere in the pass reaches the logits (ReLU and the pools propagate
       // NaN), so checking these few values is enough.
       for (std::size_t o = 0; o < classes; ++o)
-        detail::require<Error>(std::isfinite(logits_[k * classes + o]),
-                               "DenseNet: logit " + std::to_string(o) + " of image " +
-                                   std::to_string(i) + " is " +
-                                   std::to_string(logits_[k * classes + o]) +
-                                   " for a finite input, expected a finite number: the model's "
-                                   "weights (or the input's magnitude) overflow float");
+        if (!(std::isfinite(logits_[k * classes + o])))
+          SHADOWSENSE_THROW(Error("DenseNet: logit " + std::to_string(o) + " of image " +
+                                  std::to_string(i) + " is " +
+                                  std::to_string(logits_[k * classes + o]) +
+                                  " for a finite input, expected a finite number: the model's "
+                                  "weights (or the input's magnitude) overflow float"));
     }
   }
 
