@@ -300,6 +300,7 @@ private:
     block_w_.clear();
     block_buf_.clear();
     bottleneck_.clear();
+    tap_offsets_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -307,9 +308,19 @@ private:
       // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
       // block so each border stays 0.
       // (+ one row of slack: the padded-grid conv2 reads 2 floats past the last plane.)
-      bottleneck_.emplace_back(
-          static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate) * (H + 2) * (W + 2) + W + 2,
-          0.0f);
+      // (+ nr + 2 more: a tail panel read in place reads a whole nr-wide row.)
+      const int inner = arch_.bn_size * arch_.growth_rate;
+      const std::size_t plane = static_cast<std::size_t>(H + 2) * (W + 2);
+      bottleneck_.emplace_back(static_cast<std::size_t>(inner) * plane + W + 2 +
+                                   static_cast<std::size_t>(kernel_.nr) + 2,
+                               0.0f);
+      // Offsets of the 3x3 taps in the padded bottleneck, in the packed weights' k order.
+      std::vector<int> taps(static_cast<std::size_t>(inner) * 9);
+      for (int c = 0; c < inner; ++c)
+        for (int t = 0; t < 9; ++t)
+          taps[static_cast<std::size_t>(c * 9 + t)] =
+              static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * (W + 2) + t % 3;
+      tap_offsets_.push_back(std::move(taps));
       H /= 2;
       W /= 2;
     }
@@ -411,7 +422,7 @@ private:
         const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
         const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
         ops_.affine_relu(s, d, cols, sc, sh);
-        std::fill(d + cols, d + nr, 0.0f);
+        if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
     auto store = [&](int m, int n0, int cols, const float* v) {
@@ -459,6 +470,13 @@ private:
         ++y;
       }
     };
+#if SHADOWSENSE_X86_KERNELS
+    if (kernel_.fn == &detail::micro_kernel_avx512) { // B read in place: nothing packed
+      detail::gemm_in_place(kernel_, &detail::micro_kernel_avx512_offsets, layer.conv2, bh * pw,
+                            bott, tap_offsets_[b].data(), store, *pool_, scratch_);
+      return;
+    }
+#endif
     detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
   }
 
@@ -485,7 +503,7 @@ private:
           x = 0;
           ++y;
         }
-        std::fill(d + cols, d + nr, 0.0f);
+        if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
     float* next = block_buf_[b + 1].data();
@@ -512,11 +530,19 @@ private:
       }
       pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
     }
+    // Eight interleaved double sums: one serial chain of additions made the 1000-class head
+    // latency-bound (about 1 ms of DenseNet-121); the order differs only in double rounding.
+    const int c_out = last.c_out, c8 = c_out / 8 * 8;
     for (int o = 0; o < arch_.num_classes; ++o) {
-      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * last.c_out;
+      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * c_out;
+      double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+      for (int c = 0; c < c8; c += 8)
+        for (int j = 0; j < 8; ++j)
+          part[j] += double(wr[c + j]) * pooled[static_cast<std::size_t>(c + j)];
       double acc = classifier_b_[static_cast<std::size_t>(o)];
-      for (int c = 0; c < last.c_out; ++c)
-        acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+      for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+      acc +=
+          ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
       out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
     }
   }
@@ -553,6 +579,7 @@ private:
   std::vector<float> padded_input_, conv0_out_, features_, logits_;
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
+  std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
 };
 
 SHADOWSENSE_NAMESPACE_END
