@@ -380,27 +380,42 @@ private:
   // pool0: max 3x3, stride 2, pad 1 -> the first block's buffer (inputs are >= 0 after ReLU,
   // padding never wins). A NaN in the window wins, so it reaches the logits check.
   void pool0() {
+    // Separable: the max (and the NaN probe: a sum of >= 0 terms, NaN exactly when a NaN is
+    // in the window) over the valid rows of each window first, contiguous and vectorised, then
+    // over the three columns.
     const int bh = block_h_[0], bw = block_w_[0];
     float* dst = block_buf_[0].data();
+    pool_max_.resize(static_cast<std::size_t>(w0_));
+    pool_sum_.resize(static_cast<std::size_t>(w0_));
+    float* vm = pool_max_.data();
+    float* vs = pool_sum_.data();
     for (int c = 0; c < arch_.init_features; ++c) {
       const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
-      for (int y = 0; y < bh; ++y)
-        for (int x = 0; x < bw; ++x) {
-          float mx = -INFINITY, nan_probe = 0.0f;
-          for (int dy = -1; dy <= 1; ++dy) {
-            const int iy = 2 * y + dy;
-            if (iy < 0 || iy >= h0_) continue;
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int ix = 2 * x + dx;
-              if (ix < 0 || ix >= w0_) continue;
-              const float v = s[iy * w0_ + ix];
-              mx = std::max(mx, v);
-              nan_probe += v; // >= 0 terms: NaN exactly when a NaN is in the window
-            }
-          }
-          dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] =
-              nan_probe == nan_probe ? mx : nan_probe;
+      for (int y = 0; y < bh; ++y) {
+        const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0_ - 1);
+        const float* r = s + static_cast<std::size_t>(y0) * w0_;
+        for (int x = 0; x < w0_; ++x) {
+          vm[x] = r[x];
+          vs[x] = r[x];
         }
+        for (int iy = y0 + 1; iy <= y1; ++iy) {
+          r = s + static_cast<std::size_t>(iy) * w0_;
+          for (int x = 0; x < w0_; ++x) {
+            vm[x] = std::max(vm[x], r[x]);
+            vs[x] += r[x];
+          }
+        }
+        float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
+        for (int x = 0; x < bw; ++x) {
+          const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0_ - 1);
+          float mx = vm[x0], nan_probe = vs[x0];
+          for (int ix = x0 + 1; ix <= x1; ++ix) {
+            mx = std::max(mx, vm[ix]);
+            nan_probe += vs[ix];
+          }
+          d[x] = nan_probe == nan_probe ? mx : nan_probe;
+        }
+      }
     }
   }
 
@@ -577,6 +592,7 @@ private:
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
   std::vector<float> padded_input_, conv0_out_, features_, logits_;
+  std::vector<float> pool_max_, pool_sum_; // pool0's column maxima and NaN probes (one row)
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
   std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
