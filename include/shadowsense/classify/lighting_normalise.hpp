@@ -6,6 +6,12 @@
 // tools/train.py --lighting-normalise applies the same arithmetic in PyTorch; a model trained
 // with it must be used with it (and without the dark-image brightness factor, which the
 // normalisation replaces).
+//
+// run(image, out): image CV_8UC3 (0..255) or CV_32FC3 (0..1) -> out CV_32FC3 in [0, 1], same
+//   channel order; throws InvalidArgument on a bad image.
+// table(image, out): for a CV_8UC3 image (not checked), out[c][v] is the value run() writes
+//   for value v of channel c, bit for bit (FrameEncoder applies it while resizing).
+// No state beyond the config: const, callable from any thread.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -104,8 +110,7 @@ struct LightingNormaliser {
         const auto* s = src.ptr<unsigned char>(y);
         auto* d = out.ptr<float>(y);
         for (int x = 0; x < src.cols; ++x)
-          for (int c = 0; c < 3; ++c)
-            d[3 * x + c] = t[static_cast<std::size_t>(c)][s[3 * x + c]];
+          for (int c = 0; c < 3; ++c) d[3 * x + c] = t[static_cast<std::size_t>(c)][s[3 * x + c]];
       }
       return;
     }

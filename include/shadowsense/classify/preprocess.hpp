@@ -18,6 +18,11 @@
 //   requires: image CV_8UC3 (0..255) or CV_32FC3 with every value in 0..1 (a float image in
 //             0..255 is rejected, not clipped); crop inside the (resized) image.
 //   ensures: out is the 1 x 3 x h x w network input; throws InvalidArgument otherwise.
+// run_mapped(image, table, dark, out)
+//   requires: image CV_8UC3; table[c][v] finite and in 0..1 (the float value of v in channel
+//             c; not checked). ensures: run() on the image mapped through table, computed
+//             without a full-size float image (8-bit images in run() go this way with
+//             table = v / 255). Throws InvalidArgument on a bad image or crop.
 // Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
