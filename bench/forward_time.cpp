@@ -1,7 +1,8 @@
 // forward_time: times the DenseNet forward pass of one model file on one raw input, for the
 // side-by-side comparison with ONNX Runtime (tools/onnxruntime_bench/run.py drives it and the
 // ONNX Runtime timer alternately). Prints one JSON object on stdout: per-iteration wall times
-// (ms), the multiply-adds of one forward pass, the kernel and the logits.
+// (ms), the process CPU time per pass (ms, all threads), the multiply-adds of one forward pass, the
+// kernel and the logits.
 //   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS
 // INPUT.f32: 3 x H x W little-endian float32 values (CHW, already preprocessed).
 #include <shadowsense/backends/densenet/densenet.hpp>
@@ -10,6 +11,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <fstream>
 #include <iostream>
 #include <string>
@@ -66,17 +68,25 @@ int main(int argc, char** argv) {
     const ss::Tensor input = read_input(argv[2], h, w);
     for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
     std::vector<double> ms;
+    timespec c0{}, c1{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
     for (int i = 0; i < iterations; ++i) {
       const auto t0 = std::chrono::steady_clock::now();
       net.logits(input);
       ms.push_back(
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
     }
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c1);
+    const double cpu_ms =
+        (double(c1.tv_sec - c0.tv_sec) * 1e3 + double(c1.tv_nsec - c0.tv_nsec) * 1e-6) /
+        iterations; // all threads of the process, per pass
     const auto logits = net.logits(input);
     std::cout << "{\"ms\": [";
     for (std::size_t i = 0; i < ms.size(); ++i) std::printf("%s%.4f", i ? ", " : "", ms[i]);
     std::fflush(stdout);
-    std::cout << "], \"macs\": " << net.macs(h, w) << ", \"kernel\": \"" << net.kernel_name()
+    std::printf("], \"cpu_ms\": %.4f", cpu_ms);
+    std::fflush(stdout);
+    std::cout << ", \"macs\": " << net.macs(h, w) << ", \"kernel\": \"" << net.kernel_name()
               << "\", \"logits\": [";
     for (std::size_t i = 0; i < logits.size(); ++i) std::printf("%s%.9g", i ? ", " : "", logits[i]);
     std::fflush(stdout);

@@ -4,6 +4,9 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
+#include <cstdint>
+
 using namespace shadowsense;
 
 namespace {
@@ -96,4 +99,55 @@ TEST_CASE("bad frames and parameters are rejected with the field named") {
   CHECK_THROWS_WITH_AS(enc.run(cv::Mat(), t), doctest::Contains("empty"), InvalidArgument);
   cv::Mat f(300, 400, CV_32FC3, cv::Scalar::all(128.0f));
   CHECK_THROWS_WITH_AS(enc.run(f, t), doctest::Contains("expected 0..1"), InvalidArgument);
+}
+
+TEST_CASE("8-bit frames: the table path (normalise while resizing) equals the float path bit for "
+          "bit") {
+  // The float path, written out: ToTensor, per-channel means summed row by row in double,
+  // gain, clamp; then the Preprocessor's float-image path (resize, crop, contrast, Normalize).
+  auto reference_normalise = [](const cv::Mat& bgr, float target) {
+    cv::Mat out(bgr.rows, bgr.cols, CV_32FC3);
+    double sum[3] = {0, 0, 0};
+    for (int y = 0; y < bgr.rows; ++y)
+      for (int x = 0; x < bgr.cols; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float v = static_cast<float>(bgr.ptr<unsigned char>(y)[3 * x + c]) / 255.0f;
+          out.ptr<float>(y)[3 * x + c] = v;
+          sum[c] += v;
+        }
+    const double n = double(bgr.rows) * bgr.cols;
+    for (int c = 0; c < 3; ++c) {
+      const float gain = target / std::max(static_cast<float>(sum[c] / n), 1e-3f);
+      for (int y = 0; y < bgr.rows; ++y)
+        for (int x = 0; x < bgr.cols; ++x) {
+          float& v = out.ptr<float>(y)[3 * x + c];
+          v = std::clamp(v * gain, 0.0f, 1.0f);
+        }
+    }
+    return out;
+  };
+  PreprocessParams p;
+  p.resize_width = 41;
+  p.resize_height = 29;
+  p.crop_width = 36;
+  p.crop_height = 24;
+  p.lighting_target = 0.4f;
+  for (const int seed : {1, 2, 3}) {
+    cv::Mat frame(57, 83, CV_8UC3);
+    cv::theRNG().state = static_cast<std::uint64_t>(seed);
+    cv::randu(frame, cv::Scalar::all(0), cv::Scalar::all(seed == 3 ? 40 : 256));
+    Preprocessor pre({p, ChannelOrder::bgr});
+    cv::Mat unit;
+    frame.convertTo(unit, CV_32FC3, 1.0 / 255.0); // differs from x / 255.0f: rebuilt below
+    for (int y = 0; y < frame.rows; ++y)
+      for (int x = 0; x < frame.cols * 3; ++x)
+        unit.ptr<float>(y)[x] = static_cast<float>(frame.ptr<unsigned char>(y)[x]) / 255.0f;
+    CHECK(same(pre(frame, seed == 2), pre(unit, seed == 2))); // ToTensor through the table
+    FrameEncoder enc(p, true);
+    CHECK(same(encode(enc, frame), pre(reference_normalise(frame, 0.4f), false)));
+    cv::Mat normalised;
+    LightingNormaliser({.target = 0.4f}).run(frame, normalised);
+    const cv::Mat ref = reference_normalise(frame, 0.4f);
+    CHECK(cv::countNonZero(normalised.reshape(1) != ref.reshape(1)) == 0);
+  }
 }

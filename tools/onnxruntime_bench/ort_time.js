@@ -33,13 +33,16 @@ const [H, W, T, N] = nums;
   for (let i = 0; i < 3; i++) await session.run(feeds);
   const ms = [];
   let out;
+  const cpu0 = process.cpuUsage();
   for (let i = 0; i < N; i++) {
     const t0 = process.hrtime.bigint();
     out = await session.run(feeds);
     ms.push(Number(process.hrtime.bigint() - t0) / 1e6);
   }
+  const cpu = process.cpuUsage(cpu0);
+  const cpu_ms = (cpu.user + cpu.system) / 1000 / N; // all threads of the process, per pass
   const logits = Array.from(out[session.outputNames[0]].data);
-  console.log(JSON.stringify({ms, logits, version: ort.env.versions ? ort.env.versions.common : ''}));
+  console.log(JSON.stringify({ms, cpu_ms, logits, version: ort.env.versions ? ort.env.versions.common : ''}));
 })().catch((e) => {
   console.error(`ort_time.js: error: ${e.message}`);
   process.exit(2);

@@ -3,7 +3,9 @@
 models written by make_models.py, at 1 and 2 threads. Each round runs ONNX Runtime then ours
 (fresh process each, warm-up excluded); the table gives the median over all rounds, the ratio
 ours / ONNX Runtime, GFLOP/s (2 x multiply-adds / time) and each engine's logits against
-PyTorch's (max relative difference, argmax agreement).
+PyTorch's (max relative difference, argmax agreement); then each engine's process CPU time per
+pass (all its threads; median over rounds), their ratio, and the 1-minute load average when the
+row was measured (the machine may be shared: at 1 thread the CPU time is the fairer figure).
 
 usage: /usr/bin/python3 tools/onnxruntime_bench/run.py MODELS_DIR FORWARD_TIME ORT_NODE_MODULES
        [--rounds R] [--iterations N] [--threads 1,2]
@@ -49,12 +51,13 @@ def main(argv):
     env = dict(os.environ, NODE_PATH=os.path.abspath(a.ort_node_modules))
     models = json.load(open(os.path.join(a.models_dir, "models.json")))
     print(f"{'model':12} {'thr':>3} {'ORT ms':>8} {'ours ms':>8} {'ratio':>6} "
-          f"{'ORT GF/s':>8} {'ours GF/s':>9} {'ORT rel':>8} {'ours rel':>8} argmax")
+          f"{'ORT GF/s':>8} {'ours GF/s':>9} {'ORT rel':>8} {'ours rel':>8} argmax "
+          f"{'ORT cpu':>8} {'ours cpu':>8} {'cpu ratio':>9} {'load':>5}")
     for m in models:
         base = os.path.join(a.models_dir, m["name"])
         ref = np.fromfile(base + ".torch.f32", dtype="<f4")
         for t in threads:
-            ort_ms, our_ms = [], []
+            ort_ms, our_ms, ort_cpu, our_cpu = [], [], [], []
             for _ in range(a.rounds):
                 o = run_json(["node", os.path.join(HERE, "ort_time.js"), base + ".onnx",
                               base + ".input.f32", str(m["h"]), str(m["w"]), str(t),
@@ -63,12 +66,17 @@ def main(argv):
                               str(m["w"]), str(t), str(a.iterations)])
                 ort_ms += o["ms"]
                 our_ms += s["ms"]
+                ort_cpu.append(o["cpu_ms"])
+                our_cpu.append(s["cpu_ms"])
+            load = os.getloadavg()[0]
+            oc, sc = statistics.median(ort_cpu), statistics.median(our_cpu)
             om, sm = statistics.median(ort_ms), statistics.median(our_ms)
             flop = 2.0 * s["macs"]
             same = int(np.argmax(o["logits"])) == int(np.argmax(ref)) == int(np.argmax(s["logits"]))
             print(f"{m['name']:12} {t:>3} {om:8.2f} {sm:8.2f} {sm / om:6.2f} "
                   f"{flop / om / 1e6:8.1f} {flop / sm / 1e6:9.1f} {rel_diff(o['logits'], ref):8.1e} "
-                  f"{rel_diff(s['logits'], ref):8.1e} {'same' if same else 'DIFFERS'}   "
+                  f"{rel_diff(s['logits'], ref):8.1e} {'same' if same else 'DIFFERS':6} "
+                  f"{oc:8.2f} {sc:8.2f} {sc / oc:9.2f} {load:5.2f}   "
                   f"(kernel {s['kernel']})", flush=True)
     return 0
 

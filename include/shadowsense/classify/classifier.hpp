@@ -15,6 +15,10 @@
 // classify(frame, dark)  the same with the caller's dark flag (evaluation protocols).
 // classify(tensor), classify_batch(tensor)
 //                        an already encoded 1 x 3 x h x w / n x 3 x h x w tensor.
+// classify(frame, out), classify(tensor, out)
+//                        the same results written into out, reusing its storage: after the
+//                        first call no heap allocation per frame (labels up to the string's
+//                        small-buffer size, 15 characters in libstdc++, are never allocated).
 //   throws: InvalidArgument for a bad frame or tensor; Error when the backend returns the
 //           wrong number of logits or NaN/Inf.
 // Threading: ONE INSTANCE PER THREAD. classify() reuses the encoder's buffers and the
@@ -49,9 +53,10 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // fine) and the probabilities sum to 1 up to rounding. Throws on NaN/Inf logits.
 inline void softmax(std::span<const float> logits, std::span<float> probabilities) {
   detail::require(!logits.empty(), "softmax: no logits, expected at least one");
-  detail::require(probabilities.size() == logits.size(),
-                  "softmax: output has " + std::to_string(probabilities.size()) +
-                      " values, expected " + std::to_string(logits.size()));
+  if (!(probabilities.size() == logits.size()))
+    SHADOWSENSE_THROW(InvalidArgument("softmax: output has " +
+                                      std::to_string(probabilities.size()) + " values, expected " +
+                                      std::to_string(logits.size())));
   double mx = -INFINITY;
   for (float v : logits) {
     detail::require(std::isfinite(v), "softmax: logits hold NaN or Inf, expected finite values");
@@ -110,6 +115,17 @@ public:
     return classify_unchecked(input);
   }
 
+  // As classify(frame) / classify(tensor), into out (its storage reused).
+  void classify(const cv::Mat& frame, Classification& out) {
+    const auto in_use = busy_.enter("Classifier::classify");
+    encoder_.run(frame, input_);
+    classify_into(input_, out);
+  }
+  void classify(const Tensor& input, Classification& out) {
+    const auto in_use = busy_.enter("Classifier::classify");
+    classify_into(input, out);
+  }
+
   std::vector<Classification> classify_batch(const Tensor& input) {
     const auto in_use = busy_.enter("Classifier::classify_batch");
     return classify_batch_unchecked(input);
@@ -117,35 +133,58 @@ public:
 
 private:
   Classification classify_unchecked(const Tensor& input) {
-    detail::require(input.n() == 1, "Classifier::classify: batch of " + std::to_string(input.n()) +
-                                        ", expected 1 (use classify_batch)");
-    return std::move(classify_batch_unchecked(input).front());
+    Classification out;
+    classify_into(input, out);
+    return out;
+  }
+
+  void classify_into(const Tensor& input, Classification& out) {
+    if (input.n() != 1)
+      SHADOWSENSE_THROW(InvalidArgument("Classifier::classify: batch of " +
+                                        std::to_string(input.n()) +
+                                        ", expected 1 (use classify_batch)"));
+    with_logits(input, [&](std::span<const float> logits) { fill(logits, 0, out); });
+  }
+
+  // fn(logits) with the backend's logits for input, checked for count (n x classes), while the
+  // backend's returned object is alive.
+  template <class F>
+  void with_logits(const Tensor& input, F&& fn) {
+    if (input.empty())
+      SHADOWSENSE_THROW(
+          InvalidArgument("Classifier: input tensor is empty, expected n x 3 x h x w"));
+    const std::size_t classes = class_names().size();
+    decltype(auto) raw = backend_.logits(input); // keeps a returned container alive
+    const std::span<const float> logits(raw);
+    if (logits.size() != classes * static_cast<std::size_t>(input.n()))
+      SHADOWSENSE_THROW(Error("Classifier: the backend returned " + std::to_string(logits.size()) +
+                              " logits, expected batch x classes = " +
+                              std::to_string(classes * static_cast<std::size_t>(input.n()))));
+    fn(logits);
+  }
+
+  // Probabilities, index and label of image i.
+  void fill(std::span<const float> logits, std::size_t i, Classification& c) const {
+    const auto names = class_names();
+    const std::size_t classes = names.size();
+    c.probabilities.resize(classes);
+    try {
+      softmax(logits.subspan(i * classes, classes), c.probabilities);
+    } catch (const InvalidArgument&) {
+      SHADOWSENSE_THROW(Error("Classifier: the backend returned NaN or Inf logits for image " +
+                              std::to_string(i) + ", expected finite values"));
+    }
+    const auto row = logits.subspan(i * classes, classes); // argmax on logits: no ties
+    c.index = static_cast<int>(std::max_element(row.begin(), row.end()) - row.begin());
+    c.label = names[static_cast<std::size_t>(c.index)];
   }
 
   std::vector<Classification> classify_batch_unchecked(const Tensor& input) {
-    detail::require(!input.empty(), "Classifier: input tensor is empty, expected n x 3 x h x w");
-    const auto names = class_names();
-    const std::size_t classes = names.size();
-    decltype(auto) raw = backend_.logits(input); // keeps a returned container alive
-    const std::span<const float> logits(raw);
-    detail::require<Error>(logits.size() == classes * static_cast<std::size_t>(input.n()),
-                           "Classifier: the backend returned " + std::to_string(logits.size()) +
-                               " logits, expected batch x classes = " +
-                               std::to_string(classes * static_cast<std::size_t>(input.n())));
-    std::vector<Classification> out(static_cast<std::size_t>(input.n()));
-    for (std::size_t i = 0; i < out.size(); ++i) {
-      auto& c = out[i];
-      c.probabilities.resize(classes);
-      try {
-        softmax(logits.subspan(i * classes, classes), c.probabilities);
-      } catch (const InvalidArgument&) {
-        SHADOWSENSE_THROW(Error("Classifier: the backend returned NaN or Inf logits for image " +
-                                std::to_string(i) + ", expected finite values"));
-      }
-      const auto row = logits.subspan(i * classes, classes); // argmax on logits: no ties
-      c.index = static_cast<int>(std::max_element(row.begin(), row.end()) - row.begin());
-      c.label = names[static_cast<std::size_t>(c.index)];
-    }
+    std::vector<Classification> out;
+    with_logits(input, [&](std::span<const float> logits) {
+      out.resize(static_cast<std::size_t>(input.n()));
+      for (std::size_t i = 0; i < out.size(); ++i) fill(logits, i, out[i]);
+    });
     return out;
   }
 

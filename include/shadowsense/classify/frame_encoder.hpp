@@ -77,7 +77,12 @@ public:
   }
   void run(const cv::Mat& frame, bool dark, Tensor& out) {
     check_frame(frame);
-    if (lighting_normalise()) {
+    if (lighting_normalise() && frame.type() == CV_8UC3) {
+      // The normalisation as a value table applied while resizing: the same values as
+      // norm_.run then pre_.run, without a full-size float image.
+      norm_.table(frame, table_);
+      pre_.run_mapped(frame, table_, false, out);
+    } else if (lighting_normalise()) {
       norm_.run(frame, float_);
       pre_.run(float_, false, out);
     } else {
@@ -91,17 +96,19 @@ private:
     return p;
   }
   static void check_frame(const cv::Mat& frame) {
-    detail::require(!frame.empty() && frame.dims == 2 &&
-                        (frame.type() == CV_8UC3 || frame.type() == CV_32FC3),
-                    "FrameEncoder: frame is " +
-                        (frame.empty() ? std::string("empty") : cv::typeToString(frame.type())) +
-                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)");
+    if (!(!frame.empty() && frame.dims == 2 &&
+          (frame.type() == CV_8UC3 || frame.type() == CV_32FC3)))
+      SHADOWSENSE_THROW(
+          InvalidArgument("FrameEncoder: frame is " +
+                          (frame.empty() ? std::string("empty") : cv::typeToString(frame.type())) +
+                          ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
   }
 
   Config config_;
   Preprocessor pre_;
   LightingNormaliser norm_;
   cv::Mat float_;
+  LightingNormaliser::Table table_{};
 };
 
 SHADOWSENSE_NAMESPACE_END

@@ -6,6 +6,12 @@
 // tools/train.py --lighting-normalise applies the same arithmetic in PyTorch; a model trained
 // with it must be used with it (and without the dark-image brightness factor, which the
 // normalisation replaces).
+//
+// run(image, out): image CV_8UC3 (0..255) or CV_32FC3 (0..1) -> out CV_32FC3 in [0, 1], same
+//   channel order; throws InvalidArgument on a bad image.
+// table(image, out): for a CV_8UC3 image (not checked), out[c][v] is the value run() writes
+//   for value v of channel c, bit for bit (FrameEncoder applies it while resizing).
+// No state beyond the config: const, callable from any thread.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -14,6 +20,8 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <array>
+#include <cstdint>
 #include <string>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -33,22 +41,78 @@ struct LightingNormaliser {
   }
   const Config& config() const { return config_; }
 
+  // Per-channel table of an 8-bit image's normalisation: table[c][v] is what run() writes for
+  // value v of channel c (the same float arithmetic, so the same bits). The channel means come
+  // from per-channel histograms: the sum of the float values x / 255 is exact in double for
+  // images up to 2^21 pixels in any order, so it equals run()'s row-by-row sum bit for bit
+  // (larger images are summed row by row, as run() does).
+  // requires: image CV_8UC3 (checked by the callers: run() and FrameEncoder).
+  using Table = std::array<std::array<float, 256>, 3>;
+  void table(const cv::Mat& image, Table& out) const {
+    double sum[3] = {0, 0, 0};
+    if (double(image.rows) * image.cols <= double(1 << 21)) {
+      std::array<std::array<std::uint32_t, 256>, 3> hist{};
+      for (int y = 0; y < image.rows; ++y) {
+        const auto* s = image.ptr<unsigned char>(y);
+        for (int x = 0; x < image.cols; ++x) {
+          ++hist[0][s[3 * x]];
+          ++hist[1][s[3 * x + 1]];
+          ++hist[2][s[3 * x + 2]];
+        }
+      }
+      for (int c = 0; c < 3; ++c)
+        for (int v = 0; v < 256; ++v)
+          sum[c] += double(hist[static_cast<std::size_t>(c)][static_cast<std::size_t>(v)]) *
+                    double(static_cast<float>(v) / 255.0f);
+    } else {
+      for (int y = 0; y < image.rows; ++y) {
+        const auto* s = image.ptr<unsigned char>(y);
+        for (int x = 0; x < image.cols; ++x)
+          for (int c = 0; c < 3; ++c) sum[c] += static_cast<float>(s[3 * x + c]) / 255.0f;
+      }
+    }
+    const double n = double(image.rows) * image.cols;
+    for (int c = 0; c < 3; ++c) {
+      const float gain =
+          config_.target / std::max(static_cast<float>(sum[c] / n), config_.min_mean);
+      for (int v = 0; v < 256; ++v)
+        out[static_cast<std::size_t>(c)][static_cast<std::size_t>(v)] =
+            std::clamp((static_cast<float>(v) / 255.0f) * gain, 0.0f, 1.0f);
+    }
+  }
+
   // bgr: CV_8UC3 (0..255). out: CV_32FC3 in [0, 1], same channel order, ready for
   // Preprocessor::run (call it with dark = false).
   void run(const cv::Mat& image, cv::Mat& out) const {
-    detail::require(!image.empty() && image.dims == 2 &&
-                        (image.type() == CV_8UC3 || image.type() == CV_32FC3),
-                    "LightingNormaliser: image is " +
-                        (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
-                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)");
+    if (!(!image.empty() && image.dims == 2 &&
+          (image.type() == CV_8UC3 || image.type() == CV_32FC3)))
+      SHADOWSENSE_THROW(
+          InvalidArgument("LightingNormaliser: image is " +
+                          (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
+                          ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
     if (image.type() == CV_32FC3) {
       double lo = 0, hi = 0;
       detail::require(cv::checkRange(image), "LightingNormaliser: float image holds NaN or Inf, "
                                              "expected finite values in 0..1");
       cv::minMaxIdx(image.reshape(1), &lo, &hi);
-      detail::require(lo >= 0.0 && hi <= 1.0, "LightingNormaliser: float image values span " +
-                                                  std::to_string(lo) + ".." + std::to_string(hi) +
-                                                  ", expected 0..1");
+      if (!(lo >= 0.0 && hi <= 1.0))
+        SHADOWSENSE_THROW(InvalidArgument("LightingNormaliser: float image values span " +
+                                          std::to_string(lo) + ".." + std::to_string(hi) +
+                                          ", expected 0..1"));
+    }
+    if (image.type() == CV_8UC3) { // one table lookup per value (table(): same bits)
+      Table t;
+      table(image, t);
+      cv::Mat src = image; // out may alias image
+      if (image.data == out.data) src = image.clone();
+      out.create(image.rows, image.cols, CV_32FC3);
+      for (int y = 0; y < src.rows; ++y) {
+        const auto* s = src.ptr<unsigned char>(y);
+        auto* d = out.ptr<float>(y);
+        for (int x = 0; x < src.cols; ++x)
+          for (int c = 0; c < 3; ++c) d[3 * x + c] = t[static_cast<std::size_t>(c)][s[3 * x + c]];
+      }
+      return;
     }
     cv::Mat src = image; // out may alias image
     if (image.data == out.data) src = image.clone();

@@ -18,6 +18,11 @@
 //   requires: image CV_8UC3 (0..255) or CV_32FC3 with every value in 0..1 (a float image in
 //             0..255 is rejected, not clipped); crop inside the (resized) image.
 //   ensures: out is the 1 x 3 x h x w network input; throws InvalidArgument otherwise.
+// run_mapped(image, table, dark, out)
+//   requires: image CV_8UC3; table[c][v] finite and in 0..1 (the float value of v in channel
+//             c; not checked). ensures: run() on the image mapped through table, computed
+//             without a full-size float image (8-bit images in run() go this way with
+//             table = v / 255). Throws InvalidArgument on a bad image or crop.
 // Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
@@ -30,6 +35,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <string>
@@ -75,47 +81,108 @@ public:
   // image: CV_8UC3 (0..255) or CV_32FC3 (0..1, finite) in config().input_order. dark applies
   // the brightness factor (paper: images collected in a dark environment). Writes a
   // 1 x 3 x h x w tensor in the network's channel order.
+  Tensor operator()(const cv::Mat& image, bool dark = false) {
+    Tensor t;
+    run(image, dark, t);
+    return t;
+  }
+
   void run(const cv::Mat& image, bool dark, Tensor& out) {
-    const auto& p = config_.params;
     detail::require(!image.empty(), "Preprocessor: image is empty, expected CV_8UC3 or CV_32FC3");
-    detail::require(image.dims == 2 && (image.type() == CV_8UC3 || image.type() == CV_32FC3),
-                    "Preprocessor: image type is " + cv::typeToString(image.type()) +
-                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)");
-    // ToTensor: x / 255 in float (division, as torchvision does).
+    if (!(image.dims == 2 && (image.type() == CV_8UC3 || image.type() == CV_32FC3)))
+      SHADOWSENSE_THROW(InvalidArgument("Preprocessor: image type is " +
+                                        cv::typeToString(image.type()) +
+                                        ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
+    // ToTensor: x / 255 in float (division, as torchvision does), through a table.
     if (image.type() == CV_8UC3) {
-      float_.create(image.rows, image.cols, CV_32FC3);
-      for (int y = 0; y < image.rows; ++y) {
-        const auto* s = image.ptr<unsigned char>(y);
-        auto* d = float_.ptr<float>(y);
-        for (int x = 0; x < image.cols * 3; ++x) d[x] = static_cast<float>(s[x]) / 255.0f;
-      }
-    } else {
-      detail::require(cv::checkRange(image),
-                      "Preprocessor: float image holds NaN or Inf, expected finite values in 0..1");
-      double lo = 0, hi = 0;
-      cv::minMaxIdx(image.reshape(1), &lo, &hi);
-      detail::require(lo >= 0.0 && hi <= 1.0,
-                      "Preprocessor: float image values span " + std::to_string(lo) + ".." +
-                          std::to_string(hi) +
-                          ", expected 0..1 (divide a 0..255 float image by 255, or pass CV_8UC3)");
-      image.copyTo(float_);
+      run_mapped_unchecked(image, unit_table(), dark, out);
+      return;
     }
+    detail::require(cv::checkRange(image),
+                    "Preprocessor: float image holds NaN or Inf, expected finite values in 0..1");
+    double lo = 0, hi = 0;
+    cv::minMaxIdx(image.reshape(1), &lo, &hi);
+    if (!(lo >= 0.0 && hi <= 1.0))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Preprocessor: float image values span " + std::to_string(lo) + ".." +
+                          std::to_string(hi) +
+                          ", expected 0..1 (divide a 0..255 float image by 255, or pass CV_8UC3)"));
+    finish(image, dark, out);
+  }
+
+  // Per-channel value table of an 8-bit image: table[c][v] is the float value (0..1) of value v
+  // in channel c of the image (in the image's channel order).
+  using Table = std::array<std::array<float, 256>, 3>;
+
+  // run() on an 8-bit image whose values are first mapped through table (ToTensor is the
+  // table v / 255; LightingNormaliser::table gives the lighting-normalised one). Only the
+  // pixels the resize reads are mapped, so no full-size float image is made.
+  // requires: image CV_8UC3; every table value finite and in 0..1 (not checked: the caller's
+  //           contract). Throws InvalidArgument on a bad image or crop.
+  void run_mapped(const cv::Mat& image, const Table& table, bool dark, Tensor& out) {
+    if (!(!image.empty() && image.dims == 2 && image.type() == CV_8UC3))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Preprocessor::run_mapped: image is " +
+                          (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
+                          ", expected CV_8UC3"));
+    run_mapped_unchecked(image, table, dark, out);
+  }
+
+private:
+  static const Table& unit_table() {
+    static const Table t = [] {
+      Table u{};
+      for (std::size_t c = 0; c < 3; ++c)
+        for (int v = 0; v < 256; ++v)
+          u[c][static_cast<std::size_t>(v)] = static_cast<float>(v) / 255.0f;
+      return u;
+    }();
+    return t;
+  }
+
+  void run_mapped_unchecked(const cv::Mat& image, const Table& table, bool dark, Tensor& out) {
+    const auto& p = config_.params;
+    if (p.resize_width > 0 && (p.resize_width != image.cols || p.resize_height != image.rows)) {
+      resize_bilinear_mapped(image, table, p.resize_width, p.resize_height);
+      crop_normalise(resized_, dark, out);
+      return;
+    }
+    float_.create(image.rows, image.cols, CV_32FC3);
+    for (int y = 0; y < image.rows; ++y) {
+      const auto* s = image.ptr<unsigned char>(y);
+      auto* d = float_.ptr<float>(y);
+      for (int x = 0; x < image.cols; ++x)
+        for (std::size_t c = 0; c < 3; ++c) d[3 * x + c] = table[c][s[3 * x + c]];
+    }
+    crop_normalise(float_, dark, out);
+  }
+
+  // A float image in 0..1: resize, then crop_normalise.
+  void finish(const cv::Mat& image, bool dark, Tensor& out) {
+    const auto& p = config_.params;
     // Resize: bilinear, half-pixel centres, no antialias, with torch's own arithmetic for
     // source positions and weights (cv::resize differs by up to 5e-4 after normalisation on
     // noisy images because it rounds positions differently).
-    const cv::Mat* cur = &float_;
+    const cv::Mat* cur = &image;
     if (p.resize_width > 0 && (p.resize_width != cur->cols || p.resize_height != cur->rows)) {
       resize_bilinear(*cur, p.resize_width, p.resize_height);
       cur = &resized_;
     }
-    // Centre crop.
+    crop_normalise(*cur, dark, out);
+  }
+
+  // Centre crop, contrast, brightness, Normalize of a float image in 0..1.
+  void crop_normalise(const cv::Mat& image, bool dark, Tensor& out) {
+    const auto& p = config_.params;
+    const cv::Mat* cur = &image;
     cv::Mat view = *cur;
     if (p.crop_width > 0) {
-      detail::require(p.crop_width <= cur->cols && p.crop_height <= cur->rows,
-                      "Preprocessor: crop " + std::to_string(p.crop_width) + "x" +
-                          std::to_string(p.crop_height) + " is larger than the (resized) image " +
-                          std::to_string(cur->cols) + "x" + std::to_string(cur->rows) +
-                          ", expected a crop inside the image");
+      if (!(p.crop_width <= cur->cols && p.crop_height <= cur->rows))
+        SHADOWSENSE_THROW(
+            InvalidArgument("Preprocessor: crop " + std::to_string(p.crop_width) + "x" +
+                            std::to_string(p.crop_height) + " is larger than the (resized) image " +
+                            std::to_string(cur->cols) + "x" + std::to_string(cur->rows) +
+                            ", expected a crop inside the image"));
       const int top = round_half_even((cur->rows - p.crop_height) / 2.0);
       const int left = round_half_even((cur->cols - p.crop_width) / 2.0);
       view = (*cur)(cv::Rect(left, top, p.crop_width, p.crop_height));
@@ -153,13 +220,6 @@ public:
     }
   }
 
-  Tensor operator()(const cv::Mat& image, bool dark = false) {
-    Tensor t;
-    run(image, dark, t);
-    return t;
-  }
-
-private:
   struct Taps {
     std::vector<int> i0, i1;
     std::vector<float> w0, w1;
@@ -201,6 +261,31 @@ private:
         for (int c = 0; c < 3; ++c) {
           const float t0 = r0[a + c] * w0 + r0[b + c] * w1;
           const float t1 = r1[a + c] * w0 + r1[b + c] * w1;
+          d[3 * x + c] = t0 * h0 + t1 * h1;
+        }
+      }
+    }
+  }
+
+  // resize_bilinear of the image mapped through table, reading only the tapped pixels.
+  void resize_bilinear_mapped(const cv::Mat& src, const Table& table, int out_w, int out_h) {
+    taps(src.cols, out_w, xt_);
+    taps(src.rows, out_h, yt_);
+    resized_.create(out_h, out_w, CV_32FC3);
+    for (int y = 0; y < out_h; ++y) {
+      const auto ky = static_cast<std::size_t>(y);
+      const unsigned char* r0 = src.ptr<unsigned char>(yt_.i0[ky]);
+      const unsigned char* r1 = src.ptr<unsigned char>(yt_.i1[ky]);
+      const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
+      float* d = resized_.ptr<float>(y);
+      for (int x = 0; x < out_w; ++x) {
+        const auto kx = static_cast<std::size_t>(x);
+        const int a = 3 * xt_.i0[kx], b = 3 * xt_.i1[kx];
+        const float w0 = xt_.w0[kx], w1 = xt_.w1[kx];
+        for (int c = 0; c < 3; ++c) {
+          const auto& t = table[static_cast<std::size_t>(c)];
+          const float t0 = t[r0[a + c]] * w0 + t[r0[b + c]] * w1;
+          const float t1 = t[r1[a + c]] * w0 + t[r1[b + c]] * w1;
           d[3 * x + c] = t0 * h0 + t1 * h1;
         }
       }

@@ -75,10 +75,18 @@ public:
 namespace detail {
 // require<E>(condition, message)
 //   ensures: returns normally when condition holds; otherwise raises E(message) through
-//            SHADOWSENSE_THROW. Keeps validation one line per rule.
+//            SHADOWSENSE_THROW. Keeps validation one line per rule. A string-literal message
+//            allocates nothing when the condition holds (build a concatenated message only
+//            inside `if (!condition)` on per-frame paths).
 template <class E = InvalidArgument>
 inline void require(bool condition, const std::string& message) {
   if (!condition) SHADOWSENSE_THROW(E(message));
+}
+// A literal message is only turned into a std::string when the check fails, so passing checks
+// on a per-frame path allocate nothing.
+template <class E = InvalidArgument>
+inline void require(bool condition, const char* message) {
+  if (!condition) SHADOWSENSE_THROW(E(std::string(message)));
 }
 } // namespace detail
 

@@ -21,10 +21,12 @@ public:
 
   // Reshapes (reallocating only when the element count grows) and zero-fills.
   void resize(int n, int c, int h, int w) {
-    detail::require(n >= 1 && c >= 1 && h >= 1 && w >= 1,
-                    "Tensor: every dimension must be >= 1, got " + shape_string(n, c, h, w));
-    detail::require(static_cast<double>(n) * c * h * w < 4e9,
-                    "Tensor: shape " + shape_string(n, c, h, w) + " is too large");
+    if (!(n >= 1 && c >= 1 && h >= 1 && w >= 1))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Tensor: every dimension must be >= 1, got " + shape_string(n, c, h, w)));
+    if (!(static_cast<double>(n) * c * h * w < 4e9))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Tensor: shape " + shape_string(n, c, h, w) + " is too large"));
     n_ = n;
     c_ = c;
     h_ = h;

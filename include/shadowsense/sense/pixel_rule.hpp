@@ -97,7 +97,14 @@ struct SegmenterCalibration {
   cv::Mat empty_skin{};
 
   LightThresholds thresholds_at(float luminance) const {
-    if (by_light.empty()) return {luminance, shadow_darkness, contact_darkness, contact_warmth};
+    return thresholds_at(by_light, {luminance, shadow_darkness, contact_darkness, contact_warmth});
+  }
+  // The same interpolation over any table (`fixed`: the result when the table is empty; its
+  // luminance is the one looked up). No copy, no allocation.
+  static LightThresholds thresholds_at(const std::vector<LightThresholds>& by_light,
+                                       LightThresholds fixed) {
+    const float luminance = fixed.luminance;
+    if (by_light.empty()) return fixed;
     if (luminance <= by_light.front().luminance) return by_light.front();
     if (luminance >= by_light.back().luminance) return by_light.back();
     std::size_t i = 1;
@@ -249,12 +256,8 @@ struct RelativeRule {
   std::vector<LightThresholds> by_light{};
 
   LightThresholds thresholds_at(float luminance) const {
-    SegmenterCalibration c;
-    c.shadow_darkness = shadow_darkness;
-    c.contact_darkness = contact_darkness;
-    c.contact_warmth = contact_warmth;
-    c.by_light = by_light;
-    return c.thresholds_at(luminance);
+    return SegmenterCalibration::thresholds_at(
+        by_light, {luminance, shadow_darkness, contact_darkness, contact_warmth});
   }
 
   void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {

@@ -137,7 +137,7 @@ public:
     for (std::size_t i = 0; i < empty_frames.size(); ++i) {
       const std::string name = "Segmenter::set_empty_skin: frame " + std::to_string(i);
       require_colour_image(empty_frames[i], name.c_str());
-      require_size(empty_frames[i], name);
+      require_size(empty_frames[i], name.c_str());
       detail::require(empty_frames[i].size() == empty_frames[0].size(),
                       name + " has a different size from frame 0; expected all the same size");
     }
@@ -226,11 +226,12 @@ public:
     require_colour_image(bgr, "Segmenter::segment: image");
     require_size(bgr, "Segmenter::segment: image");
     if (!profile_.empty())
-      detail::require(bgr.size() == profile_.size(),
-                      "Segmenter::segment: image is " + std::to_string(bgr.cols) + "x" +
-                          std::to_string(bgr.rows) + " but the empty-skin model is " +
-                          std::to_string(profile_.cols) + "x" + std::to_string(profile_.rows) +
-                          "; expected the same size");
+      if (!(bgr.size() == profile_.size()))
+        SHADOWSENSE_THROW(
+            InvalidArgument("Segmenter::segment: image is " + std::to_string(bgr.cols) + "x" +
+                            std::to_string(bgr.rows) + " but the empty-skin model is " +
+                            std::to_string(profile_.cols) + "x" + std::to_string(profile_.rows) +
+                            "; expected the same size"));
     if (config_.adaptive && profile_.empty()) set_empty_skin({bgr}); // first frame = empty skin
     smooth(bgr);
     classify(out);
@@ -267,11 +268,12 @@ private:
       return Rule{};
   }
 
-  void require_size(const cv::Mat& m, const std::string& name) const {
-    detail::require(m.cols <= config_.max_image_side && m.rows <= config_.max_image_side,
-                    name + " is " + std::to_string(m.cols) + "x" + std::to_string(m.rows) +
-                        "; expected at most " + std::to_string(config_.max_image_side) +
-                        " px per side (Config::max_image_side)");
+  void require_size(const cv::Mat& m, const char* name) const {
+    if (!(m.cols <= config_.max_image_side && m.rows <= config_.max_image_side))
+      SHADOWSENSE_THROW(InvalidArgument(std::string(name) + " is " + std::to_string(m.cols) + "x" +
+                                        std::to_string(m.rows) + "; expected at most " +
+                                        std::to_string(config_.max_image_side) +
+                                        " px per side (Config::max_image_side)"));
   }
 
   // Points src_ at the frame, or at its box-blurred copy (never writes into the caller's image).

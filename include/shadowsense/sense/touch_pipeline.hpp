@@ -89,8 +89,7 @@ public:
     const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::update");
     segmenter_.segment(frame, seg_);
-    result_ = {};
-    result_.timestamp_ms = timestamp_ms;
+    reset_result(timestamp_ms); // keeps the vectors' storage: no allocation per frame
     result_.dropped_shadow_blobs = seg_.dropped_shadow_blobs;
     result_.dropped_contact_blobs = seg_.dropped_contact_blobs;
     detections_.clear();
@@ -99,7 +98,7 @@ public:
       result_.shadow_boxes.push_back(s.box);
     }
     for (const Blob& c : seg_.contacts) result_.contact_points.push_back(c.centroid);
-    const std::vector<std::optional<cv::Point2f>> contact_of = contacts_per_shadow();
+    const std::vector<std::optional<cv::Point2f>>& contact_of = contacts_per_shadow();
     const std::vector<Track>& tracks = tracker_.update(detections_, timestamp_ms);
     last_t_ = timestamp_ms;
     for (const Track& t : tracks) machines_.try_emplace(t.id, touch_config_);
@@ -128,8 +127,7 @@ public:
   const TouchFrame& flush(double timestamp_ms) {
     const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::flush");
-    result_ = {};
-    result_.timestamp_ms = timestamp_ms;
+    reset_result(timestamp_ms);
     for (auto& [id, m] : machines_) {
       for (const TouchEvent& e : m.update(timestamp_ms, {})) result_.events.push_back({id, e});
       if (m.state() != TouchState::none)
@@ -149,18 +147,33 @@ public:
 
 private:
   void require_time(double t, const char* where) const {
-    detail::require(std::isfinite(t), std::string(where) + ": timestamp_ms is not finite");
+    if (!(std::isfinite(t)))
+      SHADOWSENSE_THROW(InvalidArgument(std::string(where) + ": timestamp_ms is not finite"));
     if (last_t_)
-      detail::require(t > *last_t_, std::string(where) + ": timestamp " + std::to_string(t) +
-                                        " ms is not after the previous one (" +
-                                        std::to_string(*last_t_) +
-                                        " ms); timestamps must be strictly increasing");
+      if (!(t > *last_t_))
+        SHADOWSENSE_THROW(InvalidArgument(std::string(where) + ": timestamp " + std::to_string(t) +
+                                          " ms is not after the previous one (" +
+                                          std::to_string(*last_t_) +
+                                          " ms); timestamps must be strictly increasing"));
   }
 
-  // For each shadow blob, the area-weighted centroid of the contact blobs that overlap it most.
-  std::vector<std::optional<cv::Point2f>> contacts_per_shadow() const {
+  void reset_result(double timestamp_ms) {
+    result_.timestamp_ms = timestamp_ms;
+    result_.tracks.clear();
+    result_.shadow_boxes.clear();
+    result_.contact_points.clear();
+    result_.events.clear();
+    result_.dropped_shadow_blobs = result_.dropped_contact_blobs = 0;
+  }
+
+  // For each shadow blob, the area-weighted centroid of the contact blobs that overlap it most
+  // (in member buffers, reused from frame to frame).
+  const std::vector<std::optional<cv::Point2f>>& contacts_per_shadow() {
     const std::size_t n = seg_.shadows.size();
-    std::vector<double> sx(n, 0), sy(n, 0), sa(n, 0);
+    std::vector<double>&sx = sx_, &sy = sy_, &sa = sa_;
+    sx.assign(n, 0);
+    sy.assign(n, 0);
+    sa.assign(n, 0);
     for (const Blob& c : seg_.contacts) {
       int best = -1, best_area = 0;
       for (std::size_t i = 0; i < n; ++i) {
@@ -173,7 +186,8 @@ private:
       sy[b] += c.centroid.y * c.area;
       sa[b] += c.area;
     }
-    std::vector<std::optional<cv::Point2f>> out(n);
+    std::vector<std::optional<cv::Point2f>>& out = contact_of_;
+    out.assign(n, std::nullopt);
     for (std::size_t i = 0; i < n; ++i)
       if (sa[i] > 0)
         out[i] = cv::Point2f(static_cast<float>(sx[i] / sa[i]), static_cast<float>(sy[i] / sa[i]));
@@ -193,6 +207,8 @@ private:
   Segmentation seg_;
   std::vector<Detection> detections_;
   TouchFrame result_;
+  std::vector<double> sx_, sy_, sa_;
+  std::vector<std::optional<cv::Point2f>> contact_of_;
   std::optional<double> last_t_;
   ThreadOwner owner_;
 };

@@ -137,10 +137,11 @@ public:
     detail::require(std::isfinite(timestamp_ms), "TouchStateMachine::update: timestamp_ms is not "
                                                  "finite; expected a finite time in milliseconds");
     if (last_t_)
-      detail::require(timestamp_ms > *last_t_,
-                      "TouchStateMachine::update: timestamp " + std::to_string(timestamp_ms) +
-                          " ms is not after the previous one (" + std::to_string(*last_t_) +
-                          " ms); timestamps must be strictly increasing");
+      if (!(timestamp_ms > *last_t_))
+        SHADOWSENSE_THROW(
+            InvalidArgument("TouchStateMachine::update: timestamp " + std::to_string(timestamp_ms) +
+                            " ms is not after the previous one (" + std::to_string(*last_t_) +
+                            " ms); timestamps must be strictly increasing"));
     if (obs.contact)
       detail::require(std::isfinite(obs.contact->x) && std::isfinite(obs.contact->y),
                       "TouchStateMachine::update: contact position is not finite");

@@ -78,10 +78,11 @@ public:
     detail::require(std::isfinite(timestamp_ms),
                     "ContactTracker::update: timestamp_ms is not finite");
     if (last_t_)
-      detail::require(timestamp_ms > *last_t_,
-                      "ContactTracker::update: timestamp " + std::to_string(timestamp_ms) +
-                          " ms is not after the previous one (" + std::to_string(*last_t_) +
-                          " ms); timestamps must be strictly increasing");
+      if (!(timestamp_ms > *last_t_))
+        SHADOWSENSE_THROW(
+            InvalidArgument("ContactTracker::update: timestamp " + std::to_string(timestamp_ms) +
+                            " ms is not after the previous one (" + std::to_string(*last_t_) +
+                            " ms); timestamps must be strictly increasing"));
     for (const Detection& d : detections)
       detail::require(std::isfinite(d.position.x) && std::isfinite(d.position.y),
                       "ContactTracker::update: a detection position is not finite");

@@ -115,15 +115,16 @@ public:
 
 private:
   void run(const Tensor& input) {
-    detail::require(!input.empty() && input.c() == 3,
-                    "DenseNet: input is " +
-                        (input.empty() ? std::string("empty") : input.shape_string()) +
-                        ", expected n x 3 x h x w");
-    detail::require(accepts(input.h(), input.w()),
-                    "DenseNet: input " + input.shape_string() +
-                        " is too small for the pooling stages, expected h and w with "
-                        "ceil(ceil(size / 2) / 2) >= " +
-                        std::to_string(1 << (arch_.block_config.size() - 1)));
+    if (!(!input.empty() && input.c() == 3))
+      SHADOWSENSE_THROW(InvalidArgument(
+          "DenseNet: input is " + (input.empty() ? std::string("empty") : input.shape_string()) +
+          ", expected n x 3 x h x w"));
+    if (!(accepts(input.h(), input.w())))
+      SHADOWSENSE_THROW(
+          InvalidArgument("DenseNet: input " + input.shape_string() +
+                          " is too small for the pooling stages, expected h and w with "
+                          "ceil(ceil(size / 2) / 2) >= " +
+                          std::to_string(1 << (arch_.block_config.size() - 1))));
     detail::require(input.all_finite(),
                     "DenseNet: input holds NaN or Inf values, expected finite numbers");
     ensure_buffers(input.h(), input.w());
@@ -138,12 +139,12 @@ private:
       // A NaN or Inf anywhere in the pass reaches the logits (ReLU and the pools propagate
       // NaN), so checking these few values is enough.
       for (std::size_t o = 0; o < classes; ++o)
-        detail::require<Error>(std::isfinite(logits_[k * classes + o]),
-                               "DenseNet: logit " + std::to_string(o) + " of image " +
-                                   std::to_string(i) + " is " +
-                                   std::to_string(logits_[k * classes + o]) +
-                                   " for a finite input, expected a finite number: the model's "
-                                   "weights (or the input's magnitude) overflow float");
+        if (!(std::isfinite(logits_[k * classes + o])))
+          SHADOWSENSE_THROW(Error("DenseNet: logit " + std::to_string(o) + " of image " +
+                                  std::to_string(i) + " is " +
+                                  std::to_string(logits_[k * classes + o]) +
+                                  " for a finite input, expected a finite number: the model's "
+                                  "weights (or the input's magnitude) overflow float"));
     }
   }
 
@@ -299,6 +300,7 @@ private:
     block_w_.clear();
     block_buf_.clear();
     bottleneck_.clear();
+    tap_offsets_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -306,9 +308,19 @@ private:
       // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
       // block so each border stays 0.
       // (+ one row of slack: the padded-grid conv2 reads 2 floats past the last plane.)
-      bottleneck_.emplace_back(
-          static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate) * (H + 2) * (W + 2) + W + 2,
-          0.0f);
+      // (+ nr + 2 more: a tail panel read in place reads a whole nr-wide row.)
+      const int inner = arch_.bn_size * arch_.growth_rate;
+      const std::size_t plane = static_cast<std::size_t>(H + 2) * (W + 2);
+      bottleneck_.emplace_back(static_cast<std::size_t>(inner) * plane + W + 2 +
+                                   static_cast<std::size_t>(kernel_.nr) + 2,
+                               0.0f);
+      // Offsets of the 3x3 taps in the padded bottleneck, in the packed weights' k order.
+      std::vector<int> taps(static_cast<std::size_t>(inner) * 9);
+      for (int c = 0; c < inner; ++c)
+        for (int t = 0; t < 9; ++t)
+          taps[static_cast<std::size_t>(c * 9 + t)] =
+              static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * (W + 2) + t % 3;
+      tap_offsets_.push_back(std::move(taps));
       H /= 2;
       W /= 2;
     }
@@ -368,27 +380,42 @@ private:
   // pool0: max 3x3, stride 2, pad 1 -> the first block's buffer (inputs are >= 0 after ReLU,
   // padding never wins). A NaN in the window wins, so it reaches the logits check.
   void pool0() {
+    // Separable: the max (and the NaN probe: a sum of >= 0 terms, NaN exactly when a NaN is
+    // in the window) over the valid rows of each window first, contiguous and vectorised, then
+    // over the three columns.
     const int bh = block_h_[0], bw = block_w_[0];
     float* dst = block_buf_[0].data();
+    pool_max_.resize(static_cast<std::size_t>(w0_));
+    pool_sum_.resize(static_cast<std::size_t>(w0_));
+    float* vm = pool_max_.data();
+    float* vs = pool_sum_.data();
     for (int c = 0; c < arch_.init_features; ++c) {
       const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
-      for (int y = 0; y < bh; ++y)
-        for (int x = 0; x < bw; ++x) {
-          float mx = -INFINITY, nan_probe = 0.0f;
-          for (int dy = -1; dy <= 1; ++dy) {
-            const int iy = 2 * y + dy;
-            if (iy < 0 || iy >= h0_) continue;
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int ix = 2 * x + dx;
-              if (ix < 0 || ix >= w0_) continue;
-              const float v = s[iy * w0_ + ix];
-              mx = std::max(mx, v);
-              nan_probe += v; // >= 0 terms: NaN exactly when a NaN is in the window
-            }
-          }
-          dst[(static_cast<std::size_t>(c) * bh + y) * bw + x] =
-              nan_probe == nan_probe ? mx : nan_probe;
+      for (int y = 0; y < bh; ++y) {
+        const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0_ - 1);
+        const float* r = s + static_cast<std::size_t>(y0) * w0_;
+        for (int x = 0; x < w0_; ++x) {
+          vm[x] = r[x];
+          vs[x] = r[x];
         }
+        for (int iy = y0 + 1; iy <= y1; ++iy) {
+          r = s + static_cast<std::size_t>(iy) * w0_;
+          for (int x = 0; x < w0_; ++x) {
+            vm[x] = std::max(vm[x], r[x]);
+            vs[x] += r[x];
+          }
+        }
+        float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
+        for (int x = 0; x < bw; ++x) {
+          const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0_ - 1);
+          float mx = vm[x0], nan_probe = vs[x0];
+          for (int ix = x0 + 1; ix <= x1; ++ix) {
+            mx = std::max(mx, vm[ix]);
+            nan_probe += vs[ix];
+          }
+          d[x] = nan_probe == nan_probe ? mx : nan_probe;
+        }
+      }
     }
   }
 
@@ -410,7 +437,7 @@ private:
         const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
         const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
         ops_.affine_relu(s, d, cols, sc, sh);
-        std::fill(d + cols, d + nr, 0.0f);
+        if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
     auto store = [&](int m, int n0, int cols, const float* v) {
@@ -458,6 +485,13 @@ private:
         ++y;
       }
     };
+#if SHADOWSENSE_X86_KERNELS
+    if (kernel_.fn == &detail::micro_kernel_avx512) { // B read in place: nothing packed
+      detail::gemm_in_place(kernel_, &detail::micro_kernel_avx512_offsets, layer.conv2, bh * pw,
+                            bott, tap_offsets_[b].data(), store, *pool_, scratch_);
+      return;
+    }
+#endif
     detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
   }
 
@@ -484,7 +518,7 @@ private:
           x = 0;
           ++y;
         }
-        std::fill(d + cols, d + nr, 0.0f);
+        if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
     float* next = block_buf_[b + 1].data();
@@ -511,11 +545,19 @@ private:
       }
       pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
     }
+    // Eight interleaved double sums: one serial chain of additions made the 1000-class head
+    // latency-bound (about 1 ms of DenseNet-121); the order differs only in double rounding.
+    const int c_out = last.c_out, c8 = c_out / 8 * 8;
     for (int o = 0; o < arch_.num_classes; ++o) {
-      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * last.c_out;
+      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * c_out;
+      double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+      for (int c = 0; c < c8; c += 8)
+        for (int j = 0; j < 8; ++j)
+          part[j] += double(wr[c + j]) * pooled[static_cast<std::size_t>(c + j)];
       double acc = classifier_b_[static_cast<std::size_t>(o)];
-      for (int c = 0; c < last.c_out; ++c)
-        acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+      for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+      acc +=
+          ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
       out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
     }
   }
@@ -550,8 +592,10 @@ private:
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
   std::vector<float> padded_input_, conv0_out_, features_, logits_;
+  std::vector<float> pool_max_, pool_sum_; // pool0's column maxima and NaN probes (one row)
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
+  std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
 };
 
 SHADOWSENSE_NAMESPACE_END

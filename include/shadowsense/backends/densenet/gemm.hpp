@@ -23,6 +23,8 @@
 //   from one thread at a time (the owner); the pool's workers are its own.
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
+// gemm_in_place(kernel, fn, a, n, base, offsets, store, pool, scratch): gemm() with B read in
+//   place by an offsets micro-kernel (micro_kernel_avx512_offsets), no packing.
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm_neon.hpp>
@@ -288,6 +290,45 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
       pack(s.panel.data(), n0, cols, s.index.data());
       for (int mp = mp0; mp < mp1; ++mp) {
         kernel.fn(a.k, a.panel(mp), s.panel.data(), s.tile.data());
+        const int rows = std::min(mr, a.m - mp * mr);
+        for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
+      }
+    }
+  };
+  pool.run(tasks, task);
+}
+
+using MicroKernelOffsetsFn = void (*)(int K, const float* a, const float* b, const int* offsets,
+                                      float* out);
+
+// gemm() without a packer: B column panel n0 is read in place by fn at base + n0 + offsets[k]
+// (k < a.k; the caller guarantees nr readable floats there, past n included). Same split over
+// threads and the same store() calls as gemm().
+template <class Store>
+inline void gemm_in_place(const MicroKernel& kernel, MicroKernelOffsetsFn fn, const PackedMatrix& a,
+                          int n, const float* base, const int* offsets, Store&& store,
+                          ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+  const int nr = kernel.nr, mr = kernel.mr;
+  const int n_panels = (n + nr - 1) / nr;
+  const int m_panels = (a.m + mr - 1) / mr;
+  const int threads = pool.size();
+  const bool split_n = n_panels >= 2 * threads || m_panels < threads;
+  const int tasks = split_n ? std::min(threads, n_panels) : threads;
+  auto task = [&](int t) {
+    auto& s = scratch[static_cast<std::size_t>(t)];
+    int np0 = 0, np1 = n_panels, mp0 = 0, mp1 = m_panels;
+    if (split_n) {
+      np0 = n_panels * t / tasks;
+      np1 = n_panels * (t + 1) / tasks;
+    } else {
+      mp0 = m_panels * t / tasks;
+      mp1 = m_panels * (t + 1) / tasks;
+    }
+    for (int np = np0; np < np1; ++np) {
+      const int n0 = np * nr;
+      const int cols = std::min(nr, n - n0);
+      for (int mp = mp0; mp < mp1; ++mp) {
+        fn(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
         const int rows = std::min(mr, a.m - mp * mr);
         for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
       }

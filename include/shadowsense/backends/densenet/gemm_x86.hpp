@@ -8,6 +8,8 @@
 //   micro_kernel_reference<8, 32> and <4, 24> (gemm_reference.hpp), accumulated with FMA in k
 //   order; require the CPU to support the instruction set (undefined behaviour otherwise: call
 //   them only through gemm.hpp's selection).
+// micro_kernel_avx512_offsets(K, a, b, offsets, out): as micro_kernel_avx512 with B row k
+//   read in place at b + offsets[k] (32 floats, all readable) instead of from a packed panel.
 // No state; callable from any thread.
 #pragma once
 
@@ -34,6 +36,62 @@ __attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const 
   for (int k = 0; k < K; ++k, a += MR, b += 32) {
     const __m512 b0 = _mm512_loadu_ps(b);
     const __m512 b1 = _mm512_loadu_ps(b + 16);
+    __m512 x = _mm512_set1_ps(a[0]);
+    c00 = _mm512_fmadd_ps(x, b0, c00);
+    c01 = _mm512_fmadd_ps(x, b1, c01);
+    x = _mm512_set1_ps(a[1]);
+    c10 = _mm512_fmadd_ps(x, b0, c10);
+    c11 = _mm512_fmadd_ps(x, b1, c11);
+    x = _mm512_set1_ps(a[2]);
+    c20 = _mm512_fmadd_ps(x, b0, c20);
+    c21 = _mm512_fmadd_ps(x, b1, c21);
+    x = _mm512_set1_ps(a[3]);
+    c30 = _mm512_fmadd_ps(x, b0, c30);
+    c31 = _mm512_fmadd_ps(x, b1, c31);
+    x = _mm512_set1_ps(a[4]);
+    c40 = _mm512_fmadd_ps(x, b0, c40);
+    c41 = _mm512_fmadd_ps(x, b1, c41);
+    x = _mm512_set1_ps(a[5]);
+    c50 = _mm512_fmadd_ps(x, b0, c50);
+    c51 = _mm512_fmadd_ps(x, b1, c51);
+    x = _mm512_set1_ps(a[6]);
+    c60 = _mm512_fmadd_ps(x, b0, c60);
+    c61 = _mm512_fmadd_ps(x, b1, c61);
+    x = _mm512_set1_ps(a[7]);
+    c70 = _mm512_fmadd_ps(x, b0, c70);
+    c71 = _mm512_fmadd_ps(x, b1, c71);
+  }
+  _mm512_storeu_ps(out + 0, c00);
+  _mm512_storeu_ps(out + 16, c01);
+  _mm512_storeu_ps(out + 32, c10);
+  _mm512_storeu_ps(out + 48, c11);
+  _mm512_storeu_ps(out + 64, c20);
+  _mm512_storeu_ps(out + 80, c21);
+  _mm512_storeu_ps(out + 96, c30);
+  _mm512_storeu_ps(out + 112, c31);
+  _mm512_storeu_ps(out + 128, c40);
+  _mm512_storeu_ps(out + 144, c41);
+  _mm512_storeu_ps(out + 160, c50);
+  _mm512_storeu_ps(out + 176, c51);
+  _mm512_storeu_ps(out + 192, c60);
+  _mm512_storeu_ps(out + 208, c61);
+  _mm512_storeu_ps(out + 224, c70);
+  _mm512_storeu_ps(out + 240, c71);
+}
+
+// micro_kernel_avx512 with B read in place: row k of the K x 32 B panel is the 32 floats at
+// b + offsets[k] (unaligned). The 3x3 convolution on the zero-padded grid uses it with
+// offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw + kx, so no B panel is ever packed.
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* offsets, float* out) {
+  constexpr int MR = 8;
+  __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
+         c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
+         c70 = c00, c71 = c00;
+  for (int k = 0; k < K; ++k, a += MR) {
+    const float* bk = b + offsets[k];
+    const __m512 b0 = _mm512_loadu_ps(bk);
+    const __m512 b1 = _mm512_loadu_ps(bk + 16);
     __m512 x = _mm512_set1_ps(a[0]);
     c00 = _mm512_fmadd_ps(x, b0, c00);
     c01 = _mm512_fmadd_ps(x, b1, c01);
@@ -119,7 +177,56 @@ __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const f
 #endif
 
 #if SHADOWSENSE_X86_KERNELS
-SHADOWSENSE_DEFINE_VECTOR_OPS(avx512, __attribute__((target("avx512f"))))
+// AVX-512 element-wise loops written out with masked tails: the packers call them on rows of
+// one panel width (32) or less, where the plain loops' vectorisation prologues, and the
+// memcpy / memset calls the compiler turns pack3x3's copies into, cost more than the work.
+// relu(NaN) stays NaN: max(0, v) returns its second operand when either is NaN.
+__attribute__((target("avx512f"))) inline __mmask16 tail_mask_avx512(int n) {
+  return n >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << (n > 0 ? n : 0)) - 1u);
+}
+__attribute__((target("avx512f"))) inline void
+affine_relu_avx512(const float* __restrict s, float* __restrict d, int n, float sc, float sh) {
+  const __m512 vs = _mm512_set1_ps(sc), vh = _mm512_set1_ps(sh), z = _mm512_setzero_ps();
+  for (int i = 0; i < n; i += 16) {
+    const __mmask16 m = tail_mask_avx512(n - i);
+    const __m512 x = _mm512_maskz_loadu_ps(m, s + i);
+    _mm512_mask_storeu_ps(d + i, m, _mm512_maskz_max_ps(m, z, _mm512_fmadd_ps(x, vs, vh)));
+  }
+}
+__attribute__((target("avx512f"))) inline void
+bias_relu_avx512(const float* __restrict s, float* __restrict d, int n, float b) {
+  const __m512 vb = _mm512_set1_ps(b), z = _mm512_setzero_ps();
+  for (int i = 0; i < n; i += 16) {
+    const __mmask16 m = tail_mask_avx512(n - i);
+    const __m512 x = _mm512_maskz_loadu_ps(m, s + i);
+    _mm512_mask_storeu_ps(d + i, m, _mm512_maskz_max_ps(m, z, _mm512_add_ps(x, vb)));
+  }
+}
+__attribute__((target("avx512f"))) inline void
+pack3x3_avx512(const float* __restrict s, float* __restrict d, int cols, int nr, int pw) {
+  for (int ky = 0; ky < 3; ++ky)
+    for (int kx = 0; kx < 3; ++kx, d += nr) {
+      const float* __restrict r = s + ky * pw + kx;
+      int j = 0;
+      for (; j + 16 <= nr; j += 16) // whole vectors of the panel: zero beyond cols
+        _mm512_storeu_ps(d + j, _mm512_maskz_loadu_ps(tail_mask_avx512(cols - j), r + j));
+      for (; j < nr; ++j) d[j] = j < cols ? r[j] : 0.0f;
+    }
+}
+__attribute__((target("avx512f"))) inline void pool_affine_relu_avx512(const float* __restrict r0,
+                                                                       const float* __restrict r1,
+                                                                       float* __restrict d, int n,
+                                                                       float sc, float sh) {
+  for (int j = 0; j < n; ++j) {
+    float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;
+    float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;
+    a = a < 0.0f ? 0.0f : a;
+    b = b < 0.0f ? 0.0f : b;
+    c = c < 0.0f ? 0.0f : c;
+    e = e < 0.0f ? 0.0f : e;
+    d[j] = ((a + b) + (c + e)) * 0.25f;
+  }
+}
 SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
 #endif
 

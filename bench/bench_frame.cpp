@@ -1,0 +1,73 @@
+// The whole frame of the shipped model (models/default.ssm) on one core, per stage and
+// together, on robot-rig generator frames: segmenter, touch pipeline (segmenter + ids + state
+// machines), frame encoder, forward pass, classify (encode + forward) and the whole frame
+// (pipeline + classify). One benchmark iteration = every fixture frame once (per-frame time =
+// mean / frames). bench/frame_time prints the same stages as a table with heap allocations per
+// frame.
+#include <shadowsense/backends/densenet/classifier.hpp>
+#include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
+#include <shadowsense/sim.hpp>
+
+#include <catch2/catch.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <filesystem>
+#include <vector>
+
+using namespace shadowsense;
+
+TEST_CASE("whole frame of the shipped model, per stage (robot rig, 1 thread, 10 frames)") {
+  cv::setNumThreads(1);
+  const ModelFile model =
+      ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
+  auto classifier = make_densenet_classifier(model, {.threads = 1});
+  sim::Renderer renderer(sim::Rig::robot());
+  const SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
+  std::vector<cv::Mat> frames;
+  for (std::uint64_t i = 0; i < 10; ++i)
+    frames.push_back(sim::render_random_tracking_frame(renderer,
+                                                       static_cast<sim::TrackCategory>(i % 5),
+                                                       sim::derive_seed(0xF1, i))
+                         .image);
+  Segmenter segmenter = segmenter_from(calibration);
+  TouchPipeline pipeline(segmenter_from(calibration));
+  FrameEncoder encoder(FrameEncoder::Config{model.preprocess, ChannelOrder::bgr});
+  Segmentation seg;
+  Tensor input;
+  encoder.run(frames[0], input);
+  Classification result;
+  double t = 0;
+
+  BENCHMARK("segment x10") {
+    for (const cv::Mat& f : frames) segmenter.segment(f, seg);
+    return seg.shadows.size();
+  };
+  BENCHMARK("pipeline x10") {
+    std::size_t n = 0;
+    for (const cv::Mat& f : frames) n += pipeline.update(f, t += 33.0).tracks.size();
+    return n;
+  };
+  BENCHMARK("encode x10") {
+    for (const cv::Mat& f : frames) encoder.run(f, input);
+    return input.size();
+  };
+  BENCHMARK("forward x10") {
+    for (std::size_t i = 0; i < frames.size(); ++i) classifier.classify(input, result);
+    return result.index;
+  };
+  BENCHMARK("classify x10") {
+    for (const cv::Mat& f : frames) classifier.classify(f, result);
+    return result.index;
+  };
+  BENCHMARK("whole frame (pipeline + classify) x10") {
+    std::size_t n = 0;
+    for (const cv::Mat& f : frames) {
+      n += pipeline.update(f, t += 33.0).tracks.size();
+      classifier.classify(f, result);
+      n += static_cast<std::size_t>(result.index);
+    }
+    return n;
+  };
+}

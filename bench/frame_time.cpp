@@ -1,0 +1,254 @@
+// frame_time: the whole frame of the shipped model, per stage and together, on one core, with
+// the heap allocations each stage makes per frame after warm-up. Stages, each timed alone on
+// the same generator frames (robot rig, all tracking categories, a fixed seed):
+//   segment    Segmenter::segment (shadow + contact masks and blobs)
+//   pipeline   TouchPipeline::update (segment + multi-touch ids + one state machine per track)
+//   encode     FrameEncoder::run (dark-frame rule, resize, crop, contrast, Normalize)
+//   forward    Classifier::classify(tensor) (the DenseNet forward pass + softmax + label)
+//   classify   Classifier::classify(frame, out) (encode + forward)
+//   frame      pipeline + classify: everything the runtime does per camera frame
+// Times are medians over rounds of the per-frame mean (each round runs every frame once), as
+// wall time and as the thread's CPU time (the CPU time is the figure to trust when other
+// processes share the machine). Allocations are counted by this program's own global operator
+// new (the library is not changed for it).
+//   frame_time [--model PATH] [--frames N] [--rounds R] [--json]
+#include <shadowsense/backends/densenet/classifier.hpp>
+#include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
+#include <shadowsense/sim.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <functional>
+#include <iostream>
+#include <new>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace {
+
+std::atomic<std::size_t> g_allocations{0};
+volatile bool g_trace = false; // set while measuring (a debugger can break on allocations then)
+
+__attribute__((noinline)) void* counted_alloc(std::size_t n) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* counted_alloc_aligned(std::size_t n, std::align_val_t a) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  const auto al = static_cast<std::size_t>(a);
+  if (void* p = std::aligned_alloc(al, (std::max<std::size_t>(n, 1) + al - 1) / al * al)) return p;
+  throw std::bad_alloc();
+}
+
+} // namespace
+
+void* operator new(std::size_t n) {
+  return counted_alloc(n);
+}
+void* operator new[](std::size_t n) {
+  return counted_alloc(n);
+}
+void* operator new(std::size_t n, std::align_val_t a) {
+  return counted_alloc_aligned(n, a);
+}
+void* operator new[](std::size_t n, std::align_val_t a) {
+  return counted_alloc_aligned(n, a);
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::align_val_t) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, std::align_val_t) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept {
+  std::free(p);
+}
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept {
+  std::free(p);
+}
+
+namespace ss = shadowsense;
+
+namespace {
+
+constexpr std::string_view usage =
+    "usage: frame_time [--model PATH] [--frames N] [--rounds R] [--json]\n"
+    "Times the whole frame of a model (default models/default.ssm) on one core: segmenter,\n"
+    "touch pipeline, frame encoder, forward pass, classify, and all of it together, on robot-rig\n"
+    "generator frames; prints per-frame median wall and CPU ms and heap allocations per frame\n"
+    "after warm-up.\n";
+
+int positive_int(const char* text, const char* what) {
+  char* end = nullptr;
+  const long v = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || v < 1 || v > 100000)
+    throw ss::InvalidArgument(std::string(what) + " '" + text + "': expected an integer 1..100000");
+  return static_cast<int>(v);
+}
+
+double thread_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+struct StageResult {
+  std::string name;
+  double wall_ms = 0, cpu_ms = 0, allocations = 0;
+};
+
+// Runs step(i) for every frame index, `rounds` times after one warm-up round; the medians of
+// the per-frame means, and the allocations per frame of the measured rounds.
+StageResult measure(const std::string& name, int frames, int rounds,
+                    const std::function<void(int)>& step) {
+  for (int i = 0; i < frames; ++i) step(i); // warm-up: buffers, caches
+  std::vector<double> wall, cpu;
+  std::size_t allocs = 0;
+  for (int r = 0; r < rounds; ++r) {
+    g_trace = true;
+    const std::size_t a0 = g_allocations.load();
+    const double c0 = thread_cpu_ms();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < frames; ++i) step(i);
+    const auto t1 = std::chrono::steady_clock::now();
+    const double c1 = thread_cpu_ms();
+    allocs += g_allocations.load() - a0;
+    g_trace = false;
+    wall.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count() / frames);
+    cpu.push_back((c1 - c0) / frames);
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  return {name, median(wall), median(cpu), double(allocs) / (double(frames) * rounds)};
+}
+
+} // namespace
+
+int main(int argc, char** argv) {
+  std::string model_path = "models/default.ssm";
+  int frames = 40, rounds = 7;
+  bool json = false;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string_view a = argv[i];
+      auto value = [&]() -> const char* {
+        if (i + 1 >= argc) throw ss::InvalidArgument(std::string(a) + " needs a value");
+        return argv[++i];
+      };
+      if (a == "--help") {
+        std::cout << usage;
+        return 0;
+      } else if (a == "--version") {
+        std::cout << "frame_time shadowsense " << ss::version_string << '\n';
+        return 0;
+      } else if (a == "--model") {
+        model_path = value();
+      } else if (a == "--frames") {
+        frames = positive_int(value(), "--frames");
+      } else if (a == "--rounds") {
+        rounds = positive_int(value(), "--rounds");
+      } else if (a == "--json") {
+        json = true;
+      } else {
+        throw ss::InvalidArgument("unknown argument '" + std::string(a) + "'");
+      }
+    }
+    cv::setNumThreads(1);
+    const ss::ModelFile model = ss::ModelFile::load(model_path);
+    auto classifier = ss::make_densenet_classifier(model, {.threads = 1});
+
+    ss::sim::Renderer renderer(ss::sim::Rig::robot());
+    const ss::SimCalibration calibration = ss::calibrate_on_sim(renderer, 0xF0, 50);
+    std::vector<cv::Mat> images;
+    for (int i = 0; i < frames; ++i)
+      images.push_back(ss::sim::render_random_tracking_frame(
+                           renderer, static_cast<ss::sim::TrackCategory>(i % 5),
+                           ss::sim::derive_seed(0xF1, static_cast<std::uint64_t>(i)))
+                           .image);
+
+    ss::Segmenter segmenter = ss::segmenter_from(calibration);
+    ss::Segmentation seg;
+    ss::TouchPipeline pipeline(ss::segmenter_from(calibration));
+    ss::FrameEncoder encoder(ss::FrameEncoder::Config{model.preprocess, ss::ChannelOrder::bgr});
+    ss::Tensor input;
+    encoder.run(images[0], input);
+    ss::Classification result;
+    double t_ms = 0;
+    std::size_t sink = 0;
+
+    std::vector<StageResult> out;
+    out.push_back(measure("segment", frames, rounds, [&](int i) {
+      segmenter.segment(images[static_cast<std::size_t>(i)], seg);
+      sink += seg.shadows.size();
+    }));
+    out.push_back(measure("pipeline", frames, rounds, [&](int i) {
+      sink += pipeline.update(images[static_cast<std::size_t>(i)], t_ms += 33.0).tracks.size();
+    }));
+    out.push_back(measure("encode", frames, rounds,
+                          [&](int i) { encoder.run(images[static_cast<std::size_t>(i)], input); }));
+    out.push_back(measure("forward", frames, rounds, [&](int) {
+      classifier.classify(input, result);
+      sink += static_cast<std::size_t>(result.index);
+    }));
+    out.push_back(measure("classify", frames, rounds, [&](int i) {
+      classifier.classify(images[static_cast<std::size_t>(i)], result);
+      sink += static_cast<std::size_t>(result.index);
+    }));
+    out.push_back(measure("frame", frames, rounds, [&](int i) {
+      const cv::Mat& im = images[static_cast<std::size_t>(i)];
+      sink += pipeline.update(im, t_ms += 33.0).tracks.size();
+      classifier.classify(im, result);
+      sink += static_cast<std::size_t>(result.index);
+    }));
+
+    const double parts = out[1].cpu_ms + out[4].cpu_ms;
+    if (json) {
+      std::printf("{\"model\": \"%s\", \"frame\": [%d, %d], \"input\": [%d, %d], \"stages\": [",
+                  model_path.c_str(), images[0].cols, images[0].rows, input.h(), input.w());
+      for (std::size_t i = 0; i < out.size(); ++i)
+        std::printf("%s{\"stage\": \"%s\", \"wall_ms\": %.4f, \"cpu_ms\": %.4f, "
+                    "\"allocations_per_frame\": %.3f}",
+                    i ? ", " : "", out[i].name.c_str(), out[i].wall_ms, out[i].cpu_ms,
+                    out[i].allocations);
+      std::printf("], \"sum_of_parts_cpu_ms\": %.4f, \"checksum\": %zu}\n", parts, sink);
+    } else {
+      std::printf("model %s, frames %dx%d (robot rig), network input %dx%d, %d frames x %d "
+                  "rounds, 1 thread\n",
+                  model_path.c_str(), images[0].cols, images[0].rows, input.w(), input.h(), frames,
+                  rounds);
+      std::printf(
+          "| stage | wall ms/frame | CPU ms/frame | allocations/frame |\n|---|---|---|---|\n");
+      for (const auto& s : out)
+        std::printf("| %s | %.3f | %.3f | %.2f |\n", s.name.c_str(), s.wall_ms, s.cpu_ms,
+                    s.allocations);
+      std::printf("sum of parts (pipeline + classify), CPU: %.3f ms; checksum %zu\n", parts, sink);
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "frame_time: error: " << e.what() << '\n' << usage;
+    return 2;
+  }
+}
