@@ -261,13 +261,14 @@ struct GemmScratch {
   std::vector<int> index;   // NR ints for packers (pixel offsets)
 };
 
-// C = A * B where B is produced by pack(float* dst, int n0, int nr, int* index_scratch): it
-// writes B[:, n0 : n0+nr] as a K x NR panel (columns >= nr zero). store(m, n0, nr, row) writes
-// the nr results of row m. Work is split over threads by column panels, or by row panels when
-// there are too few column panels.
-template <class Pack, class Store>
-inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&& pack,
-                 Store&& store, ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+// The split shared by gemm() and gemm_in_place(): column panels of nr (or row panels of mr
+// when there are too few column panels) over the pool's threads. For every column panel,
+// prepare(s, n0, cols) readies B in the thread's scratch s, then multiply(mp, s, n0) writes the
+// MR x NR tile of row panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
+template <class Prepare, class Multiply, class Store>
+inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, int n,
+                             Prepare&& prepare, Multiply&& multiply, Store&& store,
+                             ThreadPool& pool, std::vector<GemmScratch>& scratch) {
   const int nr = kernel.nr, mr = kernel.mr;
   const int n_panels = (n + nr - 1) / nr;
   const int m_panels = (a.m + mr - 1) / mr;
@@ -287,15 +288,31 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
     for (int np = np0; np < np1; ++np) {
       const int n0 = np * nr;
       const int cols = std::min(nr, n - n0);
-      pack(s.panel.data(), n0, cols, s.index.data());
+      prepare(s, n0, cols);
       for (int mp = mp0; mp < mp1; ++mp) {
-        kernel.fn(a.k, a.panel(mp), s.panel.data(), s.tile.data());
+        multiply(mp, s, n0);
         const int rows = std::min(mr, a.m - mp * mr);
         for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
       }
     }
   };
   pool.run(tasks, task);
+}
+
+// C = A * B where B is produced by pack(float* dst, int n0, int nr, int* index_scratch): it
+// writes B[:, n0 : n0+nr] as a K x NR panel (columns >= nr zero). store(m, n0, nr, row) writes
+// the nr results of row m. Work is split over threads by column panels, or by row panels when
+// there are too few column panels.
+template <class Pack, class Store>
+inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&& pack,
+                 Store&& store, ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+  gemm_over_panels(
+      kernel, a, n,
+      [&](GemmScratch& s, int n0, int cols) { pack(s.panel.data(), n0, cols, s.index.data()); },
+      [&](int mp, GemmScratch& s, int) {
+        kernel.fn(a.k, a.panel(mp), s.panel.data(), s.tile.data());
+      },
+      store, pool, scratch);
 }
 
 using MicroKernelOffsetsFn = void (*)(int K, const float* a, const float* b, const int* offsets,
@@ -308,33 +325,12 @@ template <class Store>
 inline void gemm_in_place(const MicroKernel& kernel, MicroKernelOffsetsFn fn, const PackedMatrix& a,
                           int n, const float* base, const int* offsets, Store&& store,
                           ThreadPool& pool, std::vector<GemmScratch>& scratch) {
-  const int nr = kernel.nr, mr = kernel.mr;
-  const int n_panels = (n + nr - 1) / nr;
-  const int m_panels = (a.m + mr - 1) / mr;
-  const int threads = pool.size();
-  const bool split_n = n_panels >= 2 * threads || m_panels < threads;
-  const int tasks = split_n ? std::min(threads, n_panels) : threads;
-  auto task = [&](int t) {
-    auto& s = scratch[static_cast<std::size_t>(t)];
-    int np0 = 0, np1 = n_panels, mp0 = 0, mp1 = m_panels;
-    if (split_n) {
-      np0 = n_panels * t / tasks;
-      np1 = n_panels * (t + 1) / tasks;
-    } else {
-      mp0 = m_panels * t / tasks;
-      mp1 = m_panels * (t + 1) / tasks;
-    }
-    for (int np = np0; np < np1; ++np) {
-      const int n0 = np * nr;
-      const int cols = std::min(nr, n - n0);
-      for (int mp = mp0; mp < mp1; ++mp) {
+  gemm_over_panels(
+      kernel, a, n, [](GemmScratch&, int, int) {},
+      [&](int mp, GemmScratch& s, int n0) {
         fn(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
-        const int rows = std::min(mr, a.m - mp * mr);
-        for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
-      }
-    }
-  };
-  pool.run(tasks, task);
+      },
+      store, pool, scratch);
 }
 
 } // namespace detail

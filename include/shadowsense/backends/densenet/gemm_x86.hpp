@@ -16,6 +16,8 @@
 #include <shadowsense/backends/densenet/gemm_portable.hpp>
 #include <shadowsense/core/version.hpp>
 
+#include <cstddef>
+
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define SHADOWSENSE_X86_KERNELS 1
 #include <immintrin.h>
@@ -27,69 +29,17 @@ SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
 
 #if SHADOWSENSE_X86_KERNELS
-__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
-                                                                   const float* b, float* out) {
-  constexpr int MR = 8;
-  __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
-         c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
-         c70 = c00, c71 = c00;
-  for (int k = 0; k < K; ++k, a += MR, b += 32) {
-    const __m512 b0 = _mm512_loadu_ps(b);
-    const __m512 b1 = _mm512_loadu_ps(b + 16);
-    __m512 x = _mm512_set1_ps(a[0]);
-    c00 = _mm512_fmadd_ps(x, b0, c00);
-    c01 = _mm512_fmadd_ps(x, b1, c01);
-    x = _mm512_set1_ps(a[1]);
-    c10 = _mm512_fmadd_ps(x, b0, c10);
-    c11 = _mm512_fmadd_ps(x, b1, c11);
-    x = _mm512_set1_ps(a[2]);
-    c20 = _mm512_fmadd_ps(x, b0, c20);
-    c21 = _mm512_fmadd_ps(x, b1, c21);
-    x = _mm512_set1_ps(a[3]);
-    c30 = _mm512_fmadd_ps(x, b0, c30);
-    c31 = _mm512_fmadd_ps(x, b1, c31);
-    x = _mm512_set1_ps(a[4]);
-    c40 = _mm512_fmadd_ps(x, b0, c40);
-    c41 = _mm512_fmadd_ps(x, b1, c41);
-    x = _mm512_set1_ps(a[5]);
-    c50 = _mm512_fmadd_ps(x, b0, c50);
-    c51 = _mm512_fmadd_ps(x, b1, c51);
-    x = _mm512_set1_ps(a[6]);
-    c60 = _mm512_fmadd_ps(x, b0, c60);
-    c61 = _mm512_fmadd_ps(x, b1, c61);
-    x = _mm512_set1_ps(a[7]);
-    c70 = _mm512_fmadd_ps(x, b0, c70);
-    c71 = _mm512_fmadd_ps(x, b1, c71);
-  }
-  _mm512_storeu_ps(out + 0, c00);
-  _mm512_storeu_ps(out + 16, c01);
-  _mm512_storeu_ps(out + 32, c10);
-  _mm512_storeu_ps(out + 48, c11);
-  _mm512_storeu_ps(out + 64, c20);
-  _mm512_storeu_ps(out + 80, c21);
-  _mm512_storeu_ps(out + 96, c30);
-  _mm512_storeu_ps(out + 112, c31);
-  _mm512_storeu_ps(out + 128, c40);
-  _mm512_storeu_ps(out + 144, c41);
-  _mm512_storeu_ps(out + 160, c50);
-  _mm512_storeu_ps(out + 176, c51);
-  _mm512_storeu_ps(out + 192, c60);
-  _mm512_storeu_ps(out + 208, c61);
-  _mm512_storeu_ps(out + 224, c70);
-  _mm512_storeu_ps(out + 240, c71);
-}
-
-// micro_kernel_avx512 with B read in place: row k of the K x 32 B panel is the 32 floats at
-// b + offsets[k] (unaligned). The 3x3 convolution on the zero-padded grid uses it with
-// offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw + kx, so no B panel is ever packed.
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* offsets, float* out) {
+// The 8x32 AVX-512 block over K rows of B, row k at row_b(k) (32 floats, unaligned): one body
+// for the packed panel (micro_kernel_avx512) and the in-place read (micro_kernel_avx512_offsets).
+template <class RowB>
+__attribute__((target("avx512f"))) inline void micro_kernel_avx512_rows(int K, const float* a,
+                                                                        RowB row_b, float* out) {
   constexpr int MR = 8;
   __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
          c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
          c70 = c00, c71 = c00;
   for (int k = 0; k < K; ++k, a += MR) {
-    const float* bk = b + offsets[k];
+    const float* bk = row_b(k);
     const __m512 b0 = _mm512_loadu_ps(bk);
     const __m512 b1 = _mm512_loadu_ps(bk + 16);
     __m512 x = _mm512_set1_ps(a[0]);
@@ -133,6 +83,30 @@ micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* of
   _mm512_storeu_ps(out + 208, c61);
   _mm512_storeu_ps(out + 224, c70);
   _mm512_storeu_ps(out + 240, c71);
+}
+
+// Rows of a packed K x 32 panel, and rows read in place at b + offsets[k].
+struct PackedRows {
+  const float* b;
+  const float* operator()(int k) const { return b + static_cast<std::ptrdiff_t>(k) * 32; }
+};
+struct OffsetRows {
+  const float* b;
+  const int* offsets;
+  const float* operator()(int k) const { return b + offsets[k]; }
+};
+
+__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
+                                                                   const float* b, float* out) {
+  micro_kernel_avx512_rows(K, a, PackedRows{b}, out);
+}
+
+// micro_kernel_avx512 with B read in place: row k of the K x 32 B panel is the 32 floats at
+// b + offsets[k] (unaligned). The 3x3 convolution on the zero-padded grid uses it with
+// offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw + kx, so no B panel is ever packed.
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* offsets, float* out) {
+  micro_kernel_avx512_rows(K, a, OffsetRows{b, offsets}, out);
 }
 
 __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
