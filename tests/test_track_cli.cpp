@@ -256,7 +256,6 @@ TEST_CASE("ss_track command line: help, version, missing and bad arguments") {
   CHECK(r.err.find("unknown option '--bogus'") != std::string::npos);
 }
 
-
 TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame, the touch as a "
           "cursor") {
   const std::vector<cv::Mat> frames = render_sequence();
