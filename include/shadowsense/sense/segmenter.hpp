@@ -50,6 +50,7 @@
 #include <shadowsense/core/thread_owner.hpp>
 #include <shadowsense/sense/blobs.hpp>
 #include <shadowsense/sense/hover_height.hpp>
+#include <shadowsense/sense/mask_smoothing.hpp>
 #include <shadowsense/sense/pixel_rule.hpp>
 
 #include <opencv2/core.hpp>
@@ -347,13 +348,9 @@ private:
   }
 
   // Gaussian blur of the binary mask, then back to binary at half height: a majority filter that
-  // removes speckle and fills pinholes without moving straight edges.
-  void finish_mask(cv::Mat& mask) {
-    if (config_.mask_blur <= 1) return;
-    cv::GaussianBlur(mask, blurred_, cv::Size(config_.mask_blur, config_.mask_blur), 0, 0,
-                     cv::BORDER_REPLICATE);
-    cv::threshold(blurred_, mask, 127, 255, cv::THRESH_BINARY);
-  }
+  // removes speckle and fills pinholes without moving straight edges (mask_smoothing.hpp:
+  // bit-identical to cv::GaussianBlur + cv::threshold, without allocating per frame).
+  void finish_mask(cv::Mat& mask) { smoother_.apply(mask, config_.mask_blur); }
 
   // Blobs of one class mask; returns how many contours the cap dropped.
   std::size_t extract(const cv::Mat& mask, double min_area, int merge_gap, std::vector<Blob>& blobs,
@@ -502,7 +499,7 @@ private:
   Config config_;
   Rule rule_;
   ThreadOwner owner_;
-  cv::Mat colour_blur_, blurred_, darkness_, warmth_, dilated_;
+  cv::Mat colour_blur_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat model_;                         // the model as set (unsmoothed)
   cv::Mat profile_, inv_profile_, valid_; // empty-skin model in use
@@ -518,6 +515,7 @@ private:
   float frame_shadow_threshold_ = 0;
   mutable std::array<std::vector<int>, 3> hist_;
   BlobFinder finder_;
+  MaskSmoother smoother_;
 };
 
 // The segmenter users have: the rule a SegmenterCalibration selects.

@@ -1,0 +1,224 @@
+// Mask smoothing: the segmenter's majority filter for an 8-bit class mask, a k x k Gaussian blur
+// (sigma from k, replicated borders) followed by a threshold at half height, computed in the
+// library's own separable fixed-point filter with buffers kept from call to call (no heap
+// allocation once they have grown to the frame size).
+//
+// The result is bit-identical to
+//   cv::GaussianBlur(mask, tmp, {k, k}, 0, 0, cv::BORDER_REPLICATE);
+//   cv::threshold(tmp, mask, 127, 255, cv::THRESH_BINARY);
+// for every CV_8UC1 input: OpenCV's 8-bit Gaussian is fixed point and bit-exact. Its kernel is
+// the Gaussian of sigma = 0.3 ((k - 1) / 2 - 1) + 0.8 (the exact dyadic tables for k = 3, 5, 7),
+// quantised to 8 fractional bits with error diffusion from the outside in, the centre taking
+// the rest so the taps sum to 256. The horizontal pass sums pixel x tap exactly (8.8 fixed
+// point), the vertical pass sums those times the taps exactly (16.16), and the value is rounded
+// half up: out = (acc + 2^15) >> 16. A side of length 1 is not blurred along (OpenCV sets that
+// kernel to 1). So out > 127 exactly when acc >= 128 * 2^16 - 2^15.
+//
+// gaussian_taps_q8(k)
+//   requires: k odd, 1 <= k <= 31.
+//   ensures:  the k integer taps (sum 256) OpenCV's 8-bit Gaussian uses for sigma 0.
+//   throws:   InvalidArgument for another k.
+// MaskSmoother::apply(mask, k)
+//   requires: mask CV_8UC1 (any values), k 0, 1 or odd <= 31.
+//   ensures:  k <= 1: mask unchanged. Else mask = 255 where the blurred value is > 127, else 0,
+//             in place.
+//   throws:   InvalidArgument for a bad mask or k.
+// Threading: a MaskSmoother holds scratch rows; one instance per thread (a Segmenter owns one).
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+namespace detail {
+
+// OpenCV's fixed-point (8 fractional bits) Gaussian taps for kernel size k and sigma 0.
+inline std::array<int, 31> gaussian_taps_q8(int k) {
+  detail::require(k >= 1 && k <= 31 && k % 2 == 1, "gaussian_taps_q8: kernel size " +
+                                                       std::to_string(k) +
+                                                       "; expected an odd size in [1, 31]");
+  std::array<int, 31> taps{};
+  if (k == 1) {
+    taps[0] = 256;
+    return taps;
+  }
+  // The exact dyadic kernels OpenCV uses for small sizes (all multiples of 1/256).
+  static constexpr int k3[] = {64, 128, 64};
+  static constexpr int k5[] = {16, 64, 96, 64, 16};
+  static constexpr int k7[] = {8, 28, 56, 72, 56, 28, 8};
+  if (k <= 7) {
+    const int* t = k == 3 ? k3 : k == 5 ? k5 : k7;
+    std::copy(t, t + k, taps.begin());
+    return taps;
+  }
+  // Sampled Gaussian, normalised, then quantised with error diffusion (outside in).
+  const int half = (k - 1) / 2;
+  const double sigma = std::fma(double(k), 0.15, 0.35); // 0.3 ((k - 1) / 2 - 1) + 0.8
+  const double scale = -0.125 / (sigma * sigma);
+  std::array<double, 16> values{};
+  double sum = 0;
+  for (int i = 0, x = 1 - k; i < half; ++i, x += 2) {
+    values[static_cast<std::size_t>(i)] = std::exp(double(x * x) * scale);
+    sum += values[static_cast<std::size_t>(i)];
+  }
+  sum = sum * 2 + 1;
+  const double inv = 1 / sum;
+  double err = 0;
+  int total = 0;
+  for (int i = 0; i < half; ++i) {
+    const double adj = values[static_cast<std::size_t>(i)] * inv * 256 + err;
+    const int v = static_cast<int>(std::nearbyint(adj)); // half to even, as cvRound
+    err = adj - v;
+    taps[static_cast<std::size_t>(i)] = taps[static_cast<std::size_t>(k - 1 - i)] = v;
+    total += v;
+  }
+  taps[static_cast<std::size_t>(half)] = 256 - 2 * total;
+  return taps;
+}
+
+} // namespace detail
+
+class MaskSmoother {
+public:
+  void apply(cv::Mat& mask, int k) {
+    detail::require(k >= 0 && k <= 31 && (k <= 1 || k % 2 == 1),
+                    "MaskSmoother::apply: kernel size " + std::to_string(k) +
+                        "; expected 0, 1 or an odd size up to 31");
+    if (k <= 1) return;
+    detail::require(mask.type() == CV_8UC1 && !mask.empty(),
+                    "MaskSmoother::apply: expected a non-empty CV_8UC1 mask");
+    if (k != k_) {
+      taps_ = detail::gaussian_taps_q8(k);
+      k_ = k;
+    }
+    const int w = mask.cols, h = mask.rows;
+    // OpenCV leaves a side of length 1 unblurred (replicated borders).
+    const int kx = w == 1 ? 1 : k, ky = h == 1 ? 1 : k;
+    const auto uw = static_cast<std::size_t>(w);
+    horizontal_.resize(uw * static_cast<std::size_t>(h));
+    padded_.resize(uw + static_cast<std::size_t>(kx - 1));
+    switch (kx) { // the common sizes unrolled (one pass per row, vectorised)
+    case 1:
+      horizontal<1>(mask);
+      break;
+    case 3:
+      horizontal<3>(mask);
+      break;
+    case 5:
+      horizontal<5>(mask);
+      break;
+    case 7:
+      horizontal<7>(mask);
+      break;
+    default:
+      horizontal<0>(mask);
+      break;
+    }
+    switch (ky) {
+    case 1:
+      vertical<1>(mask);
+      break;
+    case 3:
+      vertical<3>(mask);
+      break;
+    case 5:
+      vertical<5>(mask);
+      break;
+    case 7:
+      vertical<7>(mask);
+      break;
+    default:
+      vertical<0>(mask);
+      break;
+    }
+  }
+
+private:
+  // Horizontal pass into horizontal_: 8.8 fixed point, exact (at most 255 * 256). K = 0: k_ taps.
+  template <int K>
+  void horizontal(const cv::Mat& mask) {
+    const int n = K == 0 ? k_ : K, r = n / 2, w = mask.cols;
+    const std::array<int, 31> one{256};
+    const std::array<int, 31>& taps = K == 1 ? one : taps_;
+    std::array<std::uint16_t, 31> c{};
+    for (int t = 0; t < n; ++t)
+      c[static_cast<std::size_t>(t)] =
+          static_cast<std::uint16_t>(taps[static_cast<std::size_t>(t)]);
+    for (int y = 0; y < mask.rows; ++y) {
+      const uchar* src = mask.ptr<uchar>(y);
+      std::uint8_t* __restrict pad = padded_.data();
+      std::fill(pad, pad + r, src[0]);
+      std::copy(src, src + w, pad + r);
+      std::fill(pad + r + w, pad + 2 * r + w, src[w - 1]);
+      std::uint16_t* out =
+          horizontal_.data() + static_cast<std::size_t>(y) * static_cast<std::size_t>(w);
+      for (int x = 0; x < w; ++x) {
+        std::uint16_t sum = 0;
+        for (int t = 0; t < n; ++t)
+          sum = static_cast<std::uint16_t>(sum + c[static_cast<std::size_t>(t)] * pad[x + t]);
+        out[x] = sum;
+      }
+    }
+  }
+
+  // Vertical pass: 16.16 fixed point, exact; rounded half up and thresholded at 127. With each
+  // horizontal value split as h = 256 a + b (a, b < 256) the sum is 256 A + B, A = sum c a and
+  // B = sum c b, both < 2^16; (256 A + B + 2^15) >> 16 > 127 exactly when A + (B >> 8) >= 32640.
+  // So everything stays in 16-bit lanes.
+  template <int K>
+  void vertical(cv::Mat& mask) {
+    const int n = K == 0 ? k_ : K, r = n / 2, w = mask.cols, h = mask.rows;
+    const std::array<int, 31> one{256};
+    const std::array<int, 31>& taps = K == 1 ? one : taps_;
+    std::array<std::uint16_t, 31> c{};
+    for (int t = 0; t < n; ++t)
+      c[static_cast<std::size_t>(t)] =
+          static_cast<std::uint16_t>(taps[static_cast<std::size_t>(t)]);
+    constexpr std::uint16_t on = 32640;
+    std::array<const std::uint16_t*, 31> rows{};
+    for (int y = 0; y < h; ++y) {
+      for (int t = 0; t < n; ++t)
+        rows[static_cast<std::size_t>(t)] =
+            horizontal_.data() +
+            static_cast<std::size_t>(std::clamp(y + t - r, 0, h - 1)) * static_cast<std::size_t>(w);
+      uchar* __restrict dst = mask.ptr<uchar>(y);
+      if constexpr (K > 0) { // rows and taps in registers: one vectorised pass
+        std::array<const std::uint16_t* __restrict, K> in{};
+        for (int t = 0; t < K; ++t)
+          in[static_cast<std::size_t>(t)] = rows[static_cast<std::size_t>(t)];
+        for (int x = 0; x < w; ++x) {
+          std::uint16_t hi = 0, lo = 0;
+          for (std::size_t t = 0; t < K; ++t) {
+            hi = static_cast<std::uint16_t>(hi + c[t] * (in[t][x] >> 8));
+            lo = static_cast<std::uint16_t>(lo + c[t] * (in[t][x] & 255));
+          }
+          dst[x] = static_cast<std::uint16_t>(hi + (lo >> 8)) >= on ? 255 : 0;
+        }
+      } else {
+        for (int x = 0; x < w; ++x) {
+          std::uint32_t acc = 0;
+          for (int t = 0; t < n; ++t)
+            acc += std::uint32_t{c[static_cast<std::size_t>(t)]} *
+                   rows[static_cast<std::size_t>(t)][x];
+          dst[x] = acc >= (std::uint32_t{on} << 8) ? 255 : 0;
+        }
+      }
+    }
+  }
+
+  int k_ = 0;
+  std::array<int, 31> taps_{};
+  std::vector<std::uint16_t> horizontal_; // the whole mask after the horizontal pass
+  std::vector<std::uint8_t> padded_;      // one source row with replicated ends
+};
+
+SHADOWSENSE_NAMESPACE_END
