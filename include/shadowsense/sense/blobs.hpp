@@ -1,5 +1,7 @@
 // Blobs: the connected regions of a binary class mask, found as external contours (Suzuki-Abe,
-// cv::findContours), filtered by size and grouped when their boxes are close.
+// border_following.hpp: the same contours as cv::findContours RETR_EXTERNAL +
+// CHAIN_APPROX_SIMPLE), filtered by size and grouped when their boxes are close. No heap
+// allocation per call once the buffers have grown (members are spans into one reused vector).
 //
 // Blob: one group of nearby contours of one class, as the segmenter reports it.
 //
@@ -10,12 +12,14 @@
 //             dropped() says how many), in contour order; groups() partitions kept() into groups
 //             whose members are connected by box gaps (Chebyshev distance between boxes, 0 when
 //             touching or overlapping) <= merge_gap, each with the union box of its members.
+//             Groups' member spans stay valid until the next find().
 //   cost:     the contours plus sorting, then a sweep along x over the kept boxes: O(n log n) for
 //             scattered blobs; never more than max_contours^2 / 2 box comparisons.
 // A BlobFinder holds scratch buffers: one instance per thread (it lives inside a Segmenter).
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/border_following.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -23,6 +27,7 @@
 #include <algorithm>
 #include <numeric>
 #include <optional>
+#include <span>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -80,18 +85,17 @@ public:
     std::size_t contour; // index into contours()
   };
   struct Group {
-    cv::Rect box;             // union of the members' boxes
-    std::vector<int> members; // indices into kept(), increasing
+    cv::Rect box;                 // union of the members' boxes
+    std::span<const int> members; // indices into kept(), increasing
   };
 
   void find(const cv::Mat& mask, double min_area, int merge_gap, std::size_t max_contours) {
-    contours_.clear();
     kept_.clear();
     groups_.clear();
     dropped_ = 0;
-    cv::findContours(mask, contours_, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    contours_.find(mask);
     for (std::size_t i = 0; i < contours_.size(); ++i) {
-      const cv::Rect r = cv::boundingRect(contours_[i]);
+      const cv::Rect r = contours_.box(i);
       const double area = cv::countNonZero(mask(r)); // pixels, not the polygon's area
       if (area >= min_area && area > 0) kept_.push_back({r, area, i});
     }
@@ -108,7 +112,7 @@ public:
     group(merge_gap);
   }
 
-  const std::vector<std::vector<cv::Point>>& contours() const { return contours_; }
+  const ExternalContours& contours() const { return contours_; }
   const std::vector<Kept>& kept() const { return kept_; }
   const std::vector<Group>& groups() const { return groups_; }
   std::size_t dropped() const { return dropped_; }
@@ -136,27 +140,40 @@ private:
           sets_.unite(i, j);
       active_.push_back(i);
     }
+    // Group ids in order of each group's first member; members stored group by group.
     root_group_.assign(static_cast<std::size_t>(n), -1);
+    group_of_.resize(static_cast<std::size_t>(n));
+    int groups = 0;
     for (int i = 0; i < n; ++i) {
-      const int r = sets_.find(i);
-      int& g = root_group_[static_cast<std::size_t>(r)];
-      const cv::Rect& b = kept_[static_cast<std::size_t>(i)].box;
-      if (g < 0) {
-        g = static_cast<int>(groups_.size());
-        groups_.push_back({b, {}});
-      } else {
-        groups_[static_cast<std::size_t>(g)].box |= b;
-      }
-      groups_[static_cast<std::size_t>(g)].members.push_back(i);
+      int& g = root_group_[static_cast<std::size_t>(sets_.find(i))];
+      if (g < 0) g = groups++;
+      group_of_[static_cast<std::size_t>(i)] = g;
     }
+    first_.assign(static_cast<std::size_t>(groups) + 1, 0);
+    for (int i = 0; i < n; ++i)
+      ++first_[static_cast<std::size_t>(group_of_[static_cast<std::size_t>(i)]) + 1];
+    for (int g = 0; g < groups; ++g)
+      first_[static_cast<std::size_t>(g) + 1] += first_[static_cast<std::size_t>(g)];
+    members_.resize(static_cast<std::size_t>(n));
+    fill_.assign(first_.begin(), first_.end() - 1);
+    groups_.resize(static_cast<std::size_t>(groups));
+    for (int i = 0; i < n; ++i) {
+      const auto g = static_cast<std::size_t>(group_of_[static_cast<std::size_t>(i)]);
+      const cv::Rect& b = kept_[static_cast<std::size_t>(i)].box;
+      groups_[g].box = fill_[g] == first_[g] ? b : (groups_[g].box | b);
+      members_[static_cast<std::size_t>(fill_[g]++)] = i;
+    }
+    for (std::size_t g = 0; g < groups_.size(); ++g)
+      groups_[g].members = std::span<const int>(
+          members_.data() + first_[g], static_cast<std::size_t>(first_[g + 1] - first_[g]));
   }
 
-  std::vector<std::vector<cv::Point>> contours_;
+  ExternalContours contours_;
   std::vector<Kept> kept_;
   std::vector<Group> groups_;
   std::size_t dropped_ = 0;
   detail::DisjointSets sets_;
-  std::vector<int> order_, active_, root_group_;
+  std::vector<int> order_, active_, root_group_, group_of_, first_, fill_, members_;
 };
 
 SHADOWSENSE_NAMESPACE_END

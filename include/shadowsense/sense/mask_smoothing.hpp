@@ -90,9 +90,9 @@ inline std::array<int, 31> gaussian_taps_q8(int k) {
 class MaskSmoother {
 public:
   void apply(cv::Mat& mask, int k) {
-    detail::require(k >= 0 && k <= 31 && (k <= 1 || k % 2 == 1),
-                    "MaskSmoother::apply: kernel size " + std::to_string(k) +
-                        "; expected 0, 1 or an odd size up to 31");
+    if (!(k >= 0 && k <= 31 && (k <= 1 || k % 2 == 1))) // the message only on failure
+      SHADOWSENSE_THROW(InvalidArgument("MaskSmoother::apply: kernel size " + std::to_string(k) +
+                                        "; expected 0, 1 or an odd size up to 31"));
     if (k <= 1) return;
     detail::require(mask.type() == CV_8UC1 && !mask.empty(),
                     "MaskSmoother::apply: expected a non-empty CV_8UC1 mask");

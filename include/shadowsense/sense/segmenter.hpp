@@ -1,8 +1,10 @@
 // Shadow and contact segmentation (paper section 4.3): two colour classes, "shadow" and
-// "contact"; the binary mask of each is smoothed with a Gaussian blur, its contours found with
-// cv::findContours (Suzuki-Abe), thresholded by size and merged when close; the result is a box
+// "contact"; the binary mask of each is smoothed with a Gaussian blur, its external contours found
+// by Suzuki-Abe border following, thresholded by size and merged when close; the result is a box
 // per class (and per blob, for multi-touch) and the contact position is the centroid of the
-// contact region.
+// contact region. The blur and the contours are the library's own (mask_smoothing.hpp,
+// border_following.hpp), equal to OpenCV's bit for bit and point for point, without per-frame
+// allocations.
 //
 // BasicSegmenter<Rule> does everything around the per-pixel decision, which a PixelRule makes
 // (pixel_rule.hpp): the empty-skin model, the per-frame reference, mask clean-up, blobs
@@ -475,7 +477,7 @@ private:
     const int w = darkness_.cols, h = darkness_.rows;
     for (const int j : group.members) {
       const std::size_t c = finder_.kept()[static_cast<std::size_t>(j)].contour;
-      for (const cv::Point& p : finder_.contours()[c]) {
+      for (const cv::Point& p : finder_.contours().contour(c)) {
         // Differences over +-2 px, averaged over the 3 rows/columns across: robust to noise.
         const int x0 = std::max(p.x - 2, 0), x1 = std::min(p.x + 2, w - 1);
         const int y0 = std::max(p.y - 2, 0), y1 = std::min(p.y + 2, h - 1);

@@ -1,0 +1,170 @@
+// External contours of a binary mask by Suzuki-Abe border following (outer borders only), the
+// library's own implementation with buffers kept from call to call (no heap allocation once they
+// have grown to the frame size and the frame's number of contour points).
+//
+// The output is identical, contour for contour and point for point, to
+//   cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE)
+// of OpenCV 4 (its raster-to-chain scanner): the mask is padded with one pixel of 0 and reduced
+// to 0/1; a raster scan finds each outer border at a 0 -> 1 step whose last met border is not the
+// left side of an already traced outer border (so components inside holes are skipped, as
+// RETR_EXTERNAL does); the border is followed clockwise in image coordinates from that pixel,
+// marking its pixels (2, or -126 where the right neighbour is background and was examined), and
+// a point is written wherever the chain direction changes (CHAIN_APPROX_SIMPLE). OpenCV links
+// each new contour in front of the previous ones, so contour 0 is the one found last (the one
+// whose first pixel comes last in raster order).
+//
+// ExternalContours::find(mask)
+//   requires: mask CV_8UC1, non-empty (0 = background, anything else = object).
+//   ensures:  size() contours; contour(i) its points (image coordinates) and box(i) their
+//             bounding box (cv::boundingRect of the points), in cv::findContours' order.
+//   throws:   InvalidArgument for a bad mask.
+// Threading: holds scratch buffers; one instance per thread (a BlobFinder owns one).
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+class ExternalContours {
+public:
+  void find(const cv::Mat& mask) {
+    detail::require(mask.type() == CV_8UC1 && !mask.empty(),
+                    "ExternalContours::find: expected a non-empty CV_8UC1 mask");
+    points_.clear();
+    found_.clear();
+    const int w = mask.cols + 2, h = mask.rows + 2;
+    const auto uw = static_cast<std::size_t>(w);
+    image_.resize(uw * static_cast<std::size_t>(h));
+    std::int8_t* img = image_.data();
+    std::fill(img, img + uw, 0); // the frame of 0 around the mask
+    std::fill(img + (static_cast<std::size_t>(h) - 1) * uw, img + static_cast<std::size_t>(h) * uw,
+              0);
+    for (int y = 0; y < mask.rows; ++y) {
+      const uchar* __restrict src = mask.ptr<uchar>(y);
+      std::int8_t* __restrict dst = img + static_cast<std::size_t>(y + 1) * uw;
+      dst[0] = dst[w - 1] = 0;
+      for (int x = 0; x < mask.cols; ++x) dst[x + 1] = src[x] != 0;
+    }
+    // The raster scan of OpenCV's scanner in RETR_EXTERNAL mode.
+    for (int y = 1; y < h - 1; ++y) {
+      std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
+      int prev = 0, lnbd = 0; // lnbd: column of the last met border pixel in this row
+      for (int x = 1; x < w - 1; ++x) {
+        x = skip_run(row, x, w - 1, prev);
+        if (x >= w - 1) break;
+        const int p = row[x];
+        bool outer = prev == 0 && p == 1;
+        if (!outer && p == 0 && prev >= 1 && (prev & -2)) lnbd = x - 1; // a hole's edge
+        if (outer && row[lnbd] > 0) outer = false; // inside a traced outer border: not external
+        if (outer) {
+          lnbd = x;
+          trace(row + x, w, cv::Point(x - 1, y - 1));
+          prev = row[x]; // as marked by the trace
+        } else {
+          prev = p;
+          if (prev & -2) lnbd = x;
+        }
+      }
+    }
+  }
+
+  std::size_t size() const { return found_.size(); }
+  std::span<const cv::Point> contour(std::size_t i) const {
+    const Found& f = found_[found_.size() - 1 - i];
+    return {points_.data() + f.begin, f.end - f.begin};
+  }
+  cv::Rect box(std::size_t i) const { return found_[found_.size() - 1 - i].box; }
+
+private:
+  struct Found {
+    std::size_t begin, end; // range in points_
+    cv::Rect box;
+  };
+
+  // The first column >= x (and < end) whose value differs from prev, or end; 8 bytes at a time.
+  static int skip_run(const std::int8_t* row, int x, int end, int prev) {
+    const std::uint64_t pattern = 0x0101010101010101ull * static_cast<std::uint8_t>(prev);
+    while (x + 8 <= end) {
+      std::uint64_t v;
+      std::memcpy(&v, row + x, 8);
+      if (v != pattern) break;
+      x += 8;
+    }
+    while (x < end && row[x] == prev) ++x;
+    return x;
+  }
+
+  // OpenCV's icvFetchContour for an outer border with CHAIN_APPROX_SIMPLE.
+  void trace(std::int8_t* start, int step, cv::Point pt) {
+    // Chain code directions (x, y): right, up-right, up, up-left, left, down-left, down,
+    // down-right.
+    static constexpr std::array<int, 8> code_x{1, 1, 0, -1, -1, -1, 0, 1};
+    static constexpr std::array<int, 8> code_y{0, -1, -1, -1, 0, 1, 1, 1};
+    const std::array<int, 16> deltas{1, -step + 1, -step, -step - 1, -1, step - 1, step, step + 1,
+                                     1, -step + 1, -step, -step - 1, -1, step - 1, step, step + 1};
+    constexpr std::int8_t border = 2, right_border = -126; // nbd and nbd | -128
+    Found f{points_.size(), 0, {}};
+    int xmin = pt.x, xmax = pt.x, ymin = pt.y, ymax = pt.y;
+    auto write = [&](cv::Point q) {
+      points_.push_back(q);
+      xmin = std::min(xmin, q.x);
+      xmax = std::max(xmax, q.x);
+      ymin = std::min(ymin, q.y);
+      ymax = std::max(ymax, q.y);
+    };
+    std::int8_t* const i0 = start;
+    std::int8_t* i1 = nullptr;
+    int s = 4, s_end = 4;
+    do {
+      s = (s - 1) & 7;
+      i1 = i0 + deltas[static_cast<std::size_t>(s)];
+    } while (*i1 == 0 && s != s_end);
+    if (s == s_end) { // a single pixel
+      *i0 = right_border;
+      write(pt);
+    } else {
+      std::int8_t* i3 = i0;
+      std::int8_t* i4 = nullptr;
+      int prev_s = s ^ 4;
+      for (;;) {
+        s_end = s;
+        while (s < 15) {
+          i4 = i3 + deltas[static_cast<std::size_t>(++s)];
+          if (*i4 != 0) break;
+        }
+        s &= 7;
+        if (static_cast<unsigned>(s - 1) < static_cast<unsigned>(s_end))
+          *i3 = right_border;
+        else if (*i3 == 1)
+          *i3 = border;
+        if (s != prev_s) {
+          write(pt);
+          prev_s = s;
+        }
+        pt.x += code_x[static_cast<std::size_t>(s)];
+        pt.y += code_y[static_cast<std::size_t>(s)];
+        if (i4 == i0 && i3 == i1) break;
+        i3 = i4;
+        s = (s + 4) & 7;
+      }
+    }
+    f.end = points_.size();
+    f.box = cv::Rect(xmin, ymin, xmax - xmin + 1, ymax - ymin + 1);
+    found_.push_back(f);
+  }
+
+  std::vector<std::int8_t> image_; // the padded mask: 0/1, then border marks
+  std::vector<cv::Point> points_;  // every contour's points, in the order found
+  std::vector<Found> found_;       // in the order found (the reverse of OpenCV's output)
+};
+
+SHADOWSENSE_NAMESPACE_END
