@@ -48,11 +48,13 @@ public:
     std::fill(img, img + uw, 0); // the frame of 0 around the mask
     std::fill(img + (static_cast<std::size_t>(h) - 1) * uw, img + static_cast<std::size_t>(h) * uw,
               0);
+    const int cols = mask.cols; // a local: byte stores below could alias mask.cols
     for (int y = 0; y < mask.rows; ++y) {
       const uchar* __restrict src = mask.ptr<uchar>(y);
       std::int8_t* __restrict dst = img + static_cast<std::size_t>(y + 1) * uw;
       dst[0] = dst[w - 1] = 0;
-      for (int x = 0; x < mask.cols; ++x) dst[x + 1] = src[x] != 0;
+      for (int x = 0; x < cols; ++x) // 0/1 (min vectorises)
+        dst[x + 1] = static_cast<std::int8_t>(std::min<uchar>(src[x], 1));
     }
     // The raster scan of OpenCV's scanner in RETR_EXTERNAL mode.
     for (int y = 1; y < h - 1; ++y) {

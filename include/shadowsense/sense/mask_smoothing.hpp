@@ -106,6 +106,10 @@ public:
     const auto uw = static_cast<std::size_t>(w);
     horizontal_.resize(uw * static_cast<std::size_t>(h));
     padded_.resize(uw + static_cast<std::size_t>(kx - 1));
+    if (kx == ky && (k == 3 || k == 5)) { // the default size: all in 16 bits, constant taps
+      k == 3 ? small<3>(mask) : small<5>(mask);
+      return;
+    }
     switch (kx) { // the common sizes unrolled (one pass per row, vectorised)
     case 1:
       horizontal<1>(mask);
@@ -143,6 +147,47 @@ public:
   }
 
 private:
+  // k = 3 and 5: the taps are g w with g = 64, w = (1 2 1) and g = 16, w = (1 4 6 4 1). With g
+  // taken out, h' = sum w p < 2^12 and V = sum w h' < 2^16, and acc = g^2 V; so out > 127
+  // exactly when V >= (2^23 - 2^15) / g^2 (2040 and 32640, both exact).
+  template <int K>
+  void small(cv::Mat& mask) {
+    static_assert(K == 3 || K == 5);
+    constexpr std::array<std::uint16_t, 5> wt = K == 3
+                                                    ? std::array<std::uint16_t, 5>{1, 2, 1, 0, 0}
+                                                    : std::array<std::uint16_t, 5>{1, 4, 6, 4, 1};
+    constexpr std::uint16_t on = K == 3 ? 2040 : 32640;
+    constexpr int r = K / 2;
+    const int w = mask.cols, h = mask.rows;
+    const auto uw = static_cast<std::size_t>(w);
+    for (int y = 0; y < h; ++y) {
+      const uchar* src = mask.ptr<uchar>(y);
+      std::uint8_t* __restrict pad = padded_.data();
+      std::fill(pad, pad + r, src[0]);
+      std::copy(src, src + w, pad + r);
+      std::fill(pad + r + w, pad + 2 * r + w, src[w - 1]);
+      std::uint16_t* __restrict out = horizontal_.data() + static_cast<std::size_t>(y) * uw;
+      for (int x = 0; x < w; ++x) {
+        std::uint16_t sum = 0;
+        for (std::size_t t = 0; t < K; ++t)
+          sum = static_cast<std::uint16_t>(sum + wt[t] * pad[static_cast<std::size_t>(x) + t]);
+        out[x] = sum;
+      }
+    }
+    for (int y = 0; y < h; ++y) {
+      std::array<const std::uint16_t* __restrict, K> in{};
+      for (int t = 0; t < K; ++t)
+        in[static_cast<std::size_t>(t)] =
+            horizontal_.data() + static_cast<std::size_t>(std::clamp(y + t - r, 0, h - 1)) * uw;
+      uchar* __restrict dst = mask.ptr<uchar>(y);
+      for (int x = 0; x < w; ++x) {
+        std::uint16_t v = 0;
+        for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
+        dst[x] = v >= on ? 255 : 0;
+      }
+    }
+  }
+
   // Horizontal pass into horizontal_: 8.8 fixed point, exact (at most 255 * 256). K = 0: k_ taps.
   template <int K>
   void horizontal(const cv::Mat& mask) {
