@@ -9,7 +9,9 @@
 // TouchStateMachine of each track is fed {shadow: track matched this frame, contact: that point}.
 // A track the tracker no longer reports keeps its machine, fed "nothing seen", until that machine
 // is back in `none` (so every touch ends with lift and disappear after the hysteresis), then the
-// machine is dropped. Events are reported per track, in increasing track id.
+// machine is dropped (kept for reuse by a later track). Events are reported per track, in
+// increasing track id. After warm-up (buffers grown to the scene's number of blobs and
+// simultaneous tracks) update() makes no heap allocation.
 //
 // BasicTouchPipeline<Rule>(segmenter, tracker_config, touch_config)
 //   requires: valid configs (see ContactTracker, TouchStateMachine).
@@ -39,8 +41,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <cmath>
-#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -83,6 +85,15 @@ public:
       : segmenter_(std::move(segmenter)), tracker_(tracker), touch_config_(touch) {
     TouchStateMachine check(touch); // validates the config now
     (void)check;
+    // Room for typical scenes up front; beyond this the buffers grow once and are kept.
+    constexpr std::size_t typical = 32;
+    slots_.reserve(typical);
+    order_.reserve(typical);
+    detections_.reserve(typical);
+    result_.tracks.reserve(typical);
+    result_.shadow_boxes.reserve(typical);
+    result_.contact_points.reserve(typical);
+    result_.events.reserve(4 * typical);
   }
 
   const TouchFrame& update(const cv::Mat& frame, double timestamp_ms) {
@@ -101,25 +112,24 @@ public:
     const std::vector<std::optional<cv::Point2f>>& contact_of = contacts_per_shadow();
     const std::vector<Track>& tracks = tracker_.update(detections_, timestamp_ms);
     last_t_ = timestamp_ms;
-    for (const Track& t : tracks) machines_.try_emplace(t.id, touch_config_);
-    for (auto it = machines_.begin(); it != machines_.end();) {
-      const Track* t = find_track(tracks, it->first);
+    for (const Track& t : tracks)
+      if (!find_slot(t.id)) start_machine(t.id);
+    order_slots();
+    for (const std::size_t i : order_) {
+      Slot& slot = slots_[i];
+      const Track* t = find_track(tracks, slot.id);
       TouchObservation obs;
       if (t && t->matched) {
         obs.shadow = true;
         obs.contact = contact_of[static_cast<std::size_t>(t->detection_index)];
       }
-      for (const TouchEvent& e : it->second.update(timestamp_ms, obs))
-        result_.events.push_back({it->first, e});
-      if (t) {
+      for (const TouchEvent& e : slot.machine.update(timestamp_ms, obs))
+        result_.events.push_back({slot.id, e});
+      if (t)
         result_.tracks.push_back(
-            {t->id, t->matched, t->box, t->position, obs.contact, it->second.state()});
-        ++it;
-      } else if (it->second.state() == TouchState::none) {
-        it = machines_.erase(it);
-      } else {
-        ++it;
-      }
+            {t->id, t->matched, t->box, t->position, obs.contact, slot.machine.state()});
+      else if (slot.machine.state() == TouchState::none)
+        slot.live = false; // the machine is kept for the next new track
     }
     return result_;
   }
@@ -128,13 +138,16 @@ public:
     const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::flush");
     reset_result(timestamp_ms);
-    for (auto& [id, m] : machines_) {
-      for (const TouchEvent& e : m.update(timestamp_ms, {})) result_.events.push_back({id, e});
+    order_slots();
+    for (const std::size_t i : order_) {
+      Slot& slot = slots_[i];
+      TouchStateMachine& m = slot.machine;
+      for (const TouchEvent& e : m.update(timestamp_ms, {})) result_.events.push_back({slot.id, e});
       if (m.state() != TouchState::none)
         for (const TouchEvent& e : m.update(timestamp_ms + touch_config_.hysteresis_ms, {}))
-          result_.events.push_back({id, e});
+          result_.events.push_back({slot.id, e});
+      slot.live = false;
     }
-    machines_.clear();
     tracker_.clear_tracks(); // a new stream; ids keep growing
     last_t_ = timestamp_ms;
     return result_;
@@ -194,6 +207,41 @@ private:
     return out;
   }
 
+  // One state machine per track id. Slots are never freed: a slot whose track has ended is
+  // reset and reused for the next new track, so machines are only constructed while the number
+  // of simultaneous tracks grows (warm-up), never per frame.
+  struct Slot {
+    int id = 0;
+    bool live = false;
+    TouchStateMachine machine;
+  };
+
+  Slot* find_slot(int id) {
+    for (Slot& s : slots_)
+      if (s.live && s.id == id) return &s;
+    return nullptr;
+  }
+
+  void start_machine(int id) {
+    for (Slot& s : slots_)
+      if (!s.live) {
+        s.machine.reset();
+        s.id = id;
+        s.live = true;
+        return;
+      }
+    slots_.push_back(Slot{id, true, TouchStateMachine(touch_config_)});
+  }
+
+  // order_: the live slots by increasing id (events are reported in that order).
+  void order_slots() {
+    order_.clear();
+    for (std::size_t i = 0; i < slots_.size(); ++i)
+      if (slots_[i].live) order_.push_back(i);
+    std::sort(order_.begin(), order_.end(),
+              [&](std::size_t a, std::size_t b) { return slots_[a].id < slots_[b].id; });
+  }
+
   static const Track* find_track(const std::vector<Track>& tracks, int id) {
     for (const Track& t : tracks)
       if (t.id == id) return &t;
@@ -203,7 +251,8 @@ private:
   BasicSegmenter<Rule> segmenter_;
   ContactTracker tracker_;
   TouchStateMachine::Config touch_config_;
-  std::map<int, TouchStateMachine> machines_;
+  std::vector<Slot> slots_;
+  std::vector<std::size_t> order_;
   Segmentation seg_;
   std::vector<Detection> detections_;
   TouchFrame result_;

@@ -43,7 +43,7 @@
 
 #include <array>
 #include <cmath>
-#include <deque>
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
@@ -207,8 +207,20 @@ public:
   std::array<int, 4> votes() const { return votes_; }
   std::optional<cv::Point2f> last_contact() const { return last_contact_; }
 
-  // Back to the initial state (also forgets the previous timestamp and the votes).
-  void reset() { *this = TouchStateMachine(config_); }
+  // Back to the initial state (also forgets the previous timestamp and the votes). Keeps the
+  // buffers' storage, so a reused machine allocates nothing.
+  void reset() {
+    state_ = TouchState::none;
+    last_t_.reset();
+    contact_lost_since_.reset();
+    shadow_lost_since_.reset();
+    last_contact_.reset();
+    history_.clear();
+    window_direction_ = Direction::none;
+    votes_ = {};
+    vote_weight_ = {};
+    events_.clear();
+  }
 
   const Config& config() const { return config_; }
 
@@ -236,7 +248,9 @@ private:
     history_.push_back({t, p});
     // Windows always keep the previous contact frame, so a step is never averaged away.
     const double keep = std::max(config_.direction_window_ms, config_.differential_window_ms);
-    while (history_.size() > 2 && t - history_.front().t > keep) history_.pop_front();
+    std::size_t old = 0; // samples out of the window (a vector: no node allocations per frame)
+    while (history_.size() - old > 2 && t - history_[old].t > keep) ++old;
+    history_.erase(history_.begin(), history_.begin() + static_cast<std::ptrdiff_t>(old));
     last_contact_ = p;
     const cv::Point2f step = p - oldest_within(config_.differential_window_ms).p;
     const double differential = std::hypot(step.x, step.y);
@@ -304,7 +318,7 @@ private:
   std::optional<double> contact_lost_since_;
   std::optional<double> shadow_lost_since_;
   std::optional<cv::Point2f> last_contact_;
-  std::deque<Sample> history_;
+  std::vector<Sample> history_; // the direction window's contact samples, oldest first
   Direction window_direction_ = Direction::none;
   std::array<int, 4> votes_{};
   std::array<double, 4> vote_weight_{};

@@ -68,6 +68,10 @@ public:
                     "ContactTracker: velocity_smoothing must be in (0, 1]");
     detail::require(std::isfinite(c.min_velocity_dt_ms) && c.min_velocity_dt_ms >= 0,
                     "ContactTracker: min_velocity_dt_ms must be finite and >= 0");
+    // Flat vectors with room for typical scenes: no allocation per update once grown.
+    tracks_.reserve(32);
+    pairs_.reserve(256);
+    det_used_.reserve(32);
   }
 
   // Associates this frame's detections with the live tracks and returns all live tracks (matched
