@@ -88,6 +88,8 @@ public:
     // Room for typical scenes up front; beyond this the buffers grow once and are kept.
     constexpr std::size_t typical = 32;
     slots_.reserve(typical);
+    for (int i = 0; i < 8; ++i) // machines for up to 8 simultaneous tracks, built now
+      slots_.push_back(Slot{0, false, TouchStateMachine(touch)});
     order_.reserve(typical);
     detections_.reserve(typical);
     result_.tracks.reserve(typical);

@@ -127,6 +127,7 @@ public:
                     "TouchStateMachine: axes must map the four image-axis signs to left, right, "
                     "front and back, each exactly once");
     events_.reserve(4);
+    history_.reserve(64); // the direction window at up to ~200 fps: no growth while sliding
   }
 
   // Feeds one frame. Returns the events this frame caused (valid until the next call).
