@@ -436,7 +436,8 @@ void json_curve(cli::JsonWriter& j, const Curve& c) {
 
 void write_json(const Options& o, const SegmenterCalibration& cal,
                 const std::optional<std::map<std::string, CategoryResult>>& t5,
-                const std::optional<SlideResults>& f14, const HoverHeightResult& hh) {
+                const std::optional<SlideResults>& f14, const HoverHeightResult& hh,
+                const std::optional<RocResult>& roc) {
   cli::JsonWriter j;
   j.begin_object().field("schema", "shadowsense.track_eval/1");
   j.key("calibration").begin_object(cli::JsonWriter::compact);
@@ -487,6 +488,22 @@ void write_json(const Options& o, const SegmenterCalibration& cal,
   j.field("intercept", hh.model.intercept).field("per_edge_px", hh.model.per_edge_px);
   j.field("per_opacity", hh.model.per_opacity).end_object();
   j.end_object();
+  if (roc) {
+    const RocCurve& any = roc->curves.front();
+    j.key("contact_roc").begin_object();
+    j.field("positives", any.positives).field("negatives", any.negatives);
+    j.field("edge_gate_px", roc->gate).field("edge_gate_picked", roc->gate_picked);
+    j.field("csv", o.roc.string());
+    j.key("variants").begin_object();
+    for (const RocCurve& c : roc->curves) {
+      const RocPoint& p = c.points[c.shipped];
+      j.key(to_string(c.cue)).begin_object(cli::JsonWriter::compact);
+      j.field("auc", c.auc).field("shipped_fpr", p.fpr).field("shipped_tpr", p.tpr);
+      j.field("shipped_contact_iou", p.contact_iou).field("tpr_at_fpr_5pct", tpr_at_fpr(c, 0.05));
+      j.end_object();
+    }
+    j.end_object().end_object();
+  }
   j.end_object();
   j.save(o.json);
 }
@@ -551,11 +568,12 @@ int main(int argc, char** argv) {
     }
     if (!t5 && !f14)
       throw DatasetError("nothing to evaluate: no tracking/metadata.csv or slides/sequences.csv");
+    std::optional<RocResult> roc;
     if (!o.roc.empty()) {
       detail::require<DatasetError>(t5.has_value(), "--roc needs a tracking dataset");
-      const RocResult roc = evaluate_roc(o, seg, segmenter_from(sim_cal), renderer);
-      write_roc_csv(o.roc, roc);
-      print_roc(roc);
+      roc = evaluate_roc(o, seg, segmenter_from(sim_cal), renderer);
+      write_roc_csv(o.roc, *roc);
+      print_roc(*roc);
     }
     // Hover height: the datasets carry no heights, so fit and test on generator frames (two
     // seeds, both different from the calibration's).
@@ -567,7 +585,7 @@ int main(int argc, char** argv) {
                 "cm above the skin):\n  fit on %zu frames, tested on %zu others: MAE %.2f cm, "
                 "RMSE %.2f cm (always-the-mean baseline: MAE %.2f cm)\n",
                 hh.fit_frames, hh.test_frames, hh.mae_cm, hh.rmse_cm, hh.baseline_mae_cm);
-    if (!o.json.empty()) write_json(o, cal.config.calibration, t5, f14, hh);
+    if (!o.json.empty()) write_json(o, cal.config.calibration, t5, f14, hh, roc);
     return 0;
   });
 }

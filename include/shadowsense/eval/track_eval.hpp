@@ -323,11 +323,13 @@ inline double tpr_at_fpr(const RocCurve& c, double max_fpr) {
   return best;
 }
 
-// The default sweep: -0.50 .. +0.60 in steps of 0.01 (111 offsets, index 50 is 0). At +0.60 the
-// darkness threshold exceeds 1 (nothing is contact); at -0.50 every shadow is.
+// The default sweep: -0.50 .. +1.00 in steps of 0.01 (151 offsets, index 50 is 0). At +1.00 the
+// darkness threshold exceeds 1 (nothing is contact: the dark core of a low hovering hand's
+// shadow can be darker than a contact, so darkness alone needs the whole range); at -0.50
+// nearly every shadow pixel is contact.
 inline std::vector<float> default_roc_offsets() {
   std::vector<float> o;
-  for (int k = -50; k <= 60; ++k) o.push_back(static_cast<float>(k) / 100.f);
+  for (int k = -50; k <= 100; ++k) o.push_back(static_cast<float>(k) / 100.f);
   return o;
 }
 
