@@ -14,12 +14,13 @@
 //   `cue` with the thresholds moved by `offset` (darkness: d >= tc + offset; warmth: shadow and
 //   w >= tw + offset; joint / joint_sharp: d >= tc + offset and w >= tw + offset); shadow =
 //   d >= ts or contact. With cue joint and offset 0 its masks equal RelativeRule's exactly.
-//   Immutable; may be shared by threads.
+//   Immutable during classify; with shared_offset set, the offset is read through it (then
+//   rules sharing one offset belong to one thread).
 // ContactRoc(shipped, offsets)
 //   requires: shipped is a relative-mode Segmenter with an empty-skin model; offsets non-empty,
 //             finite, in [-1, 1], strictly increasing, one of them 0 (the shipped thresholds).
-//   ensures:  one segmenter per pixel cue and offset, each a copy of shipped's configuration
-//             (its empty-skin model included).
+//   ensures:  one segmenter per pixel cue (darkness, warmth, joint), each with shipped's
+//             configuration (its empty-skin model included); add() moves it along the offsets.
 //   throws:   InvalidArgument otherwise.
 // add(bgr, true_contact, positive): segments the frame at every cue and offset and keeps its
 //   contact blobs. requires: what Segmenter::segment requires. Frames of neither class (e.g.
@@ -42,7 +43,8 @@
 // pick_contact_edge_gate(roc, gates): the gate (px) whose joint_sharp curve has the largest AUC;
 //   ties go to the smallest gate (the tightest use of the cue at that AUC). requires gates
 //   non-empty, all finite and > 0 (InvalidArgument otherwise).
-// Threading: ContactRoc holds segmenters (scratch); one instance per thread.
+// Threading: ContactRoc holds segmenters (scratch) and the offset they share; one instance per
+// thread, not copyable.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -55,6 +57,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -216,9 +219,13 @@ struct ContactSweepRule {
   RelativeRule relative;
   ContactCue cue = ContactCue::joint;
   float offset = 0;
+  // When set, the offset is the value this points to at classify time instead (ContactRoc moves
+  // one segmenter along the sweep this way rather than holding one segmenter per offset).
+  std::shared_ptr<const float> shared_offset{};
 
   void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
     relative.classify(in, out);
+    const float offset = shared_offset ? *shared_offset : this->offset;
     if ((cue == ContactCue::joint || cue == ContactCue::joint_sharp) && offset == 0) return;
     const LightThresholds th = relative.thresholds_at(detail::luminance(in.reference));
     const float ts = th.shadow_darkness, tc = th.contact_darkness + offset,
@@ -335,6 +342,8 @@ inline std::vector<float> default_roc_offsets() {
 
 class ContactRoc {
 public:
+  ContactRoc(const ContactRoc&) = delete;
+  ContactRoc& operator=(const ContactRoc&) = delete;
   ContactRoc(const Segmenter& shipped, std::vector<float> offsets = default_roc_offsets())
       : offsets_(std::move(offsets)) {
     const SegmenterCalibration& cal = shipped.config().calibration;
@@ -362,9 +371,8 @@ public:
     const RelativeRule relative{cal.shadow_darkness, cal.contact_darkness, cal.contact_warmth,
                                 cal.by_light};
     for (std::size_t c = 0; c < kPixelCues; ++c)
-      for (float o : offsets_)
-        segmenters_[c].emplace_back(config,
-                                    ContactSweepRule{relative, static_cast<ContactCue>(c), o});
+      segmenters_.emplace_back(
+          config, ContactSweepRule{relative, static_cast<ContactCue>(c), 0.f, offset_});
   }
 
   void add(const cv::Mat& bgr, const std::optional<cv::Rect>& true_contact, bool positive) {
@@ -373,7 +381,8 @@ public:
     f.truth = true_contact;
     for (std::size_t c = 0; c < kPixelCues; ++c)
       for (std::size_t k = 0; k < offsets_.size(); ++k) {
-        segmenters_[c][k].segment(bgr, scratch_);
+        *offset_ = offsets_[k];
+        segmenters_[c].segment(bgr, scratch_);
         std::vector<Candidate> blobs;
         for (const Blob& b : scratch_.contacts) blobs.push_back({b.box, b.edge_width});
         f.candidates[c].push_back(std::move(blobs));
@@ -442,7 +451,8 @@ private:
   };
   std::vector<float> offsets_;
   std::size_t shipped_ = 0;
-  std::array<std::vector<BasicSegmenter<ContactSweepRule>>, kPixelCues> segmenters_;
+  std::shared_ptr<float> offset_ = std::make_shared<float>(0.f); // read by the segmenters' rules
+  std::vector<BasicSegmenter<ContactSweepRule>> segmenters_;     // one per pixel cue
   std::vector<Frame> frames_;
   Segmentation scratch_;
   int positives_ = 0, negatives_ = 0;
