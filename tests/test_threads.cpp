@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -161,4 +162,31 @@ TEST_CASE("atomic writes racing on one target: always one complete version, no t
   int files = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
   CHECK(files == 1);
+}
+
+TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins and sleeps") {
+  // The workers poll for new work for spin_us, then sleep: calls back to back (caught while
+  // polling) and calls after a pause longer than spin_us (a sleeping worker woken) must both
+  // run each task once and return only when all are done.
+  for (const int threads : {2, 3}) {
+    detail::ThreadPool pool(threads);
+    std::vector<std::atomic<int>> hits(64);
+    for (int call = 0; call < 300; ++call) {
+      const int tasks = call % 7 == 0 ? 1 : (call * 13) % 64 + 1;
+      for (auto& h : hits) h.store(0);
+      auto fn = [&](int t) { hits[static_cast<std::size_t>(t)].fetch_add(1); };
+      pool.run(tasks, fn);
+      int wrong = 0;
+      for (int t = 0; t < 64; ++t)
+        wrong += hits[static_cast<std::size_t>(t)].load() != (t < tasks ? 1 : 0);
+      REQUIRE_MESSAGE(wrong == 0, "threads " << threads << ", call " << call);
+      if (call % 50 == 49)
+        std::this_thread::sleep_for(std::chrono::microseconds(3 * detail::ThreadPool::spin_us));
+    }
+    int none = 0;
+    auto count = [&](int) { ++none; };
+    pool.run(0, count);
+    CHECK(none == 0);
+    CHECK_THROWS_AS(pool.run(detail::ThreadPool::max_tasks + 1, count), InvalidArgument);
+  }
 }
