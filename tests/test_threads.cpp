@@ -15,6 +15,7 @@
 #include <iterator>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 using namespace shadowsense;
@@ -168,8 +169,8 @@ TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins 
   // The workers poll for new work for spin_us, then sleep: calls back to back (caught while
   // polling) and calls after a pause longer than spin_us (a sleeping worker woken) must both
   // run each task once and return only when all are done.
-  for (const int threads : {2, 3}) {
-    detail::ThreadPool pool(threads);
+  for (const auto [threads, spin_us] : {std::pair{2, 300}, std::pair{3, 300}, std::pair{2, 0}}) {
+    detail::ThreadPool pool(threads, spin_us);
     std::vector<std::atomic<int>> hits(64);
     for (int call = 0; call < 300; ++call) {
       const int tasks = call % 7 == 0 ? 1 : (call * 13) % 64 + 1;
@@ -179,9 +180,10 @@ TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins 
       int wrong = 0;
       for (int t = 0; t < 64; ++t)
         wrong += hits[static_cast<std::size_t>(t)].load() != (t < tasks ? 1 : 0);
-      REQUIRE_MESSAGE(wrong == 0, "threads " << threads << ", call " << call);
+      REQUIRE_MESSAGE(wrong == 0,
+                      "threads " << threads << ", spin_us " << spin_us << ", call " << call);
       if (call % 50 == 49)
-        std::this_thread::sleep_for(std::chrono::microseconds(3 * detail::ThreadPool::spin_us));
+        std::this_thread::sleep_for(std::chrono::microseconds(3 * pool.spin_us() + 100));
     }
     int none = 0;
     auto count = [&](int) { ++none; };
@@ -189,4 +191,6 @@ TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins 
     CHECK(none == 0);
     CHECK_THROWS_AS(pool.run(detail::ThreadPool::max_tasks + 1, count), InvalidArgument);
   }
+  CHECK_THROWS_AS(detail::ThreadPool(2, -1), InvalidArgument);
+  CHECK_THROWS_AS(detail::ThreadPool(2, 100001), InvalidArgument);
 }

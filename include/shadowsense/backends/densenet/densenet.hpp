@@ -39,6 +39,9 @@ class DenseNet {
 public:
   struct Config {
     int threads = 1; // worker threads incl. the caller
+    // How long idle workers poll for the next layer before they sleep (detail::ThreadPool):
+    // 0 when the machine's cores are busy with other work (threads > 1 only).
+    int spin_us = detail::ThreadPool::default_spin_us;
     GemmKernelKind kernel = GemmKernelKind::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
@@ -64,7 +67,7 @@ public:
       kernel_ = detail::select_micro_kernel(config.kernel);
       ops_ = detail::select_vector_ops(kernel_.kind);
     }
-    pool_ = std::make_unique<detail::ThreadPool>(config.threads);
+    pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
   }

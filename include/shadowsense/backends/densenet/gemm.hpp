@@ -19,11 +19,14 @@
 // PackedMatrix::pack(w, rows, cols, panel_rows): packs a row-major rows x cols matrix into
 //   panel_rows-row panels (K x MR interleaved, zero-padded). Not thread-safe while packing;
 //   read-only use afterwards may be shared between threads.
-// ThreadPool(threads): requires 1 <= threads <= 256 (InvalidArgument). run(tasks, fn) must be
-//   called from one thread at a time (the owner); the pool's workers are its own. requires
-//   0 <= tasks <= 65535 (InvalidArgument); ensures fn(t) ran exactly once for every t < tasks
-//   when it returns. Workers poll for about spin_us (300 us) after each call, then sleep: a
-//   2-thread forward pass keeps both cores busy, idle pools cost nothing.
+// ThreadPool(threads, spin_us = 300): requires 1 <= threads <= 256 and 0 <= spin_us <= 100000
+//   (InvalidArgument). run(tasks, fn) must be called from one thread at a time (the owner); the
+//   pool's workers are its own. requires 0 <= tasks <= 65535 (InvalidArgument); ensures fn(t)
+//   ran exactly once for every t < tasks when it returns. Workers (and the caller, waiting for
+//   them) poll for about spin_us after each call, then sleep: between the calls of one forward
+//   pass both cores stay busy, an idle pool costs nothing. On a machine whose cores are busy
+//   with other work, polling takes time from that work and from the pass itself: use spin_us 0
+//   there (like ONNX Runtime's allow_spinning = 0), or one thread.
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
 // gemm_in_place(kernel, fn, a, n, base, offsets, store, pool, scratch): gemm() with B read in
@@ -191,12 +194,14 @@ struct PackedMatrix {
 // (or read the arguments of) the next.
 class ThreadPool {
 public:
-  static constexpr int spin_us = 300;
+  static constexpr int default_spin_us = 300;
   static constexpr int max_tasks = 0xffff;
 
-  explicit ThreadPool(int threads) {
+  explicit ThreadPool(int threads, int spin_us = default_spin_us) : spin_us_(spin_us) {
     require(threads >= 1 && threads <= 256,
             "threads is " + std::to_string(threads) + ", expected 1..256");
+    require(spin_us >= 0 && spin_us <= 100000,
+            "spin_us is " + std::to_string(spin_us) + ", expected 0..100000");
     for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { work(); });
   }
   ~ThreadPool() {
@@ -211,6 +216,7 @@ public:
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return static_cast<int>(workers_.size()) + 1; }
+  int spin_us() const { return spin_us_; }
 
   // requires: 0 <= tasks <= max_tasks (InvalidArgument).
   template <class F>
@@ -243,16 +249,17 @@ public:
   }
 
 private:
-  // Polls ready() for about spin_us; true as soon as it holds. No PAUSE and no sched_yield in
+  // Polls ready() for about spin_us_; true as soon as it holds. No PAUSE and no sched_yield in
   // the loop: under a hypervisor both can hand the core away (pause-loop exits), which made a
   // 2-thread pass slower than a 1-thread one.
   template <class Ready>
-  static bool poll(Ready&& ready) {
+  bool poll(Ready&& ready) const {
+    if (spin_us_ == 0) return ready();
     const auto since = std::chrono::steady_clock::now();
     for (int i = 0;; ++i) {
       if (ready()) return true;
       if ((i & 255) == 255 &&
-          std::chrono::steady_clock::now() - since > std::chrono::microseconds(spin_us))
+          std::chrono::steady_clock::now() - since > std::chrono::microseconds(spin_us_))
         return ready();
     }
   }
@@ -291,6 +298,7 @@ private:
     }
   }
 
+  int spin_us_;
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
