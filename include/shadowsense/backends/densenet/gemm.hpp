@@ -318,18 +318,49 @@ struct GemmScratch {
   std::vector<int> index;   // NR ints for packers (pixel offsets)
 };
 
-// The split shared by gemm() and gemm_in_place(): column panels of nr (or row panels of mr
-// when there are too few column panels) over the pool's threads. For every column panel,
-// prepare(s, n0, cols) readies B in the thread's scratch s, then multiply(mp, s, n0) writes the
-// MR x NR tile of row panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
+// The split shared by gemm() and gemm_in_place(). For every column panel, prepare(s, n0, cols)
+// readies B in the thread's scratch s, then multiply(mp, s, n0) writes the MR x NR tile of row
+// panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
+// - B packed (prepare does work): column panels over the pool's threads, so each panel is
+//   packed once; row panels when there are too few column panels.
+// - B read in place (free_prepare): the (column panel, row panel) tiles, column-major, in equal
+//   contiguous shares: 5 column panels x 4 row panels split 10 / 10 where column panels alone
+//   would split 2 / 3.
 template <class Prepare, class Multiply, class Store>
 inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, int n,
                              Prepare&& prepare, Multiply&& multiply, Store&& store,
-                             ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+                             ThreadPool& pool, std::vector<GemmScratch>& scratch,
+                             bool free_prepare = false) {
   const int nr = kernel.nr, mr = kernel.mr;
   const int n_panels = (n + nr - 1) / nr;
   const int m_panels = (a.m + mr - 1) / mr;
   const int threads = pool.size();
+  auto tile = [&](GemmScratch& s, int np, int mp0, int mp1) {
+    const int n0 = np * nr;
+    const int cols = std::min(nr, n - n0);
+    prepare(s, n0, cols);
+    for (int mp = mp0; mp < mp1; ++mp) {
+      multiply(mp, s, n0);
+      const int rows = std::min(mr, a.m - mp * mr);
+      for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
+    }
+  };
+  if (free_prepare) {
+    const long units = long(n_panels) * m_panels;
+    const int tasks = static_cast<int>(std::min<long>(threads, units));
+    auto task = [&](int t) {
+      auto& s = scratch[static_cast<std::size_t>(t)];
+      const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
+      for (long u = u0; u < u1;) {
+        const int np = static_cast<int>(u / m_panels), mp0 = static_cast<int>(u % m_panels);
+        const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - u)));
+        tile(s, np, mp0, mp1);
+        u += mp1 - mp0;
+      }
+    };
+    pool.run(tasks, task);
+    return;
+  }
   const bool split_n = n_panels >= 2 * threads || m_panels < threads;
   const int tasks = split_n ? std::min(threads, n_panels) : threads;
   auto task = [&](int t) {
@@ -342,16 +373,7 @@ inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, i
       mp0 = m_panels * t / tasks;
       mp1 = m_panels * (t + 1) / tasks;
     }
-    for (int np = np0; np < np1; ++np) {
-      const int n0 = np * nr;
-      const int cols = std::min(nr, n - n0);
-      prepare(s, n0, cols);
-      for (int mp = mp0; mp < mp1; ++mp) {
-        multiply(mp, s, n0);
-        const int rows = std::min(mr, a.m - mp * mr);
-        for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
-      }
-    }
+    for (int np = np0; np < np1; ++np) tile(s, np, mp0, mp1);
   };
   pool.run(tasks, task);
 }
@@ -387,7 +409,7 @@ inline void gemm_in_place(const MicroKernel& kernel, MicroKernelOffsetsFn fn, co
       [&](int mp, GemmScratch& s, int n0) {
         fn(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
       },
-      store, pool, scratch);
+      store, pool, scratch, /*free_prepare=*/true);
 }
 
 } // namespace detail
