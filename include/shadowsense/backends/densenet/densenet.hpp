@@ -358,17 +358,23 @@ private:
     const int nr = kernel_.nr, PW = in_w_ + 6, PH = in_h_ + 6;
     const int n = h0_ * w0_, w0 = w0_;
     const float* src = padded_input_.data();
-    auto pack = [&](float* dst, int n0, int cols, int* idx) {
-      for (int j = 0; j < cols; ++j) {
-        const int y = (n0 + j) / w0, x = (n0 + j) % w0;
-        idx[j] = 2 * y * PW + 2 * x;
-      }
+    // Row ky*7+kx of channel c: input row 2y+ky, columns 2x+kx, for the panel's outputs; split
+    // into runs within one output row, each a stride-2 copy the compiler vectorises.
+    auto pack = [&](float* dst, int n0, int cols, int*) {
       for (int c = 0; c < 3; ++c)
         for (int ky = 0; ky < 7; ++ky)
           for (int kx = 0; kx < 7; ++kx) {
             const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
             float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
-            for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
+            int y = n0 / w0, x = n0 % w0;
+            for (int j = 0; j < cols;) {
+              const int run = std::min(cols - j, w0 - x);
+              const float* r = s + static_cast<std::size_t>(2 * y) * PW + 2 * x;
+              for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
+              j += run;
+              x = 0;
+              ++y;
+            }
             for (int j = cols; j < nr; ++j) d[j] = 0.0f;
           }
     };
