@@ -106,7 +106,8 @@ public:
     const auto uw = static_cast<std::size_t>(w);
     horizontal_.resize(uw * static_cast<std::size_t>(h));
     padded_.resize(uw + static_cast<std::size_t>(kx - 1));
-    if (kx == ky && (k == 3 || k == 5)) { // the default size: all in 16 bits, constant taps
+    if (kx == k && ky == k &&
+        (k == 3 || k == 5)) { // the default size: all in 16 bits, constant taps
       k == 3 ? small<3>(mask) : small<5>(mask);
       return;
     }
