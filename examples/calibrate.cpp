@@ -26,7 +26,6 @@
 #include <map>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -67,12 +66,7 @@ Options parse(int argc, char** argv) {
   Options o;
   cli::Parser p(kProgram, "Fits a segmenter calibration from your own frames.");
   p.help_text(kHelp);
-  p.style({.equals = cli::Style::Equals::cut,
-           .repeat_replaces = true,
-           .missing_value = [](const std::string& name) { return name + ": needs a value"; }});
-  p.positional("", "", [](std::string_view arg) {
-    throw cli::UsageError("unknown option '" + std::string(arg) + "' (see --help)");
-  });
+  p.style(cli::Style::lenient());
   p.option("--empty", "SPEC", "frames of the untouched skin", o.empty);
   p.option("--touch", "DIR", "frames with a hand on or over the skin", o.touch);
   p.option("--labels", "CSV", "boxes for the touch frames", o.labels);

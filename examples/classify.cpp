@@ -84,9 +84,11 @@ Options parse(int argc, char** argv) {
   std::string format = "csv";
   cli::Parser p("ss_classify", "Classifies every frame of INPUT with a shadowsense model file.");
   p.help_text(usage);
-  p.style({.equals = cli::Style::Equals::none,
-           .repeat_replaces = true,
-           .missing_value = [](const std::string& name) { return name + " needs a value"; }});
+  cli::Style style;
+  style.equals = cli::Style::Equals::none;
+  style.repeat_replaces = true;
+  style.missing_value = [](const std::string& name) { return name + " needs a value"; };
+  p.style(std::move(style));
   p.option("--model", "FILE", "model file", o.model);
   p.option("--format", "csv|json", "output format", format).check([](const std::string& f) {
     if (f != "csv" && f != "json")

@@ -34,7 +34,6 @@
 #include <map>
 #include <optional>
 #include <string>
-#include <string_view>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -96,12 +95,7 @@ Options parse(int argc, char** argv) {
   std::string tuio;
   cli::Parser p(kProgram, "Touch events from a folder of images, a video file or a camera.");
   p.help_text(kHelp);
-  p.style({.equals = cli::Style::Equals::cut,
-           .repeat_replaces = true,
-           .missing_value = [](const std::string& name) { return name + ": needs a value"; }});
-  p.positional("", "", [](std::string_view arg) {
-    throw cli::UsageError("unknown option '" + std::string(arg) + "' (see --help)");
-  });
+  p.style(cli::Style::lenient());
   p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input);
   p.option("--calibration", "FILE", "calibration with the empty-skin model", o.calibration);
   p.option("--timestamps", "CSV", "folder timestamps", o.timestamps);

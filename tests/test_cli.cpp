@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -242,13 +243,15 @@ TEST_CASE("a documented command line of its own: help text, wording, '=' and rep
   };
   using E = cli::Style::Equals;
   const cli::Style plain;
-  const cli::Style cut{.equals = E::cut,
-                       .repeat_replaces = true,
-                       .missing_value = [](const std::string& n) { return n + ": needs a value"; }};
-  const cli::Style none{.equals = E::none, .repeat_replaces = false, .missing_value = {}};
+  cli::Style cut, none;
+  cut.equals = E::cut;
+  cut.repeat_replaces = true;
+  cut.missing_value = [](const std::string& n) { return n + ": needs a value"; };
+  none.equals = E::none;
+  const cli::Style lenient = cli::Style::lenient();
 
   // The help text is printed as given, whatever the style.
-  for (const cli::Style* s : {&plain, &cut, &none}) {
+  for (const cli::Style* s : std::initializer_list<const cli::Style*>{&plain, &cut, &none}) {
     Own o;
     CHECK_THROWS_AS(o.run(*s, {"--help"}), cli::Exit);
     CHECK(o.printed.str() == "usage: ss_own [--n N] [--f a|b] [--q] ARG\nverbatim\n");
@@ -296,6 +299,29 @@ TEST_CASE("a documented command line of its own: help text, wording, '=' and rep
   CHECK(Own().run(none, {"--q=1"}) == "unknown option '--q=1' (see --help)");
   CHECK(Own().run(none, {"--help=1"}) == "unknown option '--help=1' (see --help)");
   CHECK(Own().run(none, {"--q", "--q"}) == "--q: given more than once");
+
+  // Style::lenient(): cut at '=', repeats replace, its own wording for a missing value and, with
+  // no positional() declared, for a stray argument.
+  const auto stray = [](const cli::Style& s, const char* arg) {
+    cli::Parser p("ss_own", "unused");
+    p.style(s);
+    const char* argv[] = {"ss_own", arg};
+    try {
+      p.parse(2, argv);
+    } catch (const cli::UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(stray(lenient, "foo") == "unknown option 'foo' (see --help)");
+  CHECK(stray(lenient, "-") == "unknown option '-' (see --help)");
+  CHECK(stray(plain, "foo") == "unexpected argument 'foo'");
+  Own m;
+  CHECK(m.run(lenient, {"--n=3", "--n", "4", "--q", "--q"}) == "");
+  CHECK(m.n == 4);
+  CHECK(Own().run(lenient, {"--n"}) == "--n: needs a value");
+  CHECK(Own().run(lenient, {"--q=1"}) == "unknown option '--q' (see --help)");
+  CHECK_THROWS_AS(Own().run(lenient, {"--help=1"}), cli::Exit);
 }
 
 TEST_CASE("declaring a bad option is a programming error") {

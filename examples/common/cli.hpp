@@ -222,6 +222,21 @@ struct Style {
   // The error for an option whose value is missing, from the option's name (unset: "<name>:
   // missing value (expected VALUE, ...)").
   std::function<std::string(const std::string& name)> missing_value;
+  // The error for an argument not starting with '-' when no positional() is declared, from the
+  // argument (unset: "unexpected argument '<arg>'").
+  std::function<std::string(std::string_view arg)> unexpected_argument;
+
+  // The command line of ss_calibrate and ss_track as they document it: '=' cut, repeats
+  // replace, "<name>: needs a value", a stray argument "unknown option '<arg>' (see --help)".
+  static Style lenient() {
+    return {.equals = Equals::cut,
+            .repeat_replaces = true,
+            .missing_value = [](const std::string& name) { return name + ": needs a value"; },
+            .unexpected_argument =
+                [](std::string_view arg) {
+                  return "unknown option '" + std::string(arg) + "' (see --help)";
+                }};
+  }
 };
 
 class Parser {
@@ -319,7 +334,10 @@ public:
         throw Exit{0};
       }
       if (arg.size() < 2 || arg[0] != '-') {
-        if (!positional_) throw UsageError("unexpected argument '" + std::string(arg) + "'");
+        if (!positional_)
+          throw UsageError(style_.unexpected_argument
+                               ? style_.unexpected_argument(arg)
+                               : "unexpected argument '" + std::string(arg) + "'");
         positional_(arg);
         continue;
       }
