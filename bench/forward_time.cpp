@@ -3,7 +3,7 @@
 // ONNX Runtime timer alternately). Prints one JSON object on stdout: per-iteration wall times
 // (ms), the process CPU time per pass (ms, all threads), the multiply-adds of one forward pass, the
 // kernel and the logits.
-//   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS
+//   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US]
 // INPUT.f32: 3 x H x W little-endian float32 values (CHW, already preprocessed).
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
@@ -25,9 +25,11 @@ using bench::positive_int;
 namespace {
 
 constexpr std::string_view usage =
-    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS\n"
+    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US]\n"
     "Times the DenseNet forward pass on a 1 x 3 x H x W float32 input (raw little-endian CHW)\n"
-    "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n";
+    "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
+    "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
+    "default 300; 0 = sleep at once).\n";
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);
@@ -52,13 +54,16 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    if (argc != 7)
-      throw ss::InvalidArgument("expected 6 arguments, got " + std::to_string(argc - 1));
+    if (argc != 7 && argc != 8)
+      throw ss::InvalidArgument("expected 6 or 7 arguments, got " + std::to_string(argc - 1));
     const int h = positive_int(argv[3], "H"), w = positive_int(argv[4], "W");
     const int threads = positive_int(argv[5], "THREADS");
     const int iterations = positive_int(argv[6], "ITERATIONS");
+    const int spin_us = argc == 7                          ? ss::detail::ThreadPool::default_spin_us
+                        : std::string_view(argv[7]) == "0" ? 0
+                                                           : positive_int(argv[7], "SPIN_US");
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
-    ss::DenseNet net(model, {.threads = threads, .run_self_test = false});
+    ss::DenseNet net(model, {.threads = threads, .spin_us = spin_us, .run_self_test = false});
     const ss::Tensor input = read_input(argv[2], h, w);
     for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
     std::vector<double> ms;

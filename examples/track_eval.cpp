@@ -5,10 +5,16 @@
 //   ss_track_eval --data DIR [--tracking DIR] [--slides DIR] [--json PATH] [--annotate DIR]
 //                 [--annotate-limit N] [--calib-seed N] [--calib-frames N]
 //                 [--calibration FILE] [--save-calibration FILE] [--mode relative|fixed_ranges]
-//                 [--differential-window MS]
+//                 [--differential-window MS] [--roc CSV] [--roc-gate PX] [--roc-pick-frames N]
+//
+// --roc: the frame-level contact vs hover ROC of four detectors (eval/track_eval.hpp ContactRoc)
+// on the tracking dataset, written as CSV (atomically) and summarised on stdout; the sharp-edge
+// detector's gate is picked on generator frames (--roc-pick-frames, another seed), never on the
+// evaluated frames, unless --roc-gate gives it.
 //
 // The segmenter is calibrated on frames rendered by the scene generator with --calib-seed, never
 // on the evaluated frames.
+#include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/io/dataset.hpp>
@@ -43,6 +49,9 @@ struct Options {
   int calib_frames = 150;
   SegmentMode mode = SegmentMode::relative;
   double differential_window_ms = 300;
+  fs::path roc;
+  double roc_gate = 0; // 0: picked on generator frames
+  int roc_pick_frames = 120;
 };
 
 Options parse(int argc, char** argv) {
@@ -73,6 +82,16 @@ Options parse(int argc, char** argv) {
   p.option("--differential-window", "MS", "touch state machine's differential window",
            o.differential_window_ms)
       .range(0.0, 1e9);
+  p.option("--roc", "CSV",
+           "write the contact vs hover ROC of the tracking dataset (docs/tracking_eval.md)", o.roc);
+  p.option("--roc-gate", "PX",
+           "sharp-edge detector: largest contact edge width kept (default: picked on generator "
+           "frames)",
+           o.roc_gate)
+      .range(0.01, 1000.0);
+  p.option("--roc-pick-frames", "N", "generator frames (half hover) the edge gate is picked on",
+           o.roc_pick_frames)
+      .range(2, 100000);
   p.parse(argc, argv);
   if (!data.empty()) { // --tracking / --slides override one of the two
     if (!p.given("--tracking")) o.tracking = data / "tracking";
@@ -237,6 +256,88 @@ SlideResults evaluate_slides(const Options& o, Segmenter& seg) {
 }
 
 // ----------------------------------------------------------------------------------------------
+// Contact vs hover ROC
+
+// The edge gates tried when picking: 1 .. 30 px in steps of 0.5.
+std::vector<double> candidate_gates() {
+  std::vector<double> g;
+  for (int k = 2; k <= 60; ++k) g.push_back(k / 2.0);
+  return g;
+}
+
+struct RocResult {
+  std::vector<RocCurve> curves;
+  double gate = 0;
+  bool gate_picked = false;
+  int pick_frames = 0;
+};
+
+RocResult evaluate_roc(const Options& o, const Segmenter& seg, const Segmenter& sim_seg,
+                       sim::Renderer& renderer) {
+  RocResult r;
+  r.gate = o.roc_gate;
+  if (r.gate <= 0) { // pick on generator frames of another seed, with the generator calibration
+    ContactRoc pick(sim_seg);
+    add_sim_frames(pick, renderer, sim::derive_seed(o.calib_seed, 0x50C), o.roc_pick_frames);
+    r.gate = pick_contact_edge_gate(pick, candidate_gates());
+    r.gate_picked = true;
+    r.pick_frames = o.roc_pick_frames;
+  }
+  ContactRoc roc(seg);
+  const Metadata md = read_metadata(o.tracking / "metadata.csv");
+  for (const MetadataRow& row : md.rows) {
+    const bool positive = row.contact_box.has_value();
+    if (!positive && row.label != "hover") continue; // negatives: hovering hands only
+    roc.add(read_image(md, row), row.contact_box, positive);
+  }
+  detail::require<DatasetError>(roc.positives() > 0 && roc.negatives() > 0,
+                                md.csv_path.string() + ": " + std::to_string(roc.positives()) +
+                                    " frames with a contact and " +
+                                    std::to_string(roc.negatives()) +
+                                    " hover frames; the ROC needs at least one of each");
+  for (ContactCue c : all_contact_cues)
+    r.curves.push_back(roc.curve(c, c == ContactCue::joint_sharp ? r.gate : 0.0));
+  return r;
+}
+
+void write_roc_csv(const fs::path& path, const RocResult& r) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    out << "variant,offset,shipped,positives,negatives,true_positives,false_positives,tpr,fpr,"
+           "contact_iou,auc,edge_gate_px\n";
+    char buf[256];
+    for (const RocCurve& c : r.curves)
+      for (std::size_t k = 0; k < c.points.size(); ++k) {
+        const RocPoint& p = c.points[k];
+        std::snprintf(buf, sizeof buf, "%s,%.2f,%d,%d,%d,%d,%d,%.6f,%.6f,%.6f,%.6f,%g\n",
+                      to_string(c.cue), p.offset, k == c.shipped ? 1 : 0, c.positives, c.negatives,
+                      p.true_positives, p.false_positives, p.tpr, p.fpr, p.contact_iou, c.auc,
+                      c.edge_gate_px);
+        out << buf;
+      }
+  });
+}
+
+void print_roc(const RocResult& r) {
+  const RocCurve& any = r.curves.front();
+  std::printf(
+      "\nContact vs hover ROC (%d frames with a contact, %d hovering hands; offset %+.2f .. "
+      "%+.2f on the contact thresholds)\n",
+      any.positives, any.negatives, any.points.front().offset, any.points.back().offset);
+  if (r.gate_picked)
+    std::printf("sharp-edge gate %.1f px, picked on %d generator frames (largest AUC)\n", r.gate,
+                r.pick_frames);
+  else
+    std::printf("sharp-edge gate %.1f px (--roc-gate)\n", r.gate);
+  std::printf("%-32s %6s   %-28s %12s\n", "variant", "AUC", "shipped point: FPR TPR IoU",
+              "TPR@FPR<=5%");
+  for (const RocCurve& c : r.curves) {
+    const RocPoint& p = c.points[c.shipped];
+    std::printf("%-32s %6.4f   %6.4f %6.4f %6.4f        %12.4f\n", to_string(c.cue), c.auc, p.fpr,
+                p.tpr, p.contact_iou, tpr_at_fpr(c, 0.05));
+  }
+}
+
+// ----------------------------------------------------------------------------------------------
 // Output
 
 std::string num(double v, int decimals = 4) {
@@ -335,7 +436,8 @@ void json_curve(cli::JsonWriter& j, const Curve& c) {
 
 void write_json(const Options& o, const SegmenterCalibration& cal,
                 const std::optional<std::map<std::string, CategoryResult>>& t5,
-                const std::optional<SlideResults>& f14, const HoverHeightResult& hh) {
+                const std::optional<SlideResults>& f14, const HoverHeightResult& hh,
+                const std::optional<RocResult>& roc) {
   cli::JsonWriter j;
   j.begin_object().field("schema", "shadowsense.track_eval/1");
   j.key("calibration").begin_object(cli::JsonWriter::compact);
@@ -386,6 +488,22 @@ void write_json(const Options& o, const SegmenterCalibration& cal,
   j.field("intercept", hh.model.intercept).field("per_edge_px", hh.model.per_edge_px);
   j.field("per_opacity", hh.model.per_opacity).end_object();
   j.end_object();
+  if (roc) {
+    const RocCurve& any = roc->curves.front();
+    j.key("contact_roc").begin_object();
+    j.field("positives", any.positives).field("negatives", any.negatives);
+    j.field("edge_gate_px", roc->gate).field("edge_gate_picked", roc->gate_picked);
+    j.field("csv", o.roc.string());
+    j.key("variants").begin_object();
+    for (const RocCurve& c : roc->curves) {
+      const RocPoint& p = c.points[c.shipped];
+      j.key(to_string(c.cue)).begin_object(cli::JsonWriter::compact);
+      j.field("auc", c.auc).field("shipped_fpr", p.fpr).field("shipped_tpr", p.tpr);
+      j.field("shipped_contact_iou", p.contact_iou).field("tpr_at_fpr_5pct", tpr_at_fpr(c, 0.05));
+      j.end_object();
+    }
+    j.end_object().end_object();
+  }
   j.end_object();
   j.save(o.json);
 }
@@ -415,6 +533,7 @@ int main(int argc, char** argv) {
     Segmenter::Config base;
     base.calibration.mode = o.mode;
     SimCalibration cal = calibrate_on_sim(renderer, o.calib_seed, o.calib_frames, base);
+    const SimCalibration sim_cal = cal; // the ROC's edge gate is picked with this one
     if (!o.calibration_in.empty())
       cal.config.calibration = load_calibration(o.calibration_in.string());
     cal.config.calibration.mode = o.mode;
@@ -449,6 +568,13 @@ int main(int argc, char** argv) {
     }
     if (!t5 && !f14)
       throw DatasetError("nothing to evaluate: no tracking/metadata.csv or slides/sequences.csv");
+    std::optional<RocResult> roc;
+    if (!o.roc.empty()) {
+      detail::require<DatasetError>(t5.has_value(), "--roc needs a tracking dataset");
+      roc = evaluate_roc(o, seg, segmenter_from(sim_cal), renderer);
+      write_roc_csv(o.roc, *roc);
+      print_roc(*roc);
+    }
     // Hover height: the datasets carry no heights, so fit and test on generator frames (two
     // seeds, both different from the calibration's).
     Segmenter hover_seg = segmenter_from(cal);
@@ -459,7 +585,7 @@ int main(int argc, char** argv) {
                 "cm above the skin):\n  fit on %zu frames, tested on %zu others: MAE %.2f cm, "
                 "RMSE %.2f cm (always-the-mean baseline: MAE %.2f cm)\n",
                 hh.fit_frames, hh.test_frames, hh.mae_cm, hh.rmse_cm, hh.baseline_mae_cm);
-    if (!o.json.empty()) write_json(o, cal.config.calibration, t5, f14, hh);
+    if (!o.json.empty()) write_json(o, cal.config.calibration, t5, f14, hh, roc);
     return 0;
   });
 }

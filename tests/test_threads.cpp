@@ -9,11 +9,13 @@
 #include <doctest/doctest.h>
 
 #include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 using namespace shadowsense;
@@ -161,4 +163,34 @@ TEST_CASE("atomic writes racing on one target: always one complete version, no t
   int files = 0;
   for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
   CHECK(files == 1);
+}
+
+TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins and sleeps") {
+  // The workers poll for new work for spin_us, then sleep: calls back to back (caught while
+  // polling) and calls after a pause longer than spin_us (a sleeping worker woken) must both
+  // run each task once and return only when all are done.
+  for (const auto [threads, spin_us] : {std::pair{2, 300}, std::pair{3, 300}, std::pair{2, 0}}) {
+    detail::ThreadPool pool(threads, spin_us);
+    std::vector<std::atomic<int>> hits(64);
+    for (int call = 0; call < 300; ++call) {
+      const int tasks = call % 7 == 0 ? 1 : (call * 13) % 64 + 1;
+      for (auto& h : hits) h.store(0);
+      auto fn = [&](int t) { hits[static_cast<std::size_t>(t)].fetch_add(1); };
+      pool.run(tasks, fn);
+      int wrong = 0;
+      for (int t = 0; t < 64; ++t)
+        wrong += hits[static_cast<std::size_t>(t)].load() != (t < tasks ? 1 : 0);
+      REQUIRE_MESSAGE(wrong == 0,
+                      "threads " << threads << ", spin_us " << spin_us << ", call " << call);
+      if (call % 50 == 49)
+        std::this_thread::sleep_for(std::chrono::microseconds(3 * pool.spin_us() + 100));
+    }
+    int none = 0;
+    auto count = [&](int) { ++none; };
+    pool.run(0, count);
+    CHECK(none == 0);
+    CHECK_THROWS_AS(pool.run(detail::ThreadPool::max_tasks + 1, count), InvalidArgument);
+  }
+  CHECK_THROWS_AS(detail::ThreadPool(2, -1), InvalidArgument);
+  CHECK_THROWS_AS(detail::ThreadPool(2, 100001), InvalidArgument);
 }

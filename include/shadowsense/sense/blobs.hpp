@@ -33,7 +33,7 @@ struct Blob {
   cv::Point2f centroid{}; // centroid of the group's mask pixels
   double area = 0;        // mask pixels in the group
   float darkness = 0;     // mean darkness of its pixels (relative mode; 0 in fixed_ranges)
-  float edge_width = 0;   // mean width of the darkness ramp at its edge, px (shadow blobs)
+  float edge_width = 0;   // mean width of the darkness ramp at its edge, px (relative mode)
   // Shadow blobs that touch nothing (relative mode): estimated opacity of the shadow's core, the
   // 95th percentile of its darkness over the darkness of the half-opacity line (2 x the frame's
   // shadow threshold); falls as the part rises.

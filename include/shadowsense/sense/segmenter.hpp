@@ -37,7 +37,9 @@
 //   requires: CV_8UC3, no side larger than max_image_side, the model's size when a model is set.
 //   ensures:  out holds the masks, the blobs (at most max_blobs contours per class are kept;
 //             the smallest beyond are dropped and counted in dropped_*_blobs), the union boxes
-//             and the contact point.
+//             and the contact point. Shadow and contact blobs carry edge_width (relative mode;
+//             the contact blobs' is a sharpness cue, docs/tracking_eval.md "Contact vs hover
+//             ROC").
 //   throws:   InvalidArgument for a bad image.
 // Threading: a Segmenter holds per-frame scratch and the model; use one instance per thread.
 // A cheap owner check (core/thread_owner.hpp) throws ConcurrentUseError when one instance is
@@ -240,7 +242,7 @@ public:
     out.dropped_shadow_blobs = extract(out.shadow_mask, config_.min_shadow_area,
                                        config_.shadow_merge_gap, out.shadows, true);
     out.dropped_contact_blobs = extract(out.contact_mask, config_.min_contact_area,
-                                        config_.contact_merge_gap, out.contacts);
+                                        config_.contact_merge_gap, out.contacts, true);
     summarise(out);
     if (config_.adaptive) adapt(out);
   }

@@ -39,6 +39,9 @@ class DenseNet {
 public:
   struct Config {
     int threads = 1; // worker threads incl. the caller
+    // How long idle workers poll for the next layer before they sleep (detail::ThreadPool):
+    // 0 when the machine's cores are busy with other work (threads > 1 only).
+    int spin_us = detail::ThreadPool::default_spin_us;
     GemmKernelKind kernel = GemmKernelKind::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
@@ -64,7 +67,7 @@ public:
       kernel_ = detail::select_micro_kernel(config.kernel);
       ops_ = detail::select_vector_ops(kernel_.kind);
     }
-    pool_ = std::make_unique<detail::ThreadPool>(config.threads);
+    pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
   }
@@ -355,17 +358,23 @@ private:
     const int nr = kernel_.nr, PW = in_w_ + 6, PH = in_h_ + 6;
     const int n = h0_ * w0_, w0 = w0_;
     const float* src = padded_input_.data();
-    auto pack = [&](float* dst, int n0, int cols, int* idx) {
-      for (int j = 0; j < cols; ++j) {
-        const int y = (n0 + j) / w0, x = (n0 + j) % w0;
-        idx[j] = 2 * y * PW + 2 * x;
-      }
+    // Row ky*7+kx of channel c: input row 2y+ky, columns 2x+kx, for the panel's outputs; split
+    // into runs within one output row, each a stride-2 copy the compiler vectorises.
+    auto pack = [&](float* dst, int n0, int cols, int*) {
       for (int c = 0; c < 3; ++c)
         for (int ky = 0; ky < 7; ++ky)
           for (int kx = 0; kx < 7; ++kx) {
             const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
             float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
-            for (int j = 0; j < cols; ++j) d[j] = s[idx[j]];
+            int y = n0 / w0, x = n0 % w0;
+            for (int j = 0; j < cols;) {
+              const int run = std::min(cols - j, w0 - x);
+              const float* r = s + static_cast<std::size_t>(2 * y) * PW + 2 * x;
+              for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
+              j += run;
+              x = 0;
+              ++y;
+            }
             for (int j = cols; j < nr; ++j) d[j] = 0.0f;
           }
     };
@@ -382,41 +391,46 @@ private:
   void pool0() {
     // Separable: the max (and the NaN probe: a sum of >= 0 terms, NaN exactly when a NaN is
     // in the window) over the valid rows of each window first, contiguous and vectorised, then
-    // over the three columns.
+    // over the three columns. Channels are split over the pool's threads.
     const int bh = block_h_[0], bw = block_w_[0];
     float* dst = block_buf_[0].data();
-    pool_max_.resize(static_cast<std::size_t>(w0_));
-    pool_sum_.resize(static_cast<std::size_t>(w0_));
-    float* vm = pool_max_.data();
-    float* vs = pool_sum_.data();
-    for (int c = 0; c < arch_.init_features; ++c) {
-      const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
-      for (int y = 0; y < bh; ++y) {
-        const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0_ - 1);
-        const float* r = s + static_cast<std::size_t>(y0) * w0_;
-        for (int x = 0; x < w0_; ++x) {
-          vm[x] = r[x];
-          vs[x] = r[x];
-        }
-        for (int iy = y0 + 1; iy <= y1; ++iy) {
-          r = s + static_cast<std::size_t>(iy) * w0_;
+    const int tasks = std::min(pool_->size(), arch_.init_features);
+    pool_max_.resize(static_cast<std::size_t>(w0_) * tasks);
+    pool_sum_.resize(static_cast<std::size_t>(w0_) * tasks);
+    auto task = [&](int t) {
+      float* vm = pool_max_.data() + static_cast<std::size_t>(w0_) * t;
+      float* vs = pool_sum_.data() + static_cast<std::size_t>(w0_) * t;
+      const int c0 = arch_.init_features * t / tasks, c1 = arch_.init_features * (t + 1) / tasks;
+      for (int c = c0; c < c1; ++c) {
+        const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
+        for (int y = 0; y < bh; ++y) {
+          const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0_ - 1);
+          const float* r = s + static_cast<std::size_t>(y0) * w0_;
           for (int x = 0; x < w0_; ++x) {
-            vm[x] = std::max(vm[x], r[x]);
-            vs[x] += r[x];
+            vm[x] = r[x];
+            vs[x] = r[x];
           }
-        }
-        float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
-        for (int x = 0; x < bw; ++x) {
-          const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0_ - 1);
-          float mx = vm[x0], nan_probe = vs[x0];
-          for (int ix = x0 + 1; ix <= x1; ++ix) {
-            mx = std::max(mx, vm[ix]);
-            nan_probe += vs[ix];
+          for (int iy = y0 + 1; iy <= y1; ++iy) {
+            r = s + static_cast<std::size_t>(iy) * w0_;
+            for (int x = 0; x < w0_; ++x) {
+              vm[x] = std::max(vm[x], r[x]);
+              vs[x] += r[x];
+            }
           }
-          d[x] = nan_probe == nan_probe ? mx : nan_probe;
+          float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
+          for (int x = 0; x < bw; ++x) {
+            const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0_ - 1);
+            float mx = vm[x0], nan_probe = vs[x0];
+            for (int ix = x0 + 1; ix <= x1; ++ix) {
+              mx = std::max(mx, vm[ix]);
+              nan_probe += vs[ix];
+            }
+            d[x] = nan_probe == nan_probe ? mx : nan_probe;
+          }
         }
       }
-    }
+    };
+    pool_->run(tasks, task);
   }
 
   // Dense layer l of block b, first half: conv1 (1x1) on relu(norm1(features)), + folded norm2,
@@ -529,37 +543,47 @@ private:
   }
 
   // norm5, relu, global average pool -> pooled; classifier -> out (accumulated in double: it
-  // is tiny).
-  void head(std::span<float> pooled, std::span<float> out) const {
+  // is tiny). Channels, then classes, are split over the pool's threads.
+  void head(std::span<float> pooled, std::span<float> out) {
     const Block& last = blocks_.back();
     const int n = block_h_.back() * block_w_.back();
     const float* feat = block_buf_.back().data();
-    for (int c = 0; c < last.c_out; ++c) {
-      const float* s = feat + static_cast<std::size_t>(c) * n;
-      const float sc = norm5_.scale[static_cast<std::size_t>(c)];
-      const float sh = norm5_.shift[static_cast<std::size_t>(c)];
-      double sum = 0;
-      for (int j = 0; j < n; ++j) {
-        const float v = s[j] * sc + sh;
-        sum += v < 0.0f ? 0.0f : v;
+    const int c_out = last.c_out, classes = arch_.num_classes;
+    const int threads = pool_->size();
+    const int gap_tasks = std::min(threads, c_out);
+    auto gap = [&](int t) {
+      for (int c = c_out * t / gap_tasks; c < c_out * (t + 1) / gap_tasks; ++c) {
+        const float* s = feat + static_cast<std::size_t>(c) * n;
+        const float sc = norm5_.scale[static_cast<std::size_t>(c)];
+        const float sh = norm5_.shift[static_cast<std::size_t>(c)];
+        double sum = 0;
+        for (int j = 0; j < n; ++j) {
+          const float v = s[j] * sc + sh;
+          sum += v < 0.0f ? 0.0f : v;
+        }
+        pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
       }
-      pooled[static_cast<std::size_t>(c)] = static_cast<float>(sum / n);
-    }
+    };
+    pool_->run(gap_tasks, gap);
     // Eight interleaved double sums: one serial chain of additions made the 1000-class head
     // latency-bound (about 1 ms of DenseNet-121); the order differs only in double rounding.
-    const int c_out = last.c_out, c8 = c_out / 8 * 8;
-    for (int o = 0; o < arch_.num_classes; ++o) {
-      const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * c_out;
-      double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-      for (int c = 0; c < c8; c += 8)
-        for (int j = 0; j < 8; ++j)
-          part[j] += double(wr[c + j]) * pooled[static_cast<std::size_t>(c + j)];
-      double acc = classifier_b_[static_cast<std::size_t>(o)];
-      for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
-      acc +=
-          ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
-      out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
-    }
+    const int c8 = c_out / 8 * 8;
+    const int fc_tasks = std::min(threads, classes);
+    auto fc = [&](int t) {
+      for (int o = classes * t / fc_tasks; o < classes * (t + 1) / fc_tasks; ++o) {
+        const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * c_out;
+        double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+        for (int c = 0; c < c8; c += 8)
+          for (int j = 0; j < 8; ++j)
+            part[j] += double(wr[c + j]) * pooled[static_cast<std::size_t>(c + j)];
+        double acc = classifier_b_[static_cast<std::size_t>(o)];
+        for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+        acc += ((part[0] + part[1]) + (part[2] + part[3])) +
+               ((part[4] + part[5]) + (part[6] + part[7]));
+        out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
+      }
+    };
+    pool_->run(fc_tasks, fc);
   }
 
   void check_self_test(const ModelSelfTest& st) {
@@ -592,7 +616,7 @@ private:
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
   std::vector<float> padded_input_, conv0_out_, features_, logits_;
-  std::vector<float> pool_max_, pool_sum_; // pool0's column maxima and NaN probes (one row)
+  std::vector<float> pool_max_, pool_sum_; // pool0's column maxima and NaN probes (a row/thread)
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
   std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)

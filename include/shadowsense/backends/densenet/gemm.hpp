@@ -19,8 +19,14 @@
 // PackedMatrix::pack(w, rows, cols, panel_rows): packs a row-major rows x cols matrix into
 //   panel_rows-row panels (K x MR interleaved, zero-padded). Not thread-safe while packing;
 //   read-only use afterwards may be shared between threads.
-// ThreadPool(threads): requires 1 <= threads <= 256 (InvalidArgument). run() must be called
-//   from one thread at a time (the owner); the pool's workers are its own.
+// ThreadPool(threads, spin_us = 300): requires 1 <= threads <= 256 and 0 <= spin_us <= 100000
+//   (InvalidArgument). run(tasks, fn) must be called from one thread at a time (the owner); the
+//   pool's workers are its own. requires 0 <= tasks <= 65535 (InvalidArgument); ensures fn(t)
+//   ran exactly once for every t < tasks when it returns. Workers (and the caller, waiting for
+//   them) poll for about spin_us after each call, then sleep: between the calls of one forward
+//   pass both cores stay busy, an idle pool costs nothing. On a machine whose cores are busy
+//   with other work, polling takes time from that work and from the pass itself: use spin_us 0
+//   there (like ONNX Runtime's allow_spinning = 0), or one thread.
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
 // gemm_in_place(kernel, fn, a, n, base, offsets, store, pool, scratch): gemm() with B read in
@@ -35,8 +41,11 @@
 #include <shadowsense/core/version.hpp>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -175,18 +184,30 @@ struct PackedMatrix {
 };
 
 // A persistent pool: run(tasks, fn) calls fn(t) for t in [0, tasks) on the calling thread and
-// the workers, and returns when all are done. No allocation per call.
+// the workers, and returns when all are done. No allocation and no lock per call: a forward
+// pass makes about 120 calls of 0.05-0.5 ms each, and a sleep/wake round trip through the
+// kernel per call (tens of microseconds, more in a VM) costs more than the second thread gains.
+// Workers therefore poll for new work for about spin_us after their last task before they block
+// on a condition variable; the caller polls for completion, yielding its core after a while so
+// a descheduled worker gets it back. Tasks are claimed from one atomic word holding the call's
+// generation, its task count and the next task, so a worker late from one call can never take
+// (or read the arguments of) the next.
 class ThreadPool {
 public:
-  explicit ThreadPool(int threads) {
+  static constexpr int default_spin_us = 300;
+  static constexpr int max_tasks = 0xffff;
+
+  explicit ThreadPool(int threads, int spin_us = default_spin_us) : spin_us_(spin_us) {
     require(threads >= 1 && threads <= 256,
             "threads is " + std::to_string(threads) + ", expected 1..256");
+    require(spin_us >= 0 && spin_us <= 100000,
+            "spin_us is " + std::to_string(spin_us) + ", expected 0..100000");
     for (int i = 1; i < threads; ++i) workers_.emplace_back([this] { work(); });
   }
   ~ThreadPool() {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
+      stop_.store(true);
     }
     wake_.notify_all();
     for (auto& t : workers_) t.join();
@@ -195,63 +216,99 @@ public:
   ThreadPool& operator=(const ThreadPool&) = delete;
 
   int size() const { return static_cast<int>(workers_.size()) + 1; }
+  int spin_us() const { return spin_us_; }
 
+  // requires: 0 <= tasks <= max_tasks (InvalidArgument).
   template <class F>
   void run(int tasks, F& fn) {
+    if (!(tasks >= 0 && tasks <= max_tasks)) // (no message built on the hot path)
+      SHADOWSENSE_THROW(InvalidArgument("ThreadPool::run: tasks is " + std::to_string(tasks) +
+                                        ", expected 0..65535"));
     if (workers_.empty() || tasks <= 1) {
       for (int t = 0; t < tasks; ++t) fn(t);
       return;
     }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      ctx_ = &fn;
-      call_ = [](void* c, int t) { (*static_cast<F*>(c))(t); };
-      tasks_ = tasks;
-      next_ = 0;
-      pending_ = tasks;
-      ++generation_;
+    ctx_ = &fn;
+    call_ = [](void* c, int t) { (*static_cast<F*>(c))(t); };
+    pending_.store(tasks, std::memory_order_relaxed);
+    const std::uint64_t generation =
+        ((work_.load(std::memory_order_relaxed) >> 32) + 1) & 0xffffffffu;
+    // seq_cst publish, then the sleeper check: a worker either sees the new word before it
+    // blocks (it re-checks under the mutex after counting itself a sleeper) or is counted here.
+    work_.store(generation << 32 | static_cast<std::uint64_t>(tasks) << 16);
+    if (sleepers_.load() > 0) {
+      { std::lock_guard<std::mutex> lock(mutex_); }
+      wake_.notify_all();
     }
-    wake_.notify_all();
-    drain();
+    drain(generation);
+    if (poll([&] { return pending_.load(std::memory_order_acquire) == 0; })) return;
     std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [this] { return pending_ == 0; });
+    caller_waiting_.store(true);
+    done_.wait(lock, [&] { return pending_.load() == 0; });
+    caller_waiting_.store(false);
   }
 
 private:
-  void drain() {
+  // Polls ready() for about spin_us_; true as soon as it holds. No PAUSE and no sched_yield in
+  // the loop: under a hypervisor both can hand the core away (pause-loop exits), which made a
+  // 2-thread pass slower than a 1-thread one.
+  template <class Ready>
+  bool poll(Ready&& ready) const {
+    if (spin_us_ == 0) return ready();
+    const auto since = std::chrono::steady_clock::now();
+    for (int i = 0;; ++i) {
+      if (ready()) return true;
+      if ((i & 255) == 255 &&
+          std::chrono::steady_clock::now() - since > std::chrono::microseconds(spin_us_))
+        return ready();
+    }
+  }
+  // Runs tasks of call `generation` until none is left.
+  void drain(std::uint64_t generation) {
+    std::uint64_t w = work_.load(std::memory_order_acquire);
     for (;;) {
-      int t;
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (next_ >= tasks_) return;
-        t = next_++;
+      if ((w >> 32) != generation || (w & 0xffff) >= ((w >> 16) & 0xffff)) return;
+      if (!work_.compare_exchange_weak(w, w + 1, std::memory_order_acq_rel,
+                                       std::memory_order_acquire))
+        continue;
+      call_(ctx_, static_cast<int>(w & 0xffff)); // safe: run() waits for this task
+      if (pending_.fetch_sub(1) == 1 && caller_waiting_.load()) {
+        { std::lock_guard<std::mutex> lock(mutex_); }
+        done_.notify_one();
       }
-      call_(ctx_, t);
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (--pending_ == 0) done_.notify_all();
+      w = work_.load(std::memory_order_acquire);
     }
   }
   void work() {
-    unsigned long seen = 0;
+    std::uint64_t seen = 0; // the last generation served
     for (;;) {
-      {
+      auto fresh = [&] {
+        return stop_.load(std::memory_order_relaxed) ||
+               (work_.load(std::memory_order_acquire) >> 32) != seen;
+      };
+      if (!poll(fresh)) {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-        if (stop_) return;
-        seen = generation_;
+        sleepers_.fetch_add(1);
+        wake_.wait(lock, [&] { return stop_.load() || (work_.load() >> 32) != seen; });
+        sleepers_.fetch_sub(1);
       }
-      drain();
+      if (stop_.load()) return;
+      seen = work_.load(std::memory_order_acquire) >> 32;
+      drain(seen);
     }
   }
 
+  int spin_us_;
   std::vector<std::thread> workers_;
   std::mutex mutex_;
   std::condition_variable wake_, done_;
+  // The call's arguments: written by run() before it publishes work_, read by a worker only
+  // after it has claimed a task of that call.
   void* ctx_ = nullptr;
   void (*call_)(void*, int) = nullptr;
-  int tasks_ = 0, next_ = 0, pending_ = 0;
-  unsigned long generation_ = 0;
-  bool stop_ = false;
+  std::atomic<std::uint64_t> work_{0}; // generation << 32 | tasks << 16 | next task
+  std::atomic<int> pending_{0}, sleepers_{0};
+  std::atomic<bool> stop_{false}, caller_waiting_{false};
 };
 
 // Per-thread scratch of the GEMM driver.
@@ -261,18 +318,49 @@ struct GemmScratch {
   std::vector<int> index;   // NR ints for packers (pixel offsets)
 };
 
-// The split shared by gemm() and gemm_in_place(): column panels of nr (or row panels of mr
-// when there are too few column panels) over the pool's threads. For every column panel,
-// prepare(s, n0, cols) readies B in the thread's scratch s, then multiply(mp, s, n0) writes the
-// MR x NR tile of row panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
+// The split shared by gemm() and gemm_in_place(). For every column panel, prepare(s, n0, cols)
+// readies B in the thread's scratch s, then multiply(mp, s, n0) writes the MR x NR tile of row
+// panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
+// - B packed (prepare does work): column panels over the pool's threads, so each panel is
+//   packed once; row panels when there are too few column panels.
+// - B read in place (free_prepare): the (column panel, row panel) tiles, column-major, in equal
+//   contiguous shares: 5 column panels x 4 row panels split 10 / 10 where column panels alone
+//   would split 2 / 3.
 template <class Prepare, class Multiply, class Store>
 inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, int n,
                              Prepare&& prepare, Multiply&& multiply, Store&& store,
-                             ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+                             ThreadPool& pool, std::vector<GemmScratch>& scratch,
+                             bool free_prepare = false) {
   const int nr = kernel.nr, mr = kernel.mr;
   const int n_panels = (n + nr - 1) / nr;
   const int m_panels = (a.m + mr - 1) / mr;
   const int threads = pool.size();
+  auto tile = [&](GemmScratch& s, int np, int mp0, int mp1) {
+    const int n0 = np * nr;
+    const int cols = std::min(nr, n - n0);
+    prepare(s, n0, cols);
+    for (int mp = mp0; mp < mp1; ++mp) {
+      multiply(mp, s, n0);
+      const int rows = std::min(mr, a.m - mp * mr);
+      for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
+    }
+  };
+  if (free_prepare) {
+    const long units = long(n_panels) * m_panels;
+    const int tasks = static_cast<int>(std::min<long>(threads, units));
+    auto task = [&](int t) {
+      auto& s = scratch[static_cast<std::size_t>(t)];
+      const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
+      for (long u = u0; u < u1;) {
+        const int np = static_cast<int>(u / m_panels), mp0 = static_cast<int>(u % m_panels);
+        const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - u)));
+        tile(s, np, mp0, mp1);
+        u += mp1 - mp0;
+      }
+    };
+    pool.run(tasks, task);
+    return;
+  }
   const bool split_n = n_panels >= 2 * threads || m_panels < threads;
   const int tasks = split_n ? std::min(threads, n_panels) : threads;
   auto task = [&](int t) {
@@ -285,16 +373,7 @@ inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, i
       mp0 = m_panels * t / tasks;
       mp1 = m_panels * (t + 1) / tasks;
     }
-    for (int np = np0; np < np1; ++np) {
-      const int n0 = np * nr;
-      const int cols = std::min(nr, n - n0);
-      prepare(s, n0, cols);
-      for (int mp = mp0; mp < mp1; ++mp) {
-        multiply(mp, s, n0);
-        const int rows = std::min(mr, a.m - mp * mr);
-        for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
-      }
-    }
+    for (int np = np0; np < np1; ++np) tile(s, np, mp0, mp1);
   };
   pool.run(tasks, task);
 }
@@ -330,7 +409,7 @@ inline void gemm_in_place(const MicroKernel& kernel, MicroKernelOffsetsFn fn, co
       [&](int mp, GemmScratch& s, int n0) {
         fn(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
       },
-      store, pool, scratch);
+      store, pool, scratch, /*free_prepare=*/true);
 }
 
 } // namespace detail
