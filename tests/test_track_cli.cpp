@@ -112,11 +112,8 @@ Run run(const std::string& args) {
   return tests::run_program(SHADOWSENSE_SS_TRACK, args, kDir);
 }
 
-} // namespace
-
-TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same frames") {
-  const std::vector<cv::Mat> frames = render_sequence();
-  const fs::path folder = kDir / "frames";
+// `frames` as f000.png, f001.png, ... in `folder` (emptied first).
+void write_pngs(const std::vector<cv::Mat>& frames, const fs::path& folder) {
   fs::remove_all(folder);
   fs::create_directories(folder);
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -124,6 +121,14 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
     std::snprintf(name, sizeof name, "f%03zu.png", i);
     REQUIRE(cv::imwrite((folder / name).string(), frames[i]));
   }
+}
+
+} // namespace
+
+TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same frames") {
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames";
+  write_pngs(frames, folder);
   const std::string expected = expected_csv(frames, 13.0, calibration_path());
   // The script's touch: appear, touch, move right, lift and disappear are all there.
   CHECK(expected.find(",none,appear,") != std::string::npos);
@@ -212,13 +217,7 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
           "cursor") {
   const std::vector<cv::Mat> frames = render_sequence();
   const fs::path folder = kDir / "frames_tuio";
-  fs::remove_all(folder);
-  fs::create_directories(folder);
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    char name[32];
-    std::snprintf(name, sizeof name, "f%03zu.png", i);
-    REQUIRE(cv::imwrite((folder / name).string(), frames[i]));
-  }
+  write_pngs(frames, folder);
   const tests::LocalUdp udp(std::chrono::seconds(1));
   const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
                     "' --fps 13 --quiet --tuio 127.0.0.1:" + std::to_string(udp.port));
