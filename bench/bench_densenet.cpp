@@ -6,6 +6,8 @@
 // /usr/bin/python3 has torch (with torchvision's logits embedded), else from C++ (no diff).
 #include <shadowsense/backends/densenet/densenet.hpp>
 
+#include "common/bench_util.hpp"
+
 #include <Eigen/Core>
 #include <catch2/catch.hpp>
 
@@ -16,7 +18,6 @@
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -36,24 +37,6 @@ bool have_torch() {
   return ok;
 }
 
-ModelFile random_model(DenseNetArchitecture arch) {
-  ModelFile m;
-  m.architecture = arch;
-  for (int i = 0; i < arch.num_classes; ++i) m.class_names.push_back("c" + std::to_string(i));
-  std::mt19937 rng(1);
-  std::normal_distribution<float> nd(0.0f, 0.05f);
-  for (const auto& s : arch.expected_tensors()) {
-    NamedTensor t{s.name, s.shape, {}};
-    std::size_t n = 1;
-    for (int d : s.shape) n *= static_cast<std::size_t>(d);
-    t.values.resize(n);
-    for (auto& v : t.values)
-      v = s.name.ends_with("running_var") ? 1.0f + std::abs(nd(rng)) : nd(rng);
-    m.tensors.push_back(std::move(t));
-  }
-  return m;
-}
-
 ModelFile load_model(const std::string& arch) {
   if (have_torch()) {
     const auto path = std::filesystem::temp_directory_path() / ("ss_bench_" + arch + ".ssdn");
@@ -66,8 +49,8 @@ ModelFile load_model(const std::string& arch) {
       return m;
     }
   }
-  return random_model(arch == "densenet161" ? DenseNetArchitecture::densenet161(5)
-                                            : DenseNetArchitecture::densenet121(5));
+  return bench::random_model(arch == "densenet161" ? DenseNetArchitecture::densenet161(5)
+                                                   : DenseNetArchitecture::densenet121(5));
 }
 
 template <class F>
@@ -130,15 +113,11 @@ TEST_CASE("GEMM limit: 1024^3 single precision", "[densenet]") {
 TEST_CASE("DenseNet forward, batch 1, 3x150x220", "[densenet]") {
   for (const std::string arch : {"densenet121", "densenet161"}) {
     const ModelFile model = load_model(arch);
-    Tensor x(1, 3, 150, 220);
+    Tensor x = bench::random_input(150, 220);
     std::vector<float> ref;
     if (model.self_test && model.self_test->input.h() == 150) {
       x = model.self_test->input;
       ref = model.self_test->logits;
-    } else {
-      std::mt19937 rng(2);
-      std::normal_distribution<float> nd;
-      for (float& v : x.values()) v = nd(rng);
     }
     for (int threads : {1, 2}) {
       DenseNet net(model, {.threads = threads, .run_self_test = false});

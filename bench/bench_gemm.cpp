@@ -12,6 +12,8 @@
 // kernel listed in the output (the reference one unless it is left out).
 #include <shadowsense/backends/densenet/densenet.hpp>
 
+#include "common/bench_util.hpp"
+
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -23,9 +25,8 @@
 #include <string>
 #include <vector>
 
-#include <time.h>
-
 using namespace shadowsense;
+using bench::thread_cpu_ms;
 
 namespace {
 
@@ -102,12 +103,6 @@ std::vector<Candidate> candidates() {
   return out;
 }
 
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * double(ts.tv_sec) + 1e-6 * double(ts.tv_nsec);
-}
-
 struct Timing {
   double wall_ms, cpu_ms; // medians; cpu_ms: this thread's CPU time (excludes time other
                           // processes held the core, so it is steadier on a loaded machine)
@@ -136,25 +131,6 @@ void print_load() {
     std::fclose(f);
   }
   std::printf("load average (1/5/15 min): %.2f %.2f %.2f\n", load[0], load[1], load[2]);
-}
-
-ModelFile random_densenet121() {
-  const auto arch = DenseNetArchitecture::densenet121(5);
-  ModelFile m;
-  m.architecture = arch;
-  for (int i = 0; i < arch.num_classes; ++i) m.class_names.push_back("c" + std::to_string(i));
-  std::mt19937 rng(1);
-  std::normal_distribution<float> nd(0.0f, 0.05f);
-  for (const auto& s : arch.expected_tensors()) {
-    NamedTensor t{s.name, s.shape, {}};
-    std::size_t n = 1;
-    for (int d : s.shape) n *= static_cast<std::size_t>(d);
-    t.values.resize(n);
-    for (auto& v : t.values)
-      v = s.name.ends_with("running_var") ? 1.0f + std::abs(nd(rng)) : nd(rng);
-    m.tensors.push_back(std::move(t));
-  }
-  return m;
 }
 
 } // namespace
@@ -223,11 +199,8 @@ TEST_CASE("GEMM kernels: GFLOP/s and difference from the reference", "[gemm]") {
 
 TEST_CASE("DenseNet-121 forward per kernel, batch 1, 3x150x220, 1 thread", "[gemm]") {
   print_load();
-  const ModelFile model = random_densenet121();
-  Tensor x(1, 3, 150, 220);
-  std::mt19937 rng(2);
-  std::normal_distribution<float> nd;
-  for (float& v : x.values()) v = nd(rng);
+  const ModelFile model = bench::random_model(DenseNetArchitecture::densenet121(5));
+  const Tensor x = bench::random_input(150, 220);
   std::vector<float> ref;
   std::printf("\n");
   for (const auto& c : candidates()) {
@@ -263,11 +236,8 @@ TEST_CASE("DenseNet-121 forward per kernel, batch 1, 3x150x220, 1 thread", "[gem
 TEST_CASE("DenseNet-121 forward: portable vs legacy portable, alternated", "[gemm]") {
   if (!wanted("portable") || !wanted("legacy-portable")) return;
   print_load();
-  const ModelFile model = random_densenet121();
-  Tensor x(1, 3, 150, 220);
-  std::mt19937 rng(2);
-  std::normal_distribution<float> nd;
-  for (float& v : x.values()) v = nd(rng);
+  const ModelFile model = bench::random_model(DenseNetArchitecture::densenet121(5));
+  const Tensor x = bench::random_input(150, 220);
   const auto all = candidates();
   auto find = [&](const std::string& name) {
     return *std::find_if(all.begin(), all.end(),

@@ -8,9 +8,10 @@
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
 
+#include "common/bench_util.hpp"
+
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
 #include <fstream>
 #include <iostream>
@@ -19,6 +20,7 @@
 #include <vector>
 
 namespace ss = shadowsense;
+using bench::positive_int;
 
 namespace {
 
@@ -28,14 +30,6 @@ constexpr std::string_view usage =
     "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
     "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
     "default 300; 0 = sleep at once).\n";
-
-int positive_int(const char* text, const char* what) {
-  char* end = nullptr;
-  const long v = std::strtol(text, &end, 10);
-  if (end == text || *end != '\0' || v < 1 || v > 100000)
-    throw ss::InvalidArgument(std::string(what) + " '" + text + "': expected an integer 1..100000");
-  return static_cast<int>(v);
-}
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);

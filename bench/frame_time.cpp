@@ -17,6 +17,8 @@
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sim.hpp>
 
+#include "common/bench_util.hpp"
+
 #include <opencv2/core.hpp>
 
 #include <algorithm>
@@ -24,7 +26,6 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <functional>
 #include <iostream>
 #include <new>
@@ -89,6 +90,8 @@ void operator delete[](void* p, std::size_t, std::align_val_t) noexcept {
 }
 
 namespace ss = shadowsense;
+using bench::positive_int;
+using bench::thread_cpu_ms;
 
 namespace {
 
@@ -98,20 +101,6 @@ constexpr std::string_view usage =
     "touch pipeline, frame encoder, forward pass, classify, and all of it together, on robot-rig\n"
     "generator frames; prints per-frame median wall and CPU ms and heap allocations per frame\n"
     "after warm-up.\n";
-
-int positive_int(const char* text, const char* what) {
-  char* end = nullptr;
-  const long v = std::strtol(text, &end, 10);
-  if (end == text || *end != '\0' || v < 1 || v > 100000)
-    throw ss::InvalidArgument(std::string(what) + " '" + text + "': expected an integer 1..100000");
-  return static_cast<int>(v);
-}
-
-double thread_cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
-}
 
 struct StageResult {
   std::string name;

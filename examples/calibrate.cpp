@@ -13,18 +13,18 @@
 #include <shadowsense/sense/calibration.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
 
+#include "common/cli.hpp"
 #include "common/frame_source.hpp"
 
 #include <opencv2/imgproc.hpp>
 
 #include <charconv>
-#include <cmath>
+
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -34,10 +34,6 @@ using namespace shadowsense;
 namespace {
 
 constexpr const char* kProgram = "ss_calibrate";
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct Options {
   std::string empty, touch, labels, out, preview;
@@ -65,71 +61,26 @@ const char* kHelp =
     "  --help, --version\n"
     "Warnings (degenerate fits) go to stderr; see docs/calibration.md.\n";
 
-long long parse_integer(const std::string& flag, const std::string& text, long long lo,
-                        long long hi) {
-  long long v = 0;
-  const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() || v < lo || v > hi)
-    throw UsageError(flag + ": expected an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + text + "'");
-  return v;
-}
-
-double parse_number(const std::string& flag, const std::string& text, double lo, double hi) {
-  double v = 0;
-  const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() ||
-      !std::isfinite(v) || v < lo || v > hi) {
-    std::ostringstream o;
-    o << flag << ": expected a number in [" << lo << ", " << hi << "], got '" << text << "'";
-    throw UsageError(o.str());
-  }
-  return v;
-}
-
-std::optional<Options> parse(int argc, char** argv) {
+// Returns the options; throws cli::Exit once --help or --version has been answered.
+Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i], v;
-    bool has_value = false;
-    if (const auto eq = a.find('='); a.rfind("--", 0) == 0 && eq != std::string::npos) {
-      v = a.substr(eq + 1);
-      a = a.substr(0, eq);
-      has_value = true;
-    }
-    auto value = [&]() -> std::string {
-      if (has_value) return v;
-      if (i + 1 >= argc) throw UsageError(a + ": needs a value");
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kHelp;
-      return std::nullopt;
-    } else if (a == "--version") {
-      std::cout << kProgram << " shadowsense " << version_string << "\n";
-      return std::nullopt;
-    } else if (a == "--empty")
-      o.empty = value();
-    else if (a == "--touch")
-      o.touch = value();
-    else if (a == "--labels")
-      o.labels = value();
-    else if (a == "--out")
-      o.out = value();
-    else if (a == "--preview")
-      o.preview = value();
-    else if (a == "--max-empty")
-      o.max_empty = parse_integer(a, value(), 1, 100000);
-    else if (a == "--light-group-ratio")
-      o.light_group_ratio = parse_number(a, value(), 1.01, 100);
-    else if (a == "--max-side")
-      o.max_side = static_cast<int>(parse_integer(a, value(), 16, 65536));
-    else
-      throw UsageError("unknown option '" + a + "' (see --help)");
-  }
-  if (o.empty.empty()) throw UsageError("--empty is required (frames of the untouched skin)");
-  if (o.out.empty()) throw UsageError("--out is required (the calibration file to write)");
-  if (!o.labels.empty() && o.touch.empty()) throw UsageError("--labels needs --touch");
+  cli::Parser p(kProgram, "Fits a segmenter calibration from your own frames.");
+  p.help_text(kHelp);
+  p.style(cli::Style::lenient());
+  p.option("--empty", "SPEC", "frames of the untouched skin", o.empty);
+  p.option("--touch", "DIR", "frames with a hand on or over the skin", o.touch);
+  p.option("--labels", "CSV", "boxes for the touch frames", o.labels);
+  p.option("--out", "FILE", "the calibration file to write", o.out);
+  p.option("--preview", "PNG", "the fitted segmentation as a montage", o.preview);
+  p.option("--max-empty", "N", "frames taken from an empty-skin video", o.max_empty)
+      .range(1, 100000);
+  p.option("--light-group-ratio", "R", "luminance step of a new light level", o.light_group_ratio)
+      .range(1.01, 100.0);
+  p.option("--max-side", "N", "largest image side", o.max_side).range(16, 65536);
+  p.parse(argc, argv);
+  if (o.empty.empty()) throw cli::UsageError("--empty is required (frames of the untouched skin)");
+  if (o.out.empty()) throw cli::UsageError("--out is required (the calibration file to write)");
+  if (!o.labels.empty() && o.touch.empty()) throw cli::UsageError("--labels needs --touch");
   return o;
 }
 
@@ -285,11 +236,5 @@ int run(const Options& o) {
 } // namespace
 
 int main(int argc, char** argv) {
-  try {
-    const std::optional<Options> o = parse(argc, argv);
-    return o ? run(*o) : 0;
-  } catch (const std::exception& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return 2;
-  }
+  return cli::run(kProgram, [&] { return run(parse(argc, argv)); });
 }

@@ -26,18 +26,19 @@
 #include <shadowsense/shadowsense.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
+#include "common/cli.hpp"
+
 #include <opencv2/imgcodecs.hpp>
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
 #include <opencv2/videoio.hpp>
 #endif
 
-#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <map>
-#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #ifndef SHADOWSENSE_DEFAULT_MODEL
@@ -77,55 +78,37 @@ struct Options {
   int threads = 1;
 };
 
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-int parse_int(const std::string& flag, const std::string& v, int lo, int hi) {
-  int x = 0;
-  const auto r = std::from_chars(v.data(), v.data() + v.size(), x);
-  if (v.empty() || r.ec != std::errc() || r.ptr != v.data() + v.size() || x < lo || x > hi)
-    throw UsageError(flag + ": expected a whole number in " + std::to_string(lo) + ".." +
-                     std::to_string(hi) + ", got '" + v + "'");
-  return x;
-}
-
-// nullopt: --help or --version was printed.
-std::optional<Options> parse(int argc, char** argv) {
+// Returns the options; throws cli::Exit once --help or --version has been answered.
+Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw UsageError(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << usage;
-      return std::nullopt;
-    } else if (a == "--version") {
-      std::cout << "ss_classify shadowsense " << ss::version_string << "\n";
-      return std::nullopt;
-    } else if (a == "--model") {
-      o.model = value();
-    } else if (a == "--format") {
-      const std::string f = value();
-      if (f != "csv" && f != "json") throw UsageError("--format '" + f + "': expected csv or json");
-      o.json = f == "json";
-    } else if (a == "--truth") {
-      o.truth = true;
-    } else if (a == "--threads") {
-      o.threads = parse_int(a, value(), 1, 64);
-    } else if (a == "--lighting-normalise") {
-      o.force_normalise = true;
-    } else if (a.size() > 1 && a[0] == '-') {
-      throw UsageError("unknown option '" + a + "' (see --help)");
-    } else if (o.input.empty()) {
-      o.input = a;
-    } else {
-      throw UsageError("more than one INPUT ('" + o.input + "' and '" + a + "')");
-    }
-  }
-  if (o.input.empty()) throw UsageError("INPUT is required: a folder of images or a video file");
+  std::string format = "csv";
+  cli::Parser p("ss_classify", "Classifies every frame of INPUT with a shadowsense model file.");
+  p.help_text(usage);
+  cli::Style style;
+  style.equals = cli::Style::Equals::none;
+  style.repeat_replaces = true;
+  style.missing_value = [](const std::string& name) { return name + " needs a value"; };
+  p.style(std::move(style));
+  p.option("--model", "FILE", "model file", o.model);
+  p.option("--format", "csv|json", "output format", format).check([](const std::string& f) {
+    if (f != "csv" && f != "json")
+      throw cli::UsageError("--format '" + f + "': expected csv or json");
+  });
+  p.flag("--truth", "the true class is the first folder below INPUT", o.truth);
+  p.option("--threads", "N", "inference threads", o.threads)
+      .range(1, 64)
+      .expected("a whole number in 1..64");
+  p.flag("--lighting-normalise", "normalise lighting for version-1 model files", o.force_normalise);
+  p.positional("INPUT", "a folder of images or a video file", [&o](std::string_view arg) {
+    if (!o.input.empty())
+      throw cli::UsageError("more than one INPUT ('" + o.input + "' and '" + std::string(arg) +
+                            "')");
+    o.input = arg;
+  });
+  p.parse(argc, argv);
+  o.json = format == "json";
+  if (o.input.empty())
+    throw cli::UsageError("INPUT is required: a folder of images or a video file");
   return o;
 }
 
@@ -224,7 +207,7 @@ private:
 // The true class index of every image (--truth), checked before anything is classified.
 std::vector<int> truth_labels(const FrameSource& src, const fs::path& root,
                               const std::vector<std::string>& classes) {
-  if (src.is_video()) throw UsageError("--truth needs a folder of images, not a video");
+  if (src.is_video()) throw cli::UsageError("--truth needs a folder of images, not a video");
   std::vector<int> out;
   for (const auto& p : src.images()) {
     const auto rel = fs::relative(p, root);
@@ -330,11 +313,5 @@ int run(const Options& o) {
 } // namespace
 
 int main(int argc, char** argv) {
-  try {
-    const auto options = parse(argc, argv);
-    return options ? run(*options) : 0;
-  } catch (const std::exception& e) {
-    std::cerr << "ss_classify: error: " << e.what() << "\n";
-    return 2;
-  }
+  return cli::run("ss_classify", [&] { return run(parse(argc, argv)); });
 }

@@ -16,6 +16,7 @@
 #include <shadowsense/sense/calibration_file.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
+#include "common/cli.hpp"
 #include "common/frame_source.hpp"
 
 #include <opencv2/imgproc.hpp>
@@ -32,7 +33,6 @@
 #include <iostream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -42,10 +42,6 @@ using namespace shadowsense;
 namespace {
 
 constexpr const char* kProgram = "ss_track";
-
-struct UsageError : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 struct Options {
   std::string input, calibration, timestamps, format = "csv";
@@ -78,96 +74,51 @@ const char* kHelp =
     "CSV columns: frame,timestamp_ms,track_id,from,to,direction,x,y (x, y empty when the\n"
     "event has no contact position). 'to' = none is a disappear.\n";
 
-double parse_number(const std::string& flag, const std::string& text, double lo, double hi) {
-  double v = 0;
-  const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() ||
-      !std::isfinite(v) || v < lo || v > hi) {
-    std::ostringstream o;
-    o << flag << ": expected a number in [" << lo << ", " << hi << "], got '" << text << "'";
-    throw UsageError(o.str());
-  }
-  return v;
-}
-
-long long parse_integer(const std::string& flag, const std::string& text, long long lo,
-                        long long hi) {
-  long long v = 0;
-  const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() || v < lo || v > hi)
-    throw UsageError(flag + ": expected an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + text + "'");
-  return v;
-}
-
 // --tuio HOST[:PORT]: the host as given (a name or an IPv4 address), the port 1..65535.
 void parse_tuio(const std::string& spec, Options& o) {
   const auto colon = spec.rfind(':');
   o.tuio_host = spec.substr(0, colon);
-  if (o.tuio_host.empty()) throw UsageError("--tuio: expected HOST[:PORT], got '" + spec + "'");
+  if (o.tuio_host.empty())
+    throw cli::UsageError("--tuio: expected HOST[:PORT], got '" + spec + "'");
   if (colon == std::string::npos) return;
   const std::string port = spec.substr(colon + 1);
   unsigned value = 0;
   const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
   if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
-    throw UsageError("--tuio: expected a port in [1, 65535] after ':', got '" + port + "'");
+    throw cli::UsageError("--tuio: expected a port in [1, 65535] after ':', got '" + port + "'");
   o.tuio_port = static_cast<std::uint16_t>(value);
 }
 
-// Returns nullopt when --help or --version was answered.
-std::optional<Options> parse(int argc, char** argv) {
+// Returns the options; throws cli::Exit once --help or --version has been answered.
+Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i], v;
-    bool has_value = false;
-    if (const auto eq = a.find('='); a.rfind("--", 0) == 0 && eq != std::string::npos) {
-      v = a.substr(eq + 1);
-      a = a.substr(0, eq);
-      has_value = true;
-    }
-    auto value = [&]() -> std::string {
-      if (has_value) return v;
-      if (i + 1 >= argc) throw UsageError(a + ": needs a value");
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kHelp;
-      return std::nullopt;
-    } else if (a == "--version") {
-      std::cout << kProgram << " shadowsense " << version_string << "\n";
-      return std::nullopt;
-    } else if (a == "--input")
-      o.input = value();
-    else if (a == "--calibration")
-      o.calibration = value();
-    else if (a == "--timestamps")
-      o.timestamps = value();
-    else if (a == "--format") {
-      o.format = value();
-      if (o.format != "csv" && o.format != "json")
-        throw UsageError("--format: expected csv or json, got '" + o.format + "'");
-    } else if (a == "--tuio") {
-      parse_tuio(value(), o);
-    } else if (a == "--annotate")
-      o.annotate = value();
-    else if (a == "--fps")
-      o.fps = parse_number(a, value(), 0.001, 10000);
-    else if (a == "--max-frames")
-      o.max_frames = parse_integer(a, value(), 1, 1'000'000'000);
-    else if (a == "--max-side")
-      o.max_side = static_cast<int>(parse_integer(a, value(), 16, 65536));
-    else if (a == "--show" && !has_value)
-      o.show = true;
-    else if (a == "--quiet" && !has_value)
-      o.quiet = true;
-    else
-      throw UsageError("unknown option '" + a + "' (see --help)");
-  }
-  if (o.input.empty()) throw UsageError("--input is required (a folder, a video or a camera)");
+  std::string tuio;
+  cli::Parser p(kProgram, "Touch events from a folder of images, a video file or a camera.");
+  p.help_text(kHelp);
+  p.style(cli::Style::lenient());
+  p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input);
+  p.option("--calibration", "FILE", "calibration with the empty-skin model", o.calibration);
+  p.option("--timestamps", "CSV", "folder timestamps", o.timestamps);
+  p.option("--format", "csv|json", "event lines as CSV or JSON lines", o.format)
+      .check([](const std::string& f) {
+        if (f != "csv" && f != "json")
+          throw cli::UsageError("--format: expected csv or json, got '" + f + "'");
+      });
+  p.option("--tuio", "HOST[:PORT]", "also send TUIO 1.1 over UDP", tuio)
+      .check([&o](const std::string& spec) { parse_tuio(spec, o); });
+  p.option("--annotate", "DIR", "write an annotated PNG per frame into DIR", o.annotate);
+  p.option("--fps", "F", "frame rate of a folder or override for a video", o.fps)
+      .range(0.001, 10000.0);
+  p.option("--max-frames", "N", "stop after N frames", o.max_frames).range(1, 1'000'000'000);
+  p.option("--max-side", "N", "largest frame side", o.max_side).range(16, 65536);
+  p.flag("--show", "show the annotated frames in a window", o.show);
+  p.flag("--quiet", "no progress line on stderr", o.quiet);
+  p.parse(argc, argv);
+  if (o.input.empty()) throw cli::UsageError("--input is required (a folder, a video or a camera)");
   if (o.calibration.empty())
-    throw UsageError("--calibration is required (make one with ss_calibrate)");
+    throw cli::UsageError("--calibration is required (make one with ss_calibrate)");
 #ifndef SHADOWSENSE_HAVE_HIGHGUI
-  if (o.show) throw UsageError("--show: this build has no OpenCV highgui");
+  if (o.show) throw cli::UsageError("--show: this build has no OpenCV highgui");
 #endif
   return o;
 }
@@ -259,7 +210,7 @@ int run(const Options& o) {
   frames::FrameSource src = frames::FrameSource::open(o.input, o.max_side);
   std::optional<std::map<std::string, double>> stamps;
   if (!o.timestamps.empty()) {
-    if (!src.is_folder()) throw UsageError("--timestamps needs a folder --input");
+    if (!src.is_folder()) throw cli::UsageError("--timestamps needs a folder --input");
     stamps = read_timestamps(o.timestamps);
   }
   const double fps = o.fps > 0 ? o.fps : (src.fps() ? *src.fps() : 30.0);
@@ -333,11 +284,5 @@ int run(const Options& o) {
 } // namespace
 
 int main(int argc, char** argv) {
-  try {
-    const std::optional<Options> o = parse(argc, argv);
-    return o ? run(*o) : 0;
-  } catch (const std::exception& e) {
-    std::cerr << kProgram << ": error: " << e.what() << "\n";
-    return 2;
-  }
+  return cli::run(kProgram, [&] { return run(parse(argc, argv)); });
 }

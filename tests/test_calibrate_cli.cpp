@@ -9,10 +9,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <sys/wait.h>
+#include "common/run_program.hpp"
 
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -27,23 +26,11 @@ namespace {
 
 const fs::path kDir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "calibrate_cli";
 
-struct Run {
-  int status;
-  std::string out, err;
-};
-
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
+using Run = tests::ProgramRun;
+using tests::read_file;
 
 Run run(const std::string& args) {
-  fs::create_directories(kDir);
-  const fs::path out = kDir / "stdout.txt", err = kDir / "stderr.txt";
-  const std::string cmd = std::string("'") + SHADOWSENSE_SS_CALIBRATE + "' " + args + " > '" +
-                          out.string() + "' 2> '" + err.string() + "'";
-  const int raw = std::system(cmd.c_str());
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, read_all(out), read_all(err)};
+  return tests::run_program(SHADOWSENSE_SS_CALIBRATE, args, kDir);
 }
 
 std::string box_fields(const std::optional<cv::Rect>& r) {
@@ -117,7 +104,7 @@ TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from 
         std::string::npos);
   const CalibrationResult expected = calibrate_from_frames(w.empty, w.touch);
   CHECK(load_calibration(out) == expected.calibration);
-  CHECK(read_all(out) == calibration_to_string(expected.calibration));
+  CHECK(read_file(out) == calibration_to_string(expected.calibration));
   // Warnings are the same and on stderr.
   for (const CalibrationWarning& x : expected.warnings)
     CHECK(r.err.find(x.message) != std::string::npos);

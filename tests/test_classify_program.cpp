@@ -5,6 +5,8 @@
 
 #include <doctest/doctest.h>
 
+#include "common/run_program.hpp"
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -14,13 +16,10 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <sys/wait.h>
 
 #ifdef SS_CLASSIFY_PROGRAM
 
@@ -28,36 +27,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-  int status = -1;
-  std::string out, err;
-};
+using tests::shell_quote;
 
-std::string quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
-
-Run run(const std::string& args) {
-  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "classify_program";
-  fs::create_directories(dir);
-  const std::string cmd = quote(SS_CLASSIFY_PROGRAM) + " " + args + " >" +
-                          quote((dir / "out.txt").string()) + " 2>" +
-                          quote((dir / "err.txt").string());
-  const int rc = std::system(cmd.c_str());
-  Run r;
-  r.status = WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-  r.out = slurp(dir / "out.txt");
-  r.err = slurp(dir / "err.txt");
-  return r;
+tests::ProgramRun run(const std::string& args) {
+  return tests::run_program(SS_CLASSIFY_PROGRAM, args,
+                            fs::path(SHADOWSENSE_TEST_TMP_DIR) / "classify_program");
 }
 
 std::vector<std::string> lines(const std::string& s) {
@@ -98,7 +72,7 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
   CHECK(version.out.find("ss_classify shadowsense 0.") == 0);
   const fs::path dir = fresh("classify_args");
   cv::imwrite((dir / "a.png").string(), frame(0));
-  const std::string d = quote(dir.string());
+  const std::string d = shell_quote(dir.string());
   const std::vector<std::pair<std::string, std::string>> bad = {
       {"", "INPUT is required"},
       {"--threads 0 " + d, "--threads: expected a whole number in 1..64, got '0'"},
@@ -110,8 +84,8 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
       {"--model /nonexistent.ssm " + d, "/nonexistent.ssm"},
       {"--model " + d + " " + d, "is a directory"},
       {"--model /dev/zero " + d, "not a regular file"},
-      {quote((dir / "missing").string()), "no such folder or file"},
-      {quote((dir / "a.png").string()) + " --truth", ""},
+      {shell_quote((dir / "missing").string()), "no such folder or file"},
+      {shell_quote((dir / "a.png").string()) + " --truth", ""},
   };
   for (const auto& [args, message] : bad) {
     CAPTURE(args);
@@ -122,7 +96,7 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
     CHECK(r.err.find(message) != std::string::npos);
   }
   fs::create_directories(dir / "empty");
-  const auto empty = run(quote((dir / "empty").string()));
+  const auto empty = run(shell_quote((dir / "empty").string()));
   CHECK(empty.status == 2);
   CHECK(empty.err.find("no images found") != std::string::npos);
 }
@@ -135,7 +109,7 @@ TEST_CASE("--truth: accuracy and confusion counts agree with the per-frame label
       fs::create_directories(dir / cls / (i == 2 ? "nested" : ""));
       cv::imwrite((dir / cls / (i == 2 ? "nested" : "") / numbered("f", i)).string(), frame(k++));
     }
-  const auto r = run("--truth " + quote(dir.string()));
+  const auto r = run("--truth " + shell_quote(dir.string()));
   REQUIRE(r.status == 0);
   const auto out = lines(r.out);
   REQUIRE(out.size() == 7);
@@ -177,7 +151,7 @@ TEST_CASE("--truth: accuracy and confusion counts agree with the per-frame label
   // A folder whose name is not a class of the model is an error naming the image.
   fs::create_directories(dir / "wave");
   cv::imwrite((dir / "wave" / "x.png").string(), frame(0));
-  const auto unknown = run("--truth " + quote(dir.string()));
+  const auto unknown = run("--truth " + shell_quote(dir.string()));
   CHECK(unknown.status == 2);
   CHECK(unknown.err.find("true class 'wave'") != std::string::npos);
 }
@@ -187,12 +161,12 @@ TEST_CASE("awkward paths stay valid JSON and CSV") {
   const fs::path odd = dir / "we\"ird,dir";
   fs::create_directories(odd);
   cv::imwrite((odd / "f.png").string(), frame(1));
-  const auto json = run("--format json " + quote(dir.string()));
+  const auto json = run("--format json " + shell_quote(dir.string()));
   REQUIRE(json.status == 0);
   CHECK(json.out.find("\"source\":\"" + dir.string() + "/we\\\"ird,dir/f.png\"") !=
         std::string::npos);
   CHECK(json.out.find("\"probabilities\":{\"nothing\":") != std::string::npos);
-  const auto csv = run(quote(dir.string()));
+  const auto csv = run(shell_quote(dir.string()));
   REQUIRE(csv.status == 0);
   CHECK(csv.out.find("0,\"" + dir.string() + "/we\"\"ird,dir/f.png\",0,") != std::string::npos);
 }
@@ -215,8 +189,8 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
   for (cv::Mat f; cap.read(f) && !f.empty(); ++n)
     cv::imwrite((dir / "frames" / numbered("f", n)).string(), f);
   REQUIRE(n == 5);
-  const auto from_video = lines(run(quote(video.string())).out);
-  const auto from_folder = lines(run(quote((dir / "frames").string())).out);
+  const auto from_video = lines(run(shell_quote(video.string())).out);
+  const auto from_folder = lines(run(shell_quote((dir / "frames").string())).out);
   REQUIRE(from_video.size() == 6);
   REQUIRE(from_folder.size() == 6);
   CHECK(from_video[0] == from_folder[0]);
@@ -229,7 +203,7 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
     CHECK(tail(from_video[i]) == tail(from_folder[i]));
     CHECK(from_video[i].find(video.string() + "#" + std::to_string(i - 1)) != std::string::npos);
   }
-  const auto truth = run("--truth " + quote(video.string()));
+  const auto truth = run("--truth " + shell_quote(video.string()));
   CHECK(truth.status == 2);
   CHECK(truth.err.find("--truth needs a folder of images") != std::string::npos);
 }

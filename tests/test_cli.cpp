@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -207,6 +208,120 @@ TEST_CASE("positional arguments when declared") {
   f.parse({"a.png", "--out", "x", "b.png", "-"});
   CHECK(f.images == std::vector<std::string>{"a.png", "b.png", "-"});
   CHECK(f.p.help().starts_with("usage: ss_test [options] IMAGE...\n"));
+}
+
+TEST_CASE("a documented command line of its own: help text, wording, '=' and repeats") {
+  // Parses `args` with a parser in `style` declaring --n (1..9, own wording), --f (own check),
+  // a flag --q and positional arguments taken one at a time; the error message or "".
+  struct Own {
+    int n = 5;
+    std::string f = "a";
+    bool q = false;
+    std::vector<std::string> taken;
+    std::ostringstream printed;
+    std::string run(cli::Style style, std::vector<const char*> args) {
+      cli::Parser p("ss_own", "unused");
+      p.help_text("usage: ss_own [--n N] [--f a|b] [--q] ARG\nverbatim\n");
+      p.style(std::move(style));
+      p.option("--n", "N", "n", n).range(1, 9).expected("a digit 1..9");
+      p.option("--f", "F", "f", f).check([](const std::string& v) {
+        if (v != "a" && v != "b") throw cli::UsageError("--f '" + v + "': expected a or b");
+      });
+      p.flag("--q", "q", q);
+      p.positional("ARG", "arguments", [this](std::string_view a) {
+        if (a == "stop") throw cli::UsageError("no 'stop' please");
+        taken.emplace_back(a);
+      });
+      args.insert(args.begin(), "ss_own");
+      try {
+        p.parse(static_cast<int>(args.size()), args.data(), printed);
+      } catch (const cli::UsageError& e) {
+        return e.what();
+      }
+      return "";
+    }
+  };
+  using E = cli::Style::Equals;
+  const cli::Style plain;
+  cli::Style cut, none;
+  cut.equals = E::cut;
+  cut.repeat_replaces = true;
+  cut.missing_value = [](const std::string& n) { return n + ": needs a value"; };
+  none.equals = E::none;
+  const cli::Style lenient = cli::Style::lenient();
+
+  // The help text is printed as given, whatever the style.
+  for (const cli::Style* s : std::initializer_list<const cli::Style*>{&plain, &cut, &none}) {
+    Own o;
+    CHECK_THROWS_AS(o.run(*s, {"--help"}), cli::Exit);
+    CHECK(o.printed.str() == "usage: ss_own [--n N] [--f a|b] [--q] ARG\nverbatim\n");
+  }
+  // expected() rewords the value's description; the range still applies.
+  CHECK(Own().run(plain, {"--n", "0"}) == "--n: expected a digit 1..9, got '0'");
+  CHECK(Own().run(plain, {"--n", "x"}) == "--n: expected a digit 1..9, got 'x'");
+  CHECK(Own().run(plain, {"--n"}) == "--n: missing value (expected N, a digit 1..9)");
+  // check() runs on values that passed, before they are stored, and its message stands.
+  Own c;
+  CHECK(c.run(plain, {"--f", "b"}) == "");
+  CHECK(c.f == "b");
+  Own d;
+  CHECK(d.run(plain, {"--f", "z"}) == "--f 'z': expected a or b");
+  CHECK(d.f == "a");
+  // A positional function sees every argument in order, and its error stops the parse there.
+  Own e;
+  CHECK(e.run(plain, {"x", "--n", "2", "-", "y"}) == "");
+  CHECK(e.taken == std::vector<std::string>{"x", "-", "y"});
+  Own g;
+  CHECK(g.run(plain, {"x", "stop", "--bogus"}) == "no 'stop' please");
+  CHECK(g.taken == std::vector<std::string>{"x"});
+
+  // Equals::cut: values after '=', "--help=..." is --help, "--q=..." an unknown option; repeats
+  // replace; the missing-value wording is the style's.
+  Own h;
+  CHECK(h.run(cut, {"--n=3", "--n", "4", "--f=b", "--q", "--q"}) == "");
+  CHECK(h.n == 4);
+  CHECK(h.f == "b");
+  CHECK(h.q);
+  CHECK_THROWS_AS(Own().run(cut, {"--help=1"}), cli::Exit);
+  CHECK_THROWS_AS(Own().run(cut, {"--version=x"}), cli::Exit);
+  CHECK(Own().run(cut, {"--q=1"}) == "unknown option '--q' (see --help)");
+  CHECK(Own().run(cut, {"--n"}) == "--n: needs a value");
+  CHECK(Own().run(cut, {"--bogus=1"}) == "unknown option '--bogus' (see --help)");
+  // The default style for the same arguments.
+  CHECK(Own().run(plain, {"--n", "3", "--n", "4"}) == "--n: given more than once");
+  CHECK(Own().run(plain, {"--help=1"}) == "unknown option '--help' (see --help)");
+  CHECK(Own().run(plain, {"--q=1"}) == "--q: takes no value");
+  // Equals::none: '=' belongs to the name.
+  Own k;
+  CHECK(k.run(none, {"--n", "2"}) == "");
+  CHECK(k.n == 2);
+  CHECK(Own().run(none, {"--n=2"}) == "unknown option '--n=2' (see --help)");
+  CHECK(Own().run(none, {"--q=1"}) == "unknown option '--q=1' (see --help)");
+  CHECK(Own().run(none, {"--help=1"}) == "unknown option '--help=1' (see --help)");
+  CHECK(Own().run(none, {"--q", "--q"}) == "--q: given more than once");
+
+  // Style::lenient(): cut at '=', repeats replace, its own wording for a missing value and, with
+  // no positional() declared, for a stray argument.
+  const auto stray = [](const cli::Style& s, const char* arg) {
+    cli::Parser p("ss_own", "unused");
+    p.style(s);
+    const char* argv[] = {"ss_own", arg};
+    try {
+      p.parse(2, argv);
+    } catch (const cli::UsageError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  CHECK(stray(lenient, "foo") == "unknown option 'foo' (see --help)");
+  CHECK(stray(lenient, "-") == "unknown option '-' (see --help)");
+  CHECK(stray(plain, "foo") == "unexpected argument 'foo'");
+  Own m;
+  CHECK(m.run(lenient, {"--n=3", "--n", "4", "--q", "--q"}) == "");
+  CHECK(m.n == 4);
+  CHECK(Own().run(lenient, {"--n"}) == "--n: needs a value");
+  CHECK(Own().run(lenient, {"--q=1"}) == "unknown option '--q' (see --help)");
+  CHECK_THROWS_AS(Own().run(lenient, {"--help=1"}), cli::Exit);
 }
 
 TEST_CASE("declaring a bad option is a programming error") {

@@ -7,13 +7,10 @@
 
 #include <doctest/doctest.h>
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/time.h>
-#include <unistd.h>
+#include "common/local_udp.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -71,32 +68,6 @@ std::string text(const OscMessage& m) {
   return s;
 }
 
-// A UDP socket on 127.0.0.1 with an ephemeral port and a 2 s receive timeout.
-struct LocalUdp {
-  int fd = -1;
-  std::uint16_t port = 0;
-  LocalUdp() {
-    fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-    REQUIRE(fd >= 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
-    socklen_t len = sizeof a;
-    REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0);
-    port = ntohs(a.sin_port);
-    timeval tv{2, 0};
-    REQUIRE(::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) == 0);
-  }
-  ~LocalUdp() { ::close(fd); }
-  std::optional<Bytes> receive() {
-    Bytes b(65536);
-    const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
-    if (n < 0) return std::nullopt;
-    b.resize(static_cast<std::size_t>(n));
-    return b;
-  }
-};
 } // namespace
 
 TEST_CASE("one bundle per profile: alive, set per contact / shadow, fseq; values normalised") {
@@ -261,7 +232,7 @@ TEST_CASE("host:port parsing and unresolvable hosts") {
 }
 
 TEST_CASE("TuioSink over UDP: the datagrams that arrive are the encoder's bundles") {
-  LocalUdp rx;
+  const tests::LocalUdp rx(std::chrono::seconds(2));
   TuioSink sink("127.0.0.1", rx.port);
   static_assert(EventSink<TuioSink>);
   sink.write(frame_at(5, 500.0, 40.0f));

@@ -12,16 +12,12 @@
 #include <opencv2/videoio.hpp>
 #endif
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
+#include "common/local_udp.hpp"
+#include "common/run_program.hpp"
 
+#include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -110,61 +106,14 @@ std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
   return o.str();
 }
 
-struct Run {
-  int status;
-  std::string out, err;
-};
-
-std::string read_all(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
+using Run = tests::ProgramRun;
 
 Run run(const std::string& args) {
-  fs::create_directories(kDir);
-  const fs::path out = kDir / "stdout.txt", err = kDir / "stderr.txt";
-  const std::string cmd = std::string("'") + SHADOWSENSE_SS_TRACK + "' " + args + " > '" +
-                          out.string() + "' 2> '" + err.string() + "'";
-  const int raw = std::system(cmd.c_str());
-  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, read_all(out), read_all(err)};
+  return tests::run_program(SHADOWSENSE_SS_TRACK, args, kDir);
 }
 
-// A UDP socket on 127.0.0.1 with an ephemeral port; receive() waits at most 1 s.
-struct LocalUdp {
-  int fd = -1;
-  std::uint16_t port = 0;
-  LocalUdp() {
-    fd = ::socket(AF_INET, SOCK_DGRAM, 0);
-    REQUIRE(fd >= 0);
-    sockaddr_in a{};
-    a.sin_family = AF_INET;
-    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    REQUIRE(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0);
-    socklen_t len = sizeof a;
-    REQUIRE(::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len) == 0);
-    port = ntohs(a.sin_port);
-    const int buffer = 1 << 20; // every datagram of the run fits while the program runs
-    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &buffer, sizeof buffer);
-    timeval tv{1, 0};
-    REQUIRE(::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv) == 0);
-  }
-  LocalUdp(const LocalUdp&) = delete;
-  LocalUdp& operator=(const LocalUdp&) = delete;
-  ~LocalUdp() { ::close(fd); }
-  std::optional<std::vector<std::uint8_t>> receive() const {
-    std::vector<std::uint8_t> b(65536);
-    const ssize_t n = ::recv(fd, b.data(), b.size(), 0);
-    if (n < 0) return std::nullopt;
-    b.resize(static_cast<std::size_t>(n));
-    return b;
-  }
-};
-
-} // namespace
-
-TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same frames") {
-  const std::vector<cv::Mat> frames = render_sequence();
-  const fs::path folder = kDir / "frames";
+// `frames` as f000.png, f001.png, ... in `folder` (emptied first).
+void write_pngs(const std::vector<cv::Mat>& frames, const fs::path& folder) {
   fs::remove_all(folder);
   fs::create_directories(folder);
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -172,6 +121,14 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
     std::snprintf(name, sizeof name, "f%03zu.png", i);
     REQUIRE(cv::imwrite((folder / name).string(), frames[i]));
   }
+}
+
+} // namespace
+
+TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same frames") {
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames";
+  write_pngs(frames, folder);
   const std::string expected = expected_csv(frames, 13.0, calibration_path());
   // The script's touch: appear, touch, move right, lift and disappear are all there.
   CHECK(expected.find(",none,appear,") != std::string::npos);
@@ -260,14 +217,8 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
           "cursor") {
   const std::vector<cv::Mat> frames = render_sequence();
   const fs::path folder = kDir / "frames_tuio";
-  fs::remove_all(folder);
-  fs::create_directories(folder);
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    char name[32];
-    std::snprintf(name, sizeof name, "f%03zu.png", i);
-    REQUIRE(cv::imwrite((folder / name).string(), frames[i]));
-  }
-  const LocalUdp udp;
+  write_pngs(frames, folder);
+  const tests::LocalUdp udp(std::chrono::seconds(1));
   const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
                     "' --fps 13 --quiet --tuio 127.0.0.1:" + std::to_string(udp.port));
   INFO(r.err);

@@ -29,6 +29,11 @@
 // then the option's range is checked. An option may be given once, except list and repeated
 // options: the first occurrence replaces the default, later ones append.
 //
+// A program whose documented command line predates these conventions keeps it: a help text of
+// its own (Parser::help_text), its own wording for a value's expectation or check
+// (Declared::expected, Declared::check), for positional arguments (positional with a function)
+// and for the parser's own few choices (Style: '=' handling, repeats, a missing value).
+//
 // Threading: a Parser is used by one thread (declare, then parse once).
 #pragma once
 
@@ -102,7 +107,10 @@ struct Constraint {
   bool has_range = false;
   T lo{}, hi{};
   std::vector<std::string> choices;
+  std::string expected_text;           // replaces the generated wording when not empty
+  std::function<void(const T&)> check; // called on every value that passed the rest
   std::string expected() const {
+    if (!expected_text.empty()) return expected_text;
     if (!choices.empty()) {
       std::string s = "one of ";
       for (std::size_t i = 0; i < choices.size(); ++i) s += (i ? ", " : "") + choices[i];
@@ -128,11 +136,14 @@ struct Constraint {
       if constexpr (std::floating_point<T>)
         if (!std::isfinite(v)) throw fail();
       if (has_range && (v < lo || v > hi)) throw fail();
+      if (check) check(v);
       return v;
     } else {
       if (!choices.empty() && std::find(choices.begin(), choices.end(), text) == choices.end())
         throw fail();
-      return T(std::string(text));
+      T v(std::string{text});
+      if (check) check(v);
+      return v;
     }
   }
 };
@@ -175,10 +186,57 @@ public:
     o_->default_text = std::move(text);
     return *this;
   }
+  // ensures: `text` replaces the generated description of an acceptable value (e.g. "an
+  // integer in [1, 64]") in errors and --help; the checks themselves are unchanged.
+  Declared& expected(std::string text) {
+    c_->expected_text = std::move(text);
+    return *this;
+  }
+  // ensures: every value that passed the option's other checks is handed to `f` before it is
+  // stored (for a list, each item); `f` rejects a value by throwing UsageError with the message
+  // the program wants. requires: f outlives parse().
+  Declared& check(std::function<void(const T&)> f) {
+    c_->check = std::move(f);
+    return *this;
+  }
 
 private:
   detail::Option* o_;
   std::shared_ptr<detail::Constraint<T>> c_;
+};
+
+// How a Parser treats '=' and repeated options and words a missing value. The defaults are the
+// conventions above.
+struct Style {
+  enum class Equals {
+    value, // "--opt=value" gives the option its value; "--flag=x" is an error ("takes no value")
+    cut,   // every argument starting with "--" is cut at its first '=' before it is matched:
+           // "--opt=value" gives the value, "--help=x" is --help, "--flag=x" an unknown option
+           // "--flag"
+    none,  // '=' is part of the name: "--opt=value" is an unknown option
+  };
+  Equals equals = Equals::value;
+  // An option given again replaces its earlier value (false: the error "given more than once").
+  // List and repeated options append either way.
+  bool repeat_replaces = false;
+  // The error for an option whose value is missing, from the option's name (unset: "<name>:
+  // missing value (expected VALUE, ...)").
+  std::function<std::string(const std::string& name)> missing_value;
+  // The error for an argument not starting with '-' when no positional() is declared, from the
+  // argument (unset: "unexpected argument '<arg>'").
+  std::function<std::string(std::string_view arg)> unexpected_argument;
+
+  // The command line of ss_calibrate and ss_track as they document it: '=' cut, repeats
+  // replace, "<name>: needs a value", a stray argument "unknown option '<arg>' (see --help)".
+  static Style lenient() {
+    return {.equals = Equals::cut,
+            .repeat_replaces = true,
+            .missing_value = [](const std::string& name) { return name + ": needs a value"; },
+            .unexpected_argument =
+                [](std::string_view arg) {
+                  return "unknown option '" + std::string(arg) + "' (see --help)";
+                }};
+  }
 };
 
 class Parser {
@@ -190,6 +248,12 @@ public:
 
   // Usage lines shown by --help instead of "<program> [options]" (one per mode of the program).
   void usage(std::string line) { usage_.push_back(std::move(line)); }
+
+  // ensures: --help prints `text` exactly as given instead of the generated help.
+  void help_text(std::string text) { help_text_ = std::move(text); }
+
+  // ensures: parse() follows `s` (see Style).
+  void style(Style s) { style_ = std::move(s); }
 
   // An option with one value, parsed into `target` (whose current value is the default).
   // T: std::string, std::filesystem::path, an integer type or a floating-point type.
@@ -230,9 +294,16 @@ public:
   // error).
   void positional(std::string value_name, std::string description,
                   std::vector<std::string>& target) {
+    positional(std::move(value_name), std::move(description),
+               [&target](std::string_view arg) { target.emplace_back(arg); });
+  }
+  // The same, each argument handed to `take` in command-line order; `take` may throw
+  // UsageError (e.g. for one argument too many). requires: take outlives parse().
+  void positional(std::string value_name, std::string description,
+                  std::function<void(std::string_view)> take) {
     positional_name_ = std::move(value_name);
     positional_description_ = std::move(description);
-    positional_ = &target;
+    positional_ = std::move(take);
   }
 
   // Whether the option was on the command line (after parse()).
@@ -245,28 +316,38 @@ public:
   // Parses argv[1..argc-1] into the bound variables.
   // ensures: on --help / -h or --version, prints to `out` and throws Exit{0}.
   // throws: UsageError for an unknown option, a missing or malformed value, an option given twice
-  // (except list/repeated ones) or a missing required option.
+  // (except list/repeated ones, or any with Style::repeat_replaces) or a missing required option.
   void parse(int argc, const char* const* argv, std::ostream& out = std::cout) {
+    using Equals = Style::Equals;
     for (int i = 1; i < argc; ++i) {
       const std::string_view arg = argv[i];
-      if (arg == "--help" || arg == "-h") {
+      const std::size_t eq = arg.starts_with("--") && style_.equals != Equals::none
+                                 ? arg.find('=')
+                                 : std::string_view::npos;
+      const std::string_view head = style_.equals == Equals::cut ? arg.substr(0, eq) : arg;
+      if (head == "--help" || head == "-h") {
         out << help();
         throw Exit{0};
       }
-      if (arg == "--version") {
+      if (head == "--version") {
         out << program_ << " shadowsense " << shadowsense::version_string << "\n";
         throw Exit{0};
       }
       if (arg.size() < 2 || arg[0] != '-') {
-        if (!positional_) throw UsageError("unexpected argument '" + std::string(arg) + "'");
-        positional_->emplace_back(arg);
+        if (!positional_)
+          throw UsageError(style_.unexpected_argument
+                               ? style_.unexpected_argument(arg)
+                               : "unexpected argument '" + std::string(arg) + "'");
+        positional_(arg);
         continue;
       }
-      const std::size_t eq = arg.starts_with("--") ? arg.find('=') : std::string_view::npos;
       const std::string name(arg.substr(0, eq));
       detail::Option* o = find(name);
+      if (o && !o->takes_value && eq != std::string_view::npos && style_.equals == Equals::cut)
+        o = nullptr; // "--flag=x": no option of that spelling
       if (!o) throw UsageError("unknown option '" + name + "' (see --help)");
-      if (o->seen && !o->many) throw UsageError(name + ": given more than once");
+      if (o->seen && !o->many && !style_.repeat_replaces)
+        throw UsageError(name + ": given more than once");
       if (!o->takes_value) {
         if (eq != std::string_view::npos) throw UsageError(name + ": takes no value");
         o->assign({});
@@ -274,8 +355,10 @@ public:
         o->assign(arg.substr(eq + 1));
       } else {
         if (i + 1 >= argc)
-          throw UsageError(name + ": missing value (expected " + o->value_name +
-                           (o->expected().empty() ? "" : ", " + o->expected()) + ")");
+          throw UsageError(style_.missing_value
+                               ? style_.missing_value(name)
+                               : name + ": missing value (expected " + o->value_name +
+                                     (o->expected().empty() ? "" : ", " + o->expected()) + ")");
         o->assign(argv[++i]);
       }
       o->seen = true;
@@ -288,9 +371,10 @@ public:
     parse(argc, const_cast<const char* const*>(argv), out);
   }
 
-  // The --help text: usage lines, summary, then one entry per option with its description,
-  // accepted values and default.
+  // The --help text: the one given to help_text(), else usage lines, summary, then one entry
+  // per option with its description, accepted values and default.
   std::string help() const {
+    if (!help_text_.empty()) return help_text_;
     std::string s;
     if (usage_.empty())
       s += "usage: " + program_ + " [options]" +
@@ -398,10 +482,11 @@ private:
     return nullptr;
   }
 
-  std::string program_, summary_, positional_name_, positional_description_;
+  std::string program_, summary_, positional_name_, positional_description_, help_text_;
   std::vector<std::string> usage_;
   std::vector<std::unique_ptr<detail::Option>> options_;
-  std::vector<std::string>* positional_ = nullptr;
+  std::function<void(std::string_view)> positional_; // unset: positional arguments are errors
+  Style style_;
 };
 
 // Runs a program's body: returns what it returns; Exit{code} -> code; any exception -> one line
