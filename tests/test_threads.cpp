@@ -169,7 +169,7 @@ TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins 
   // The workers poll for new work for spin_us, then sleep: calls back to back (caught while
   // polling) and calls after a pause longer than spin_us (a sleeping worker woken) must both
   // run each task once and return only when all are done.
-  for (const auto [threads, spin_us] : {std::pair{2, 300}, std::pair{3, 300}, std::pair{2, 0}}) {
+  for (const auto& [threads, spin_us] : {std::pair{2, 300}, std::pair{3, 300}, std::pair{2, 0}}) {
     detail::ThreadPool pool(threads, spin_us);
     std::vector<std::atomic<int>> hits(64);
     for (int call = 0; call < 300; ++call) {
