@@ -3,6 +3,8 @@
 // constructed frame, and the frame-level ROC on four generator frames with a known outcome.
 #include <shadowsense/eval/track_eval.hpp>
 
+#include "common/sim_box.hpp"
+
 #include <doctest/doctest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -24,13 +26,10 @@ double mann_whitney(const std::vector<double>& pos, const std::vector<double>& n
 }
 
 sim::Renderer& renderer() {
-  static sim::Renderer r(sim::Rig::tracking_box());
-  return r;
+  return test::box_renderer();
 }
-
 const SimCalibration& calibration() {
-  static const SimCalibration c = calibrate_on_sim(renderer(), 0xCA11B, 60);
-  return c;
+  return test::box_calibration();
 }
 
 sim::Frame frame(sim::TrackCategory c, std::uint64_t seed) {

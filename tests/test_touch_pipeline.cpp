@@ -4,6 +4,8 @@
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
+#include "common/sim_box.hpp"
+
 #include <doctest/doctest.h>
 
 #include <filesystem>
@@ -17,13 +19,10 @@ using namespace shadowsense;
 namespace {
 
 sim::Renderer& renderer() {
-  static sim::Renderer r(sim::Rig::tracking_box());
-  return r;
+  return test::box_renderer();
 }
-
 const SimCalibration& calibration() {
-  static const SimCalibration c = calibrate_on_sim(renderer(), 0xCA11B, 60);
-  return c;
+  return test::box_calibration();
 }
 
 sim::HandPose finger(double x_cm, double y_cm, double height_cm, double rotation_deg = -90) {

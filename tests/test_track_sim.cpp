@@ -4,6 +4,8 @@
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
 
+#include "common/sim_box.hpp"
+
 #include <doctest/doctest.h>
 
 #include <string>
@@ -14,13 +16,10 @@ using namespace shadowsense;
 namespace {
 
 sim::Renderer& renderer() {
-  static sim::Renderer r(sim::Rig::tracking_box());
-  return r;
+  return test::box_renderer();
 }
-
 const SimCalibration& calibration() {
-  static const SimCalibration c = calibrate_on_sim(renderer(), 0xCA11B, 60);
-  return c;
+  return test::box_calibration();
 }
 
 sim::HandPose finger_at(double x_cm, double y_cm, double rotation_deg = -90) {

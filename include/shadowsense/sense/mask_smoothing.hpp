@@ -35,6 +35,7 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -111,43 +112,29 @@ public:
       k == 3 ? small<3>(mask) : small<5>(mask);
       return;
     }
-    switch (kx) { // the common sizes unrolled (one pass per row, vectorised)
-    case 1:
-      horizontal<1>(mask);
-      break;
-    case 3:
-      horizontal<3>(mask);
-      break;
-    case 5:
-      horizontal<5>(mask);
-      break;
-    case 7:
-      horizontal<7>(mask);
-      break;
-    default:
-      horizontal<0>(mask);
-      break;
-    }
-    switch (ky) {
-    case 1:
-      vertical<1>(mask);
-      break;
-    case 3:
-      vertical<3>(mask);
-      break;
-    case 5:
-      vertical<5>(mask);
-      break;
-    case 7:
-      vertical<7>(mask);
-      break;
-    default:
-      vertical<0>(mask);
-      break;
-    }
+    // The common sizes unrolled (one pass per row, vectorised).
+    with_unrolled(kx, [&](auto n) { horizontal<decltype(n)::value>(mask); });
+    with_unrolled(ky, [&](auto n) { vertical<decltype(n)::value>(mask); });
   }
 
 private:
+  // f(std::integral_constant<int, size>) for the unrolled sizes 1, 3, 5 and 7, else
+  // f(std::integral_constant<int, 0>) (the generic loop).
+  template <class F>
+  static void with_unrolled(int size, F&& f) {
+    switch (size) {
+    case 1:
+      return f(std::integral_constant<int, 1>{});
+    case 3:
+      return f(std::integral_constant<int, 3>{});
+    case 5:
+      return f(std::integral_constant<int, 5>{});
+    case 7:
+      return f(std::integral_constant<int, 7>{});
+    default:
+      return f(std::integral_constant<int, 0>{});
+    }
+  }
   // k = 3 and 5: the taps are g w with g = 64, w = (1 2 1) and g = 16, w = (1 4 6 4 1). With g
   // taken out, h' = sum w p < 2^12 and V = sum w h' < 2^16, and acc = g^2 V; so out > 127
   // exactly when V >= (2^23 - 2^15) / g^2 (2040 and 32640, both exact).
