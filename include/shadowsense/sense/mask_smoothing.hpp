@@ -176,16 +176,24 @@ private:
     }
   }
 
+  // A pass's taps in 16-bit lanes: K = 1 is one tap of 256 (a side of length 1 is not
+  // blurred), K = 0 the k_ taps of the generic loop.
+  template <int K>
+  std::array<std::uint16_t, 31> lane_taps() const {
+    const int n = K == 0 ? k_ : K;
+    std::array<std::uint16_t, 31> c{};
+    for (int t = 0; t < n; ++t)
+      c[static_cast<std::size_t>(t)] =
+          K == 1 ? std::uint16_t{256}
+                 : static_cast<std::uint16_t>(taps_[static_cast<std::size_t>(t)]);
+    return c;
+  }
+
   // Horizontal pass into horizontal_: 8.8 fixed point, exact (at most 255 * 256). K = 0: k_ taps.
   template <int K>
   void horizontal(const cv::Mat& mask) {
     const int n = K == 0 ? k_ : K, r = n / 2, w = mask.cols;
-    const std::array<int, 31> one{256};
-    const std::array<int, 31>& taps = K == 1 ? one : taps_;
-    std::array<std::uint16_t, 31> c{};
-    for (int t = 0; t < n; ++t)
-      c[static_cast<std::size_t>(t)] =
-          static_cast<std::uint16_t>(taps[static_cast<std::size_t>(t)]);
+    const std::array<std::uint16_t, 31> c = lane_taps<K>();
     for (int y = 0; y < mask.rows; ++y) {
       const uchar* src = mask.ptr<uchar>(y);
       std::uint8_t* __restrict pad = padded_.data();
@@ -210,12 +218,7 @@ private:
   template <int K>
   void vertical(cv::Mat& mask) {
     const int n = K == 0 ? k_ : K, r = n / 2, w = mask.cols, h = mask.rows;
-    const std::array<int, 31> one{256};
-    const std::array<int, 31>& taps = K == 1 ? one : taps_;
-    std::array<std::uint16_t, 31> c{};
-    for (int t = 0; t < n; ++t)
-      c[static_cast<std::size_t>(t)] =
-          static_cast<std::uint16_t>(taps[static_cast<std::size_t>(t)]);
+    const std::array<std::uint16_t, 31> c = lane_taps<K>();
     constexpr std::uint16_t on = 32640;
     std::array<const std::uint16_t*, 31> rows{};
     for (int y = 0; y < h; ++y) {
