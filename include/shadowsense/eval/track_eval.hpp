@@ -14,8 +14,8 @@
 //   `cue` with the thresholds moved by `offset` (darkness: d >= tc + offset; warmth: shadow and
 //   w >= tw + offset; joint / joint_sharp: d >= tc + offset and w >= tw + offset); shadow =
 //   d >= ts or contact. With cue joint and offset 0 its masks equal RelativeRule's exactly.
-//   Immutable during classify; with shared_offset set, the offset is read through it (then
-//   rules sharing one offset belong to one thread).
+//   Immutable during classify; ContactRoc moves its segmenters' rules along the sweep through
+//   BasicSegmenter::rule().
 // ContactRoc(shipped, offsets)
 //   requires: shipped is a relative-mode Segmenter with an empty-skin model; offsets non-empty,
 //             finite, in [-1, 1], strictly increasing, one of them 0 (the shipped thresholds).
@@ -57,9 +57,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -219,13 +219,9 @@ struct ContactSweepRule {
   RelativeRule relative;
   ContactCue cue = ContactCue::joint;
   float offset = 0;
-  // When set, the offset is the value this points to at classify time instead (ContactRoc moves
-  // one segmenter along the sweep this way rather than holding one segmenter per offset).
-  std::shared_ptr<const float> shared_offset{};
 
   void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
     relative.classify(in, out);
-    const float offset = shared_offset ? *shared_offset : this->offset;
     if ((cue == ContactCue::joint || cue == ContactCue::joint_sharp) && offset == 0) return;
     const LightThresholds th = relative.thresholds_at(detail::luminance(in.reference));
     const float ts = th.shadow_darkness, tc = th.contact_darkness + offset,
@@ -371,8 +367,7 @@ public:
     const RelativeRule relative{cal.shadow_darkness, cal.contact_darkness, cal.contact_warmth,
                                 cal.by_light};
     for (std::size_t c = 0; c < kPixelCues; ++c)
-      segmenters_.emplace_back(
-          config, ContactSweepRule{relative, static_cast<ContactCue>(c), 0.f, offset_});
+      segmenters_.emplace_back(config, ContactSweepRule{relative, static_cast<ContactCue>(c), 0.f});
   }
 
   void add(const cv::Mat& bgr, const std::optional<cv::Rect>& true_contact, bool positive) {
@@ -381,7 +376,7 @@ public:
     f.truth = true_contact;
     for (std::size_t c = 0; c < kPixelCues; ++c)
       for (std::size_t k = 0; k < offsets_.size(); ++k) {
-        *offset_ = offsets_[k];
+        segmenters_[c].rule().offset = offsets_[k]; // one segmenter per cue, moved along
         segmenters_[c].segment(bgr, scratch_);
         std::vector<Candidate> blobs;
         for (const Blob& b : scratch_.contacts) blobs.push_back({b.box, b.edge_width});
@@ -451,8 +446,7 @@ private:
   };
   std::vector<float> offsets_;
   std::size_t shipped_ = 0;
-  std::shared_ptr<float> offset_ = std::make_shared<float>(0.f); // read by the segmenters' rules
-  std::vector<BasicSegmenter<ContactSweepRule>> segmenters_;     // one per pixel cue
+  std::vector<BasicSegmenter<ContactSweepRule>> segmenters_; // one per pixel cue
   std::vector<Frame> frames_;
   Segmentation scratch_;
   int positives_ = 0, negatives_ = 0;

@@ -264,6 +264,9 @@ public:
 
   const Config& config() const { return config_; }
   const Rule& rule() const { return rule_; }
+  // The rule may be changed between frames (e.g. a threshold swept by an evaluation); it is
+  // part of the instance, under the same one-thread contract.
+  Rule& rule() { return rule_; }
 
 private:
   static Rule make_rule(const Config& c) {
