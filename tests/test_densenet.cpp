@@ -73,7 +73,10 @@ TEST_CASE("compact DenseNet fixture: logits equal torchvision's for every kernel
   REQUIRE(m.self_test.has_value());
   for (auto kernel : available_kernels())
     for (int threads : {1, 2}) {
-      DenseNet net(m, {.threads = threads, .kernel = kernel});
+      DenseNet net(
+          m, {.threads = threads,
+              .kernel = kernel,
+              .conv3x3 = threads == 1 ? DenseNet::Conv3x3::winograd : DenseNet::Conv3x3::direct});
       const std::string kernel_name = net.kernel_name();
       CAPTURE(kernel_name);
       CAPTURE(threads);
@@ -178,9 +181,17 @@ TEST_CASE("DenseNet-121 and DenseNet-161, random weights, 3x150x220: equal to to
     const auto path = generate(arch);
     const auto m = ModelFile::load(path);
     REQUIRE(m.self_test.has_value());
-    DenseNet net(m, {.threads = 2, .run_self_test = false});
-    const double diff = check_against_torchvision(net, *m.self_test);
-    MESSAGE(arch, ": max abs diff of logits vs torchvision ", diff);
+    for (auto conv :
+         {DenseNet::Conv3x3::automatic, DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd}) {
+      const int method = static_cast<int>(conv);
+      CAPTURE(method);
+      DenseNet net(m, {.threads = 2, .conv3x3 = conv, .run_self_test = false});
+      const double diff = check_against_torchvision(net, *m.self_test);
+      const std::string name = conv == DenseNet::Conv3x3::automatic ? "automatic"
+                               : conv == DenseNet::Conv3x3::direct  ? "direct"
+                                                                    : "winograd";
+      MESSAGE(arch, " conv3x3 ", name, ": max abs diff of logits vs torchvision ", diff);
+    }
     std::filesystem::remove(path);
   }
 }

@@ -170,28 +170,134 @@ TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision a
     const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/" + file);
     REQUIRE(m.self_test.has_value());
     const auto& st = *m.self_test;
-    DenseNet reference(m, {.kernel = GemmKernelKind::reference, .run_self_test = false});
+    DenseNet reference(m, {.kernel = GemmKernelKind::reference,
+                           .conv3x3 = DenseNet::Conv3x3::direct,
+                           .run_self_test = false});
     const std::vector<float> ref(reference.logits(st.input).begin(),
                                  reference.logits(st.input).end());
     for (auto kind : detail::available_kernels())
-      for (int threads : {1, 2}) {
-        DenseNet net(m, {.threads = threads, .kernel = kind, .run_self_test = false});
-        const std::string name = net.kernel_name();
+      for (auto conv : {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd})
+        for (int threads : {1, 2}) {
+          DenseNet net(
+              m, {.threads = threads, .kernel = kind, .conv3x3 = conv, .run_self_test = false});
+          const std::string name = net.kernel_name();
+          const bool winograd = conv == DenseNet::Conv3x3::winograd;
+          CAPTURE(name);
+          CAPTURE(winograd);
+          CAPTURE(threads);
+          const auto got = net.logits(st.input);
+          REQUIRE(got.size() == st.logits.size());
+          double vs_torch = 0, vs_ref = 0;
+          for (std::size_t i = 0; i < got.size(); ++i) {
+            const double t = st.logits[i], d = std::abs(double(got[i]) - t);
+            vs_torch = std::max(vs_torch, d);
+            vs_ref = std::max(vs_ref, std::abs(double(got[i]) - double(ref[i])));
+            CAPTURE(i);
+            CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
+            CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
+          }
+          MESSAGE(file, " ", name, winograd ? " winograd" : " direct", " threads=", threads,
+                  ": max abs diff vs torchvision ", vs_torch, ", vs reference kernel ", vs_ref);
+        }
+  }
+}
+
+namespace {
+
+// The 3x3 convolution (pad 1) of c channels of a zero-bordered (h + 2) x pw grid, in double:
+// out[o][y][x] and the error scale sum |w| |x| of each output.
+void reference_conv3x3(const std::vector<float>& w, const std::vector<float>& in, int m, int c,
+                       int h, int wd, int pw, std::size_t plane, std::vector<double>& out,
+                       std::vector<double>& scale) {
+  out.assign(static_cast<std::size_t>(m) * h * wd, 0.0);
+  scale.assign(out.size(), 0.0);
+  for (int o = 0; o < m; ++o)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < wd; ++x) {
+        double acc = 0, abs_acc = 0;
+        for (int i = 0; i < c; ++i)
+          for (int t = 0; t < 9; ++t) {
+            const double a = w[(static_cast<std::size_t>(o) * c + i) * 9 + t];
+            const double b = in[i * plane + static_cast<std::size_t>(y + t / 3) * pw + x + t % 3];
+            acc += a * b;
+            abs_acc += std::abs(a * b);
+          }
+        const std::size_t k = (static_cast<std::size_t>(o) * h + y) * wd + x;
+        out[k] = acc;
+        scale[k] = abs_acc;
+      }
+}
+
+} // namespace
+
+TEST_CASE("Winograd F(2x2, 3x3) equals the direct 3x3 convolution for every kernel") {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  struct Shape {
+    int m, c, h, w;
+  };
+  // Odd and even sizes, one tile, one row or column of tiles, several panels, rows of the
+  // weights that do not fill a panel (m % mr != 0).
+  const Shape shapes[] = {{3, 5, 1, 1},     {8, 4, 1, 2},     {5, 7, 2, 1},
+                          {32, 16, 3, 3},   {32, 128, 9, 13}, {12, 32, 19, 27},
+                          {16, 32, 38, 55}, {7, 3, 4, 6},     {8, 32, 22, 40}};
+  double worst = 0; // largest |diff| / (sum |w| |x|) seen
+  for (const auto& sh : shapes) {
+    CAPTURE(sh.m);
+    CAPTURE(sh.c);
+    CAPTURE(sh.h);
+    CAPTURE(sh.w);
+    const int pw = sh.w + 2;
+    const std::size_t plane = static_cast<std::size_t>(sh.h + 2) * pw;
+    // Zero border and the pw + 1 zeros of the contract past the last plane; NaN beyond, so a
+    // read outside the contract shows up in the results.
+    std::vector<float> in(sh.c * plane + pw + 1 + 64, 0.0f);
+    std::fill(in.begin() + static_cast<std::ptrdiff_t>(sh.c * plane + pw + 1), in.end(),
+              std::numeric_limits<float>::quiet_NaN());
+    for (int i = 0; i < sh.c; ++i)
+      for (int y = 0; y < sh.h; ++y)
+        for (int x = 0; x < sh.w; ++x)
+          in[i * plane + static_cast<std::size_t>(y + 1) * pw + x + 1] = ud(rng);
+    std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
+    for (auto& v : w) v = ud(rng);
+    std::vector<double> ref, scale;
+    reference_conv3x3(w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
+    // gamma_n bound of an n = 9c term dot product, x4 for the transforms' sums.
+    const double bound = 4.0 * 9 * sh.c * std::numeric_limits<float>::epsilon();
+    const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
+    for (const auto& mk : kernels_under_test())
+      for (int threads : {1, 3}) {
+        const std::string name = mk.name;
         CAPTURE(name);
         CAPTURE(threads);
-        const auto got = net.logits(st.input);
-        REQUIRE(got.size() == st.logits.size());
-        double vs_torch = 0, vs_ref = 0;
-        for (std::size_t i = 0; i < got.size(); ++i) {
-          const double t = st.logits[i], d = std::abs(double(got[i]) - t);
-          vs_torch = std::max(vs_torch, d);
-          vs_ref = std::max(vs_ref, std::abs(double(got[i]) - double(ref[i])));
-          CAPTURE(i);
-          CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
-          CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
+        detail::WinogradWeights u;
+        u.set(w.data(), sh.m, sh.c, mk.mr);
+        detail::ThreadPool pool(threads);
+        std::vector<detail::WinogradScratch> scratch(static_cast<std::size_t>(threads),
+                                                     detail::make_winograd_scratch(sh.c, sh.m, mk));
+        // Guard values after the output: nothing may be written there.
+        std::vector<float> out(n_out + 64, -7.0f);
+        detail::winograd_conv3x3(mk, detail::select_winograd_ops(mk.kind), u, in.data(), pw, plane,
+                                 sh.h, sh.w, out.data(), pool, scratch);
+        int bad = 0;
+        for (std::size_t k = 0; k < n_out; ++k) {
+          const double rel = std::abs(double(out[k]) - ref[k]) / std::max(scale[k], 1e-30);
+          worst = std::max(worst, rel);
+          if (!(rel <= bound)) ++bad; // (NaN counts as bad)
         }
-        MESSAGE(file, " ", name, " threads=", threads, ": max abs diff vs torchvision ", vs_torch,
-                ", vs reference kernel ", vs_ref);
+        CHECK(bad == 0);
+        CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
+                          [](float v) { return v == -7.0f; }));
       }
   }
+  MESSAGE("Winograd vs direct (double): max |diff| / sum |w x| = ", worst);
+  CHECK(worst > 0); // the comparison ran on float results
+}
+
+TEST_CASE("winograd_pays: Winograd where the tiles fill the panels, direct on small images") {
+  CHECK(detail::winograd_pays(38, 55, 32));     // DenseNet-121 block 1 at 3x150x220
+  CHECK(detail::winograd_pays(19, 27, 32));     // block 2
+  CHECK(detail::winograd_pays(9, 13, 32));      // block 3: 2 panels of tiles vs 5 direct
+  CHECK_FALSE(detail::winograd_pays(4, 6, 32)); // block 4: 6 tiles in one 32-column panel
+  CHECK_FALSE(detail::winograd_pays(1, 1, 32));
 }

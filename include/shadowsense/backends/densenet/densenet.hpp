@@ -11,6 +11,9 @@
 //   channels behind the existing ones, concatenation copies nothing.
 // - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
 //   buffer so packing needs no bounds checks.
+// - the dense layers' 3x3 convolutions use Winograd F(2x2, 3x3) (winograd.hpp: 2.25x fewer
+//   multiply-adds) where the image has enough 2x2 tiles to fill the GEMM panels; the small
+//   late-block images use the direct padded-grid convolution (Config::conv3x3).
 // - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
 //   result is the same up to rounding) which costs 4x fewer multiply-adds.
 // - all buffers are sized at construction for the largest input seen so far and reused.
@@ -18,6 +21,7 @@
 
 #include <shadowsense/backends/densenet/gemm.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/backends/densenet/winograd.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -37,12 +41,18 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // Config::threads, are managed internally). Movable, not copyable.
 class DenseNet {
 public:
+  // How the dense layers' 3x3 convolutions are computed: automatic picks Winograd per block
+  // where detail::winograd_pays(h, w, nr), direct everywhere else; direct and winograd force
+  // one method on every block (for tests and benchmarks).
+  enum class Conv3x3 { automatic, direct, winograd };
+
   struct Config {
     int threads = 1; // worker threads incl. the caller
     // How long idle workers poll for the next layer before they sleep (detail::ThreadPool):
     // 0 when the machine's cores are busy with other work (threads > 1 only).
     int spin_us = detail::ThreadPool::default_spin_us;
     GemmKernelKind kernel = GemmKernelKind::automatic;
+    Conv3x3 conv3x3 = Conv3x3::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
     // vector_ops (all four set) are used instead of `kernel`.
@@ -67,6 +77,7 @@ public:
       kernel_ = detail::select_micro_kernel(config.kernel);
       ops_ = detail::select_vector_ops(kernel_.kind);
     }
+    winograd_ops_ = detail::select_winograd_ops(kernel_.kind);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -159,8 +170,10 @@ public:
                     classifier_b_.size() + 2 * norm5_.scale.size();
     for (const auto& b : blocks_) {
       n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
-      for (const auto& l : b.layers)
+      for (const auto& l : b.layers) {
         n += l.conv1.data.size() + l.conv2.data.size() + l.bias1.size() + 2 * l.norm1.scale.size();
+        for (const auto& u : l.winograd.u) n += u.data.size();
+      }
     }
     return n * sizeof(float);
   }
@@ -169,6 +182,7 @@ public:
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
+    for (const auto& s : winograd_scratch_) n += s.v.size() + s.m.size() + s.y.size();
     return n * sizeof(float);
   }
 
@@ -206,6 +220,7 @@ private:
     detail::PackedMatrix conv1; // norm2 folded in
     std::vector<float> bias1;
     detail::PackedMatrix conv2;
+    detail::WinogradWeights winograd; // conv2 transformed (empty with Conv3x3::direct)
   };
   struct Block {
     std::vector<Layer> layers;
@@ -264,6 +279,7 @@ private:
         layer.conv1.pack(w.data(), inner, cin, kernel_.mr);
         const auto& w2 = m.tensor(p + ".conv2.weight").values;
         layer.conv2.pack(w2.data(), k, inner * 9, kernel_.mr);
+        if (config_.conv3x3 != Conv3x3::direct) layer.winograd.set(w2.data(), k, inner, kernel_.mr);
         max_k_ = std::max(max_k_, cin);
         blk.layers.push_back(std::move(layer));
       }
@@ -288,6 +304,9 @@ private:
       s.tile.assign(static_cast<std::size_t>(kernel_.mr) * kernel_.nr, 0.0f);
       s.index.assign(static_cast<std::size_t>(kernel_.nr), 0);
     }
+    if (config_.conv3x3 != Conv3x3::direct)
+      winograd_scratch_.assign(static_cast<std::size_t>(pool_->size()),
+                               detail::make_winograd_scratch(inner, arch_.growth_rate, kernel_));
   }
 
   void ensure_buffers(int h, int w) {
@@ -304,6 +323,7 @@ private:
     block_buf_.clear();
     bottleneck_.clear();
     tap_offsets_.clear();
+    winograd_block_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -324,6 +344,9 @@ private:
           taps[static_cast<std::size_t>(c * 9 + t)] =
               static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * (W + 2) + t % 3;
       tap_offsets_.push_back(std::move(taps));
+      winograd_block_.push_back(
+          config_.conv3x3 == Conv3x3::winograd ||
+          (config_.conv3x3 == Conv3x3::automatic && detail::winograd_pays(H, W, kernel_.nr)));
       H /= 2;
       W /= 2;
     }
@@ -488,6 +511,11 @@ private:
                      pw);
     };
     float* outp = block_buf_[b].data() + static_cast<std::size_t>(cin) * n;
+    if (winograd_block_[b]) {
+      detail::winograd_conv3x3(kernel_, winograd_ops_, layer.winograd, bott, pw, plane, bh, bw,
+                               outp, *pool_, winograd_scratch_);
+      return;
+    }
     auto store = [&](int m, int n0, int cols, const float* v) {
       float* d = outp + static_cast<std::size_t>(m) * n;
       int y = n0 / pw, x = n0 % pw;
@@ -605,8 +633,10 @@ private:
   PreprocessParams preprocess_;
   detail::MicroKernel kernel_{};
   detail::VectorOps ops_{};
+  detail::WinogradOps winograd_ops_{};
   std::unique_ptr<detail::ThreadPool> pool_;
   std::vector<detail::GemmScratch> scratch_;
+  std::vector<detail::WinogradScratch> winograd_scratch_;
   detail::PackedMatrix conv0_;
   std::vector<float> bias0_;
   std::vector<Block> blocks_;
@@ -620,6 +650,7 @@ private:
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
   std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
+  std::vector<bool> winograd_block_;          // per block: its 3x3 convolutions use Winograd
 };
 
 SHADOWSENSE_NAMESPACE_END
