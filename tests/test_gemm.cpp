@@ -295,9 +295,11 @@ TEST_CASE("Winograd F(2x2, 3x3) equals the direct 3x3 convolution for every kern
 }
 
 TEST_CASE("winograd_pays: Winograd where the tiles fill the panels, direct on small images") {
-  CHECK(detail::winograd_pays(38, 55, 32));     // DenseNet-121 block 1 at 3x150x220
-  CHECK(detail::winograd_pays(19, 27, 32));     // block 2
-  CHECK(detail::winograd_pays(9, 13, 32));      // block 3: 2 panels of tiles vs 5 direct
-  CHECK_FALSE(detail::winograd_pays(4, 6, 32)); // block 4: 6 tiles in one 32-column panel
-  CHECK_FALSE(detail::winograd_pays(1, 1, 32));
+  CHECK(detail::winograd_pays(38, 55, 32, 32));     // DenseNet-121 block 1 at 3x150x220
+  CHECK(detail::winograd_pays(19, 27, 32, 32));     // block 2
+  CHECK(detail::winograd_pays(9, 13, 32, 32));      // block 3: 2 panels of tiles vs 5 direct
+  CHECK_FALSE(detail::winograd_pays(4, 6, 32, 32)); // block 4: 6 tiles in one 32-column panel
+  CHECK_FALSE(detail::winograd_pays(1, 1, 32, 32));
+  CHECK(detail::winograd_pays(38, 55, 16, 32));      // 16 output channels: still pays
+  CHECK_FALSE(detail::winograd_pays(38, 55, 8, 32)); // growth 8 (the shipped model): direct
 }

@@ -346,7 +346,7 @@ private:
       tap_offsets_.push_back(std::move(taps));
       winograd_block_.push_back(
           config_.conv3x3 == Conv3x3::winograd ||
-          (config_.conv3x3 == Conv3x3::automatic && detail::winograd_pays(H, W, kernel_.nr)));
+          (config_.conv3x3 == Conv3x3::automatic && detail::winograd_pays(H, W, arch_.growth_rate, kernel_.nr)));
       H /= 2;
       W /= 2;
     }

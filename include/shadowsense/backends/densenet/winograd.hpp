@@ -14,13 +14,17 @@
 //
 // WinogradWeights::set(w, m, c, mr): w is m x c x 3 x 3 row-major (PyTorch's conv weight);
 //   ensures u[xi] is the m x c matrix (G g G^T)[xi / 4][xi % 4] packed in mr-row panels.
-// winograd_pays(h, w, nr): true when the tiles' GEMM columns (16 per nr tiles) are at most 3/4
-//   of the direct padded-grid convolution's (9 per nr outputs of h x (w + 2)): small late-block
-//   images, whose few tiles leave most of a panel empty, stay direct.
+// winograd_pays(h, w, m, nr): true when the layer has m >= 16 output channels and the tiles'
+//   GEMM columns (16 per nr tiles) are at most 3/4 of the direct padded-grid convolution's (9 per
+//   nr outputs of h x (w + 2)). Small late-block images, whose few tiles leave most of a panel
+//   empty, stay direct; so do layers with few output channels, where the transforms' additions
+//   per tile cost more than the 20 multiply-adds per output channel they save (measured: the
+//   shipped model, growth 8, is 6% slower with Winograd).
 // WinogradOps: the transforms for one instruction set (select_winograd_ops(kind)):
-//   input(s, pw, run, d, xs): run (1..winograd_max_run) consecutive tiles of one tile row; s is
-//     the first tile's 4x4 patch (top-left; row stride pw; the patches of tile j start at
-//     s + 2j). Writes B^T d B of tile j to d[xi * xs + j], xi = 0..15.
+//   input(s, plane, channels, pw, run, d, dc, xs): run (1..winograd_max_run) consecutive tiles
+//     of one tile row, for each channel ch < channels; s + ch * plane is the first tile's 4x4
+//     patch (top-left; row stride pw; the patches of tile j start 2j further). Writes B^T d B
+//     of tile j of channel ch to d[xi * xs + ch * dc + j], xi = 0..15.
 //   output(m, xs, n, y): m[xi * xs + j] (xi = 0..15, j < n <= winograd_max_run) to the 2x2
 //     outputs y[(2i + k) * winograd_max_run + j] = A^T M A [i][k].
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
@@ -74,7 +78,8 @@ struct WinogradWeights {
   }
 };
 
-inline bool winograd_pays(int h, int w, int nr) {
+inline bool winograd_pays(int h, int w, int m, int nr) {
+  if (m < 16) return false;
   const long tiles = long((h + 1) / 2) * ((w + 1) / 2);
   const long wino = (tiles + nr - 1) / nr * 16;
   const long direct = (long(h) * (w + 2) + nr - 1) / nr * 9;
@@ -84,8 +89,8 @@ inline bool winograd_pays(int h, int w, int nr) {
 // The transforms, written as unit-stride loops over tiles (the input's stride-2 reads become
 // lane permutes): one definition per instruction set, like the vector ops of gemm_portable.hpp.
 #define SHADOWSENSE_DEFINE_WINOGRAD_OPS(SUFFIX, ATTR)                                              \
-  ATTR inline void winograd_input_##SUFFIX(const float* __restrict s, int pw, int run,             \
-                                           float* __restrict d, std::size_t xs) {                  \
+  ATTR inline void winograd_input_one_##SUFFIX(const float* __restrict s, int pw, int run,         \
+                                               float* __restrict d, std::size_t xs) {              \
     float t[4][4][winograd_max_run]; /* t[row][q][j]: the patch rows times B */                    \
     for (int k = 0; k < 4; ++k) {                                                                  \
       const float* __restrict r = s + k * pw;                                                      \
@@ -109,6 +114,12 @@ inline bool winograd_pays(int h, int w, int nr) {
         d3[j] = t[1][q][j] - t[3][q][j];                                                           \
       }                                                                                            \
     }                                                                                              \
+  }                                                                                                \
+  ATTR inline void winograd_input_##SUFFIX(const float* __restrict s, std::size_t plane,           \
+                                           int channels, int pw, int run, float* __restrict d,     \
+                                           std::size_t dc, std::size_t xs) {                       \
+    for (int ch = 0; ch < channels; ++ch)                                                          \
+      winograd_input_one_##SUFFIX(s + ch * plane, pw, run, d + ch * dc, xs);                       \
   }                                                                                                \
   ATTR inline void winograd_output_##SUFFIX(const float* __restrict m, std::size_t xs, int n,      \
                                             float* __restrict y) {                                 \
@@ -175,38 +186,46 @@ __attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* 
   t[3] = _mm512_sub_ps(o0, o1);
 }
 
+// One 16-tile step of the input transform (fewer tiles when Masked: `floats` readable floats per
+// patch row, `out` the tiles to write).
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd_step_avx512(const float* __restrict s, int pw, int floats, __mmask16 out,
+                     float* __restrict d, std::size_t xs) {
+  __m512 t[4][4];
+  for (int k = 0; k < 4; ++k)
+    winograd_row_avx512<Masked>(s + static_cast<std::ptrdiff_t>(k) * pw, floats, t[k]);
+  for (int q = 0; q < 4; ++q) {
+    const __m512 v[4] = {_mm512_sub_ps(t[0][q], t[2][q]), _mm512_add_ps(t[1][q], t[2][q]),
+                         _mm512_sub_ps(t[2][q], t[1][q]), _mm512_sub_ps(t[1][q], t[3][q])};
+    for (int p = 0; p < 4; ++p) {
+      float* dst = d + static_cast<std::size_t>(4 * p + q) * xs;
+      if constexpr (Masked)
+        _mm512_mask_storeu_ps(dst, out, v[p]);
+      else
+        _mm512_storeu_ps(dst, v[p]);
+    }
+  }
+}
+
 // The input transform with AVX-512 intrinsics, 16 tiles per step: the compiler's version of the
 // loops above spends most of its time in scalar tails and stack round trips. The even and odd
 // columns of a patch row come from two lane permutes of 32 consecutive floats. A step of 16
 // whole tiles loads and stores whole vectors; a shorter one masks both to the floats its
-// patches cover (2 * tiles + 2 per row), so nothing else is read or written.
-__attribute__((target("avx512f"))) inline void winograd_input_avx512(const float* __restrict s,
-                                                                     int pw, int run,
-                                                                     float* __restrict d,
-                                                                     std::size_t xs) {
+// patches cover (2 * tiles + 2 per row), so nothing else is read or written. Channels are the
+// inner loop: the masks are made once per step.
+__attribute__((target("avx512f"))) inline void
+winograd_input_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
+                      float* __restrict d, std::size_t dc, std::size_t xs) {
   for (int j = 0; j < run; j += 16) {
-    __m512 t[4][4];
     const int floats = 2 * (run - j) + 2; // readable floats from column 2j of each patch row
-    const bool whole = run - j >= 16;
-    for (int k = 0; k < 4; ++k) {
-      const float* r = s + static_cast<std::ptrdiff_t>(k) * pw + 2 * j;
-      if (whole)
-        winograd_row_avx512<false>(r, floats, t[k]);
-      else
-        winograd_row_avx512<true>(r, floats, t[k]);
-    }
     const __mmask16 out = tail_mask_avx512(run - j);
-    for (int q = 0; q < 4; ++q) {
-      const __m512 v[4] = {_mm512_sub_ps(t[0][q], t[2][q]), _mm512_add_ps(t[1][q], t[2][q]),
-                           _mm512_sub_ps(t[2][q], t[1][q]), _mm512_sub_ps(t[1][q], t[3][q])};
-      for (int p = 0; p < 4; ++p) {
-        float* dst = d + static_cast<std::size_t>(4 * p + q) * xs + j;
-        if (whole)
-          _mm512_storeu_ps(dst, v[p]);
-        else
-          _mm512_mask_storeu_ps(dst, out, v[p]);
-      }
-    }
+    if (run - j >= 16)
+      for (int ch = 0; ch < channels; ++ch)
+        winograd_step_avx512<false>(s + ch * plane + 2 * j, pw, floats, out, d + ch * dc + j, xs);
+    else
+      for (int ch = 0; ch < channels; ++ch)
+        winograd_step_avx512<true>(s + ch * plane + 2 * j, pw, floats, out, d + ch * dc + j, xs);
   }
 }
 __attribute__((target("avx512f"))) inline void
@@ -222,7 +241,7 @@ __attribute__((target("avx512f"))) inline void winograd_interleave_avx512(const 
 #endif
 
 struct WinogradOps {
-  void (*input)(const float*, int, int, float*, std::size_t);
+  void (*input)(const float*, std::size_t, int, int, int, float*, std::size_t, std::size_t);
   void (*output)(const float*, std::size_t, int, float*);
   void (*interleave)(const float*, const float*, float*, int);
 };
@@ -278,29 +297,34 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
   const std::size_t xs_v = winograd_slab(c, nr);           // V_xi slab: c x nr (+ a line)
   const std::size_t xs_m = winograd_products(u.m, kernel); // M_xi block: m x nr (+ a line)
   const std::size_t image = static_cast<std::size_t>(h) * w;
-  const int tasks = std::min(pool.size(), n_panels);
+  // Work units: (tile panel, row panel), tile panel major, in equal contiguous shares per thread
+  // (5 tile panels x 4 row panels split 10 / 10, where whole tile panels would split 3 / 2). A
+  // tile panel shared by two threads is transformed by both.
+  const long units = long(n_panels) * m_panels;
+  const int tasks = static_cast<int>(std::min<long>(pool.size(), units));
   auto task = [&](int t) {
     WinogradScratch& s = scratch[static_cast<std::size_t>(t)];
-    for (int np = n_panels * t / tasks; np < n_panels * (t + 1) / tasks; ++np) {
+    const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
+    for (long unit = u0; unit < u1;) {
+      const int np = static_cast<int>(unit / m_panels), mp0 = static_cast<int>(unit % m_panels);
+      const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - unit)));
+      unit += mp1 - mp0;
       const int t0 = np * nr, cols = std::min(nr, tiles - t0);
-      for (int ch = 0; ch < c; ++ch) { // transformed patches of every channel
-        const float* src = in + static_cast<std::size_t>(ch) * plane;
-        float* dst = s.v.data() + static_cast<std::size_t>(ch) * nr;
-        for (int j = 0; j < cols;) { // runs within one tile row
-          const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-          const int run = std::min(cols - j, tiles_x - tx);
-          ops.input(src + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, pw, run, dst + j, xs_v);
-          j += run;
-        }
-        if (cols < nr) // (the kernel multiplies whole panels: keep the unused columns finite)
-          for (int xi = 0; xi < 16; ++xi) std::fill_n(dst + xi * xs_v + cols, nr - cols, 0.0f);
+      // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
+      // values: the kernel's output columns are independent, and those columns are dropped.
+      for (int j = 0; j < cols;) { // runs within one tile row
+        const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
+        const int run = std::min(cols - j, tiles_x - tx);
+        ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run,
+                  s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
+        j += run;
       }
       // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
       for (std::size_t xi = 0; xi < 16; ++xi)
-        for (int mp = 0; mp < m_panels; ++mp)
+        for (int mp = mp0; mp < mp1; ++mp)
           kernel.fn(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
                     s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
-      for (int mp = 0; mp < m_panels; ++mp) {
+      for (int mp = mp0; mp < mp1; ++mp) {
         const int rows = std::min(mr, u.m - mp * mr);
         for (int r = 0; r < rows; ++r) {
           ops.output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols,
