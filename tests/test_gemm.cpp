@@ -249,10 +249,12 @@ TEST_CASE("Winograd F(2x2, 3x3) equals the direct 3x3 convolution for every kern
     CAPTURE(sh.w);
     const int pw = sh.w + 2;
     const std::size_t plane = static_cast<std::size_t>(sh.h + 2) * pw;
-    // Zero border and the pw + 1 zeros of the contract past the last plane; NaN beyond, so a
-    // read outside the contract shows up in the results.
-    std::vector<float> in(sh.c * plane + pw + 1 + 64, 0.0f);
-    std::fill(in.begin() + static_cast<std::ptrdiff_t>(sh.c * plane + pw + 1), in.end(),
+    // Zero border and the pw + 1 zeros of the contract past the last plane, then NaN: the rest
+    // of the readable slack (winograd_read_slack) and beyond. A NaN read into a column that is
+    // not dropped shows up in the results.
+    const std::size_t zeros = sh.c * plane + pw + 1;
+    std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
+    std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
               std::numeric_limits<float>::quiet_NaN());
     for (int i = 0; i < sh.c; ++i)
       for (int y = 0; y < sh.h; ++y)

@@ -331,12 +331,14 @@ private:
       // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
       // block so each border stays 0.
       // (+ one row of slack: the padded-grid conv2 reads 2 floats past the last plane.)
-      // (+ nr + 2 more: a tail panel read in place reads a whole nr-wide row.)
+      // (+ nr + 2 more: a tail panel read in place reads a whole nr-wide row; Winograd's
+      // transform reads up to winograd_read_slack floats.)
       const int inner = arch_.bn_size * arch_.growth_rate;
       const std::size_t plane = static_cast<std::size_t>(H + 2) * (W + 2);
-      bottleneck_.emplace_back(static_cast<std::size_t>(inner) * plane + W + 2 +
-                                   static_cast<std::size_t>(kernel_.nr) + 2,
-                               0.0f);
+      bottleneck_.emplace_back(
+          static_cast<std::size_t>(inner) * plane + W + 2 +
+              static_cast<std::size_t>(std::max(kernel_.nr + 2, detail::winograd_read_slack)),
+          0.0f);
       // Offsets of the 3x3 taps in the padded bottleneck, in the packed weights' k order.
       std::vector<int> taps(static_cast<std::size_t>(inner) * 9);
       for (int c = 0; c < inner; ++c)
@@ -344,9 +346,9 @@ private:
           taps[static_cast<std::size_t>(c * 9 + t)] =
               static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * (W + 2) + t % 3;
       tap_offsets_.push_back(std::move(taps));
-      winograd_block_.push_back(
-          config_.conv3x3 == Conv3x3::winograd ||
-          (config_.conv3x3 == Conv3x3::automatic && detail::winograd_pays(H, W, arch_.growth_rate, kernel_.nr)));
+      winograd_block_.push_back(config_.conv3x3 == Conv3x3::winograd ||
+                                (config_.conv3x3 == Conv3x3::automatic &&
+                                 detail::winograd_pays(H, W, arch_.growth_rate, kernel_.nr)));
       H /= 2;
       W /= 2;
     }

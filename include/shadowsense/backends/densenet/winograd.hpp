@@ -21,17 +21,20 @@
 //   per tile cost more than the 20 multiply-adds per output channel they save (measured: the
 //   shipped model, growth 8, is 6% slower with Winograd).
 // WinogradOps: the transforms for one instruction set (select_winograd_ops(kind)):
-//   input(s, plane, channels, pw, run, d, dc, xs): run (1..winograd_max_run) consecutive tiles
-//     of one tile row, for each channel ch < channels; s + ch * plane is the first tile's 4x4
-//     patch (top-left; row stride pw; the patches of tile j start 2j further). Writes B^T d B
-//     of tile j of channel ch to d[xi * xs + ch * dc + j], xi = 0..15.
+//   input(s, plane, channels, pw, run, room, d, dc, xs): run (1..winograd_max_run) consecutive
+//     tiles of one tile row, for each channel ch < channels; s + ch * plane is the first tile's
+//     4x4 patch (top-left; row stride pw; the patches of tile j start 2j further). Writes
+//     B^T d B of tile j of channel ch to d[xi * xs + ch * dc + j], xi = 0..15; columns
+//     run..room-1 of those rows may be overwritten (room >= run). Reads up to
+//     winograd_read_slack floats from the start of each step of 16 tiles.
 //   output(m, xs, n, y): m[xi * xs + j] (xi = 0..15, j < n <= winograd_max_run) to the 2x2
 //     outputs y[(2i + k) * winograd_max_run + j] = A^T M A [i][k].
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
 // winograd_conv3x3(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch):
 //   requires: in holds u.c channels of (h + 2) x pw padded images (pw >= w + 2, zero border),
-//             plane floats apart, with zeros readable for pw + 1 floats past the last one
-//             (the tiles of odd h or w read one row / column beyond the border); out has room
+//             plane floats apart, readable for pw + winograd_read_slack floats past the last
+//             one, the first pw + 1 of them zero (the tiles of odd h or w read one row / column
+//             beyond the border; the rest is read into columns that are dropped); out has room
 //             for u.m x h x w floats; scratch holds pool.size() entries made by
 //             make_winograd_scratch(u.c, u.m, kernel).
 //   ensures:  out[o][y][x] = sum over c, ky, kx of w[o][c][ky][kx] * in[c][y + ky][x + kx]
@@ -50,7 +53,8 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
 
-inline constexpr int winograd_max_run = 64; // >= every kernel's nr
+inline constexpr int winograd_max_run = 64;    // >= every kernel's nr
+inline constexpr int winograd_read_slack = 34; // floats a 16-tile step reads: 2 * 16 + 2
 
 struct WinogradWeights {
   int m = 0, c = 0;
@@ -116,8 +120,8 @@ inline bool winograd_pays(int h, int w, int m, int nr) {
     }                                                                                              \
   }                                                                                                \
   ATTR inline void winograd_input_##SUFFIX(const float* __restrict s, std::size_t plane,           \
-                                           int channels, int pw, int run, float* __restrict d,     \
-                                           std::size_t dc, std::size_t xs) {                       \
+                                           int channels, int pw, int run, int /*room*/,            \
+                                           float* __restrict d, std::size_t dc, std::size_t xs) {  \
     for (int ch = 0; ch < channels; ++ch)                                                          \
       winograd_input_one_##SUFFIX(s + ch * plane, pw, run, d + ch * dc, xs);                       \
   }                                                                                                \
@@ -158,25 +162,13 @@ SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, )
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx512_loops, __attribute__((target("avx512f"))))
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx2, __attribute__((target("avx2,fma"))))
 
-// 16 tiles of one patch row k: t[q] = (row k of the patches) B, q = 0..3, from the floats at r
-// (masked: only the first `floats` of them are read).
-template <bool Masked>
-__attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* r, int floats,
-                                                                   __m512 (&t)[4]) {
+// 16 tiles of one patch row k: t[q] = (row k of the patches) B, q = 0..3, from the 34 floats
+// at r.
+__attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* r, __m512 (&t)[4]) {
   const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
   const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
-  __m512 a, b, a2, b2;
-  if constexpr (Masked) {
-    a = _mm512_maskz_loadu_ps(tail_mask_avx512(floats), r);
-    b = _mm512_maskz_loadu_ps(tail_mask_avx512(floats - 16), r + 16);
-    a2 = _mm512_maskz_loadu_ps(tail_mask_avx512(floats - 2), r + 2);
-    b2 = _mm512_maskz_loadu_ps(tail_mask_avx512(floats - 18), r + 18);
-  } else {
-    a = _mm512_loadu_ps(r);
-    b = _mm512_loadu_ps(r + 16);
-    a2 = _mm512_loadu_ps(r + 2);
-    b2 = _mm512_loadu_ps(r + 18);
-  }
+  const __m512 a = _mm512_loadu_ps(r), b = _mm512_loadu_ps(r + 16);
+  const __m512 a2 = _mm512_loadu_ps(r + 2), b2 = _mm512_loadu_ps(r + 18);
   const __m512 e0 = _mm512_permutex2var_ps(a, even, b), o0 = _mm512_permutex2var_ps(a, odd, b);
   const __m512 e1 = _mm512_permutex2var_ps(a2, even, b2);
   const __m512 o1 = _mm512_permutex2var_ps(a2, odd, b2);
@@ -186,15 +178,13 @@ __attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* 
   t[3] = _mm512_sub_ps(o0, o1);
 }
 
-// One 16-tile step of the input transform (fewer tiles when Masked: `floats` readable floats per
-// patch row, `out` the tiles to write).
+// One 16-tile step of the input transform; Masked: only the tiles in `out` are written.
 template <bool Masked>
 __attribute__((target("avx512f"))) inline void
-winograd_step_avx512(const float* __restrict s, int pw, int floats, __mmask16 out,
-                     float* __restrict d, std::size_t xs) {
+winograd_step_avx512(const float* __restrict s, int pw, __mmask16 out, float* __restrict d,
+                     std::size_t xs) {
   __m512 t[4][4];
-  for (int k = 0; k < 4; ++k)
-    winograd_row_avx512<Masked>(s + static_cast<std::ptrdiff_t>(k) * pw, floats, t[k]);
+  for (int k = 0; k < 4; ++k) winograd_row_avx512(s + static_cast<std::ptrdiff_t>(k) * pw, t[k]);
   for (int q = 0; q < 4; ++q) {
     const __m512 v[4] = {_mm512_sub_ps(t[0][q], t[2][q]), _mm512_add_ps(t[1][q], t[2][q]),
                          _mm512_sub_ps(t[2][q], t[1][q]), _mm512_sub_ps(t[1][q], t[3][q])};
@@ -210,22 +200,24 @@ winograd_step_avx512(const float* __restrict s, int pw, int floats, __mmask16 ou
 
 // The input transform with AVX-512 intrinsics, 16 tiles per step: the compiler's version of the
 // loops above spends most of its time in scalar tails and stack round trips. The even and odd
-// columns of a patch row come from two lane permutes of 32 consecutive floats. A step of 16
-// whole tiles loads and stores whole vectors; a shorter one masks both to the floats its
-// patches cover (2 * tiles + 2 per row), so nothing else is read or written. Channels are the
-// inner loop: the masks are made once per step.
+// columns of a patch row come from two lane permutes of 32 consecutive floats. Every step
+// loads whole vectors (a step of fewer tiles computes garbage lanes from the floats beyond its
+// patches: winograd_read_slack) and stores whole vectors where the row has room for them (the
+// garbage columns belong to later runs of the panel, which overwrite them, or are dropped);
+// only a step at the end of a row masks its stores. Masked loads and stores made the short
+// steps (runs split at tile-row ends) 5x the cost of whole ones. Channels are the inner loop.
 __attribute__((target("avx512f"))) inline void
 winograd_input_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
-                      float* __restrict d, std::size_t dc, std::size_t xs) {
+                      int room, float* __restrict d, std::size_t dc, std::size_t xs) {
   for (int j = 0; j < run; j += 16) {
-    const int floats = 2 * (run - j) + 2; // readable floats from column 2j of each patch row
-    const __mmask16 out = tail_mask_avx512(run - j);
-    if (run - j >= 16)
+    if (room - j >= 16)
       for (int ch = 0; ch < channels; ++ch)
-        winograd_step_avx512<false>(s + ch * plane + 2 * j, pw, floats, out, d + ch * dc + j, xs);
-    else
+        winograd_step_avx512<false>(s + ch * plane + 2 * j, pw, 0, d + ch * dc + j, xs);
+    else {
+      const __mmask16 out = tail_mask_avx512(run - j);
       for (int ch = 0; ch < channels; ++ch)
-        winograd_step_avx512<true>(s + ch * plane + 2 * j, pw, floats, out, d + ch * dc + j, xs);
+        winograd_step_avx512<true>(s + ch * plane + 2 * j, pw, out, d + ch * dc + j, xs);
+    }
   }
 }
 __attribute__((target("avx512f"))) inline void
@@ -241,7 +233,7 @@ __attribute__((target("avx512f"))) inline void winograd_interleave_avx512(const 
 #endif
 
 struct WinogradOps {
-  void (*input)(const float*, std::size_t, int, int, int, float*, std::size_t, std::size_t);
+  void (*input)(const float*, std::size_t, int, int, int, int, float*, std::size_t, std::size_t);
   void (*output)(const float*, std::size_t, int, float*);
   void (*interleave)(const float*, const float*, float*, int);
 };
@@ -315,7 +307,7 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
       for (int j = 0; j < cols;) { // runs within one tile row
         const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
         const int run = std::min(cols - j, tiles_x - tx);
-        ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run,
+        ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run, nr - j,
                   s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
         j += run;
       }
