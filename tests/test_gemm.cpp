@@ -151,6 +151,31 @@ TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmeti
           scale += std::abs(s[static_cast<std::size_t>(q)] * sc) + std::abs(sh);
         CHECK(close(d[i], e[i], scale));
       }
+      // The 1x1 input panel: every channel as affine_relu, zeros to nr (32: the AVX-512 full
+      // panel when n == 32; 24 and 40 the masked paths).
+      for (int nr : {24, 32, 40})
+        if (ops.pack_affine_relu && n <= nr) {
+          CAPTURE(nr);
+          const int channels = 3, stride = n + 5;
+          const float scs[3] = {0.7f, -1.3f, 0.0f}, shs[3] = {-0.3f, 0.4f, 2.0f};
+          std::vector<float> p(static_cast<std::size_t>(channels * nr) + 8, 9.0f);
+          ops.pack_affine_relu(s.data(), static_cast<std::size_t>(stride), channels, scs, shs,
+                               p.data(), n, nr);
+          for (int c = 0; c < channels; ++c) {
+            std::vector<float> want(static_cast<std::size_t>(n) + 1);
+            ref.affine_relu(s.data() + c * stride, want.data(), n, scs[c], shs[c]);
+            for (int j = 0; j < nr; ++j) {
+              const float got = p[static_cast<std::size_t>(c * nr + j)];
+              if (j < n)
+                CHECK(close(got, want[static_cast<std::size_t>(j)],
+                            std::abs(s[static_cast<std::size_t>(c * stride + j)] * scs[c]) +
+                                std::abs(shs[c])));
+              else
+                CHECK(got == 0.0f);
+            }
+          }
+          CHECK(p[static_cast<std::size_t>(channels * nr)] == 9.0f); // nothing past the panel
+        }
       const int nr = 24, pw = n + 2;
       if (n <= nr) {
         std::vector<float> p(9 * nr, 9.0f), q(9 * nr, 8.0f);

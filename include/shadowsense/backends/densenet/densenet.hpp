@@ -55,7 +55,7 @@ public:
     Conv3x3 conv3x3 = Conv3x3::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
-    // vector_ops (all four set) are used instead of `kernel`.
+    // vector_ops (the four required ones set) are used instead of `kernel`.
     detail::MicroKernel micro_kernel{};
     detail::VectorOps vector_ops{};
   };
@@ -470,6 +470,11 @@ private:
     float* bott = bottleneck_[b].data();
     const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
     auto pack = [&](float* dst, int n0, int cols, int*) {
+      if (ops_.pack_affine_relu) {
+        ops_.pack_affine_relu(feat + n0, static_cast<std::size_t>(n), cin, layer.norm1.scale.data(),
+                              layer.norm1.shift.data(), dst, cols, nr);
+        return;
+      }
       for (int c = 0; c < cin; ++c) {
         const float* s = feat + static_cast<std::size_t>(c) * n + n0;
         float* d = dst + static_cast<std::size_t>(c) * nr;

@@ -76,13 +76,30 @@ struct MicroKernel {
 //                                  window r0[2j], r0[2j+1], r1[2j], r1[2j+1]
 //   pack3x3(s, d, cols, nr, pw):   9 rows of nr floats, row ky*3+kx = s[ky*pw + kx + j] for
 //                                  j < cols, 0 beyond
+//   pack_affine_relu(s, stride, channels, sc, sh, d, cols, nr): a 1x1 convolution's input
+//                                  panel, d[c * nr + j] = relu(s[c * stride + j] * sc[c] +
+//                                  sh[c]) for j < cols, 0 for cols <= j < nr, c < channels
+//                                  (affine_relu per channel in one call; optional: when null,
+//                                  the forward pass calls affine_relu per channel)
 // Sources and destinations never overlap. relu(NaN) is NaN.
 struct VectorOps {
   void (*affine_relu)(const float*, float*, int, float, float);
   void (*bias_relu)(const float*, float*, int, float);
   void (*pool_affine_relu)(const float*, const float*, float*, int, float, float);
   void (*pack3x3)(const float*, float*, int, int, int);
+  void (*pack_affine_relu)(const float*, std::size_t, int, const float*, const float*, float*, int,
+                           int) = nullptr;
 };
+
+// pack_affine_relu from a kind's affine_relu (direct calls, no per-channel pointer call).
+template <void (*AffineRelu)(const float*, float*, int, float, float)>
+inline void pack_affine_relu_with(const float* s, std::size_t stride, int channels, const float* sc,
+                                  const float* sh, float* d, int cols, int nr) {
+  for (int c = 0; c < channels; ++c, s += stride, d += nr) {
+    AffineRelu(s, d, cols, sc[c], sh[c]);
+    for (int j = cols; j < nr; ++j) d[j] = 0.0f;
+  }
+}
 
 inline bool cpu_has(GemmKernelKind kind) {
   switch (kind) {
@@ -125,20 +142,23 @@ inline VectorOps select_vector_ops(GemmKernelKind kind) {
   switch (resolve_kernel(kind)) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512};
+    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512,
+            &pack_affine_relu_avx512};
   case GemmKernelKind::avx2:
-    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2};
+    return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2,
+            &pack_affine_relu_with<&affine_relu_avx2>};
 #endif
 #if SHADOWSENSE_NEON_KERNELS
   case GemmKernelKind::neon:
-    return {&affine_relu_neon, &bias_relu_neon, &pool_affine_relu_neon, &pack3x3_neon};
+    return {&affine_relu_neon, &bias_relu_neon, &pool_affine_relu_neon, &pack3x3_neon,
+            &pack_affine_relu_with<&affine_relu_neon>};
 #endif
   case GemmKernelKind::reference:
     return {&affine_relu_reference, &bias_relu_reference, &pool_affine_relu_reference,
             &pack3x3_reference};
   default:
     return {&affine_relu_portable, &bias_relu_portable, &pool_affine_relu_portable,
-            &pack3x3_portable};
+            &pack3x3_portable, &pack_affine_relu_with<&affine_relu_portable>};
   }
 }
 

@@ -167,6 +167,34 @@ affine_relu_avx512(const float* __restrict s, float* __restrict d, int n, float 
     _mm512_mask_storeu_ps(d + i, m, _mm512_maskz_max_ps(m, z, _mm512_fmadd_ps(x, vs, vh)));
   }
 }
+// The 1x1 convolution's input panel in one call: the masks are made once, and each channel's
+// row (usually 2 vectors) needs no call of its own.
+__attribute__((target("avx512f"))) inline void
+pack_affine_relu_avx512(const float* __restrict s, std::size_t stride, int channels,
+                        const float* __restrict sc, const float* __restrict sh, float* __restrict d,
+                        int cols, int nr) {
+  const __m512 z = _mm512_setzero_ps();
+  if (cols == 32 && nr == 32) { // a full panel of the 8 x 32 kernel
+    for (int c = 0; c < channels; ++c, s += stride, d += 32) {
+      const __m512 vs = _mm512_set1_ps(sc[c]), vh = _mm512_set1_ps(sh[c]);
+      // (maskz_max with a full mask: GCC 12 warns maybe-uninitialized on _mm512_max_ps)
+      _mm512_storeu_ps(d,
+                       _mm512_maskz_max_ps(0xFFFF, z, _mm512_fmadd_ps(_mm512_loadu_ps(s), vs, vh)));
+      _mm512_storeu_ps(
+          d + 16, _mm512_maskz_max_ps(0xFFFF, z, _mm512_fmadd_ps(_mm512_loadu_ps(s + 16), vs, vh)));
+    }
+    return;
+  }
+  for (int c = 0; c < channels; ++c, s += stride, d += nr) {
+    const __m512 vs = _mm512_set1_ps(sc[c]), vh = _mm512_set1_ps(sh[c]);
+    for (int j = 0; j < nr; j += 16) { // columns >= cols: loaded as 0, stored as relu(sh)...
+      const __mmask16 in = tail_mask_avx512(cols - j), all = tail_mask_avx512(nr - j);
+      const __m512 x = _mm512_maskz_loadu_ps(in, s + j);
+      // ...so they are zeroed with the load mask: 0 beyond cols, as the contract says.
+      _mm512_mask_storeu_ps(d + j, all, _mm512_maskz_max_ps(in, z, _mm512_fmadd_ps(x, vs, vh)));
+    }
+  }
+}
 __attribute__((target("avx512f"))) inline void
 bias_relu_avx512(const float* __restrict s, float* __restrict d, int n, float b) {
   const __m512 vb = _mm512_set1_ps(b), z = _mm512_setzero_ps();
