@@ -1,9 +1,10 @@
-// DenseNet-121/-161 forward at batch 1 on the paper's 3x150x220 input, 1 and 2 threads, next
-// to PyTorch (tools/bench_torch.py, same machine, same run) and to the practical GEMM limit
-// (Eigen's large-GEMM GFLOP/s, and this library's own GEMM on the same shape).
-// Prints a summary line per configuration: ms, GFLOP/s, working memory, max abs diff of the
-// logits against torchvision. Random weights come from tools/densenet_to_model.py when
-// /usr/bin/python3 has torch (with torchvision's logits embedded), else from C++ (no diff).
+// DenseNet-121/-161 forward at batch 1 on the paper's 3x150x220 input, 1 and 2 threads, 3x3
+// convolutions direct and automatic (Winograd where it pays), next to PyTorch
+// (tools/bench_torch.py, same machine, same run) and to the practical GEMM limit (Eigen's
+// large-GEMM GFLOP/s, and this library's own GEMM on the same shape). Prints a summary line per
+// configuration: ms, GFLOP/s, working memory, max abs diff of the logits against torchvision.
+// Random weights come from tools/densenet_to_model.py when /usr/bin/python3 has torch (with
+// torchvision's logits embedded), else from C++ (no diff).
 #include <shadowsense/backends/densenet/densenet.hpp>
 
 #include "common/bench_util.hpp"
@@ -119,32 +120,34 @@ TEST_CASE("DenseNet forward, batch 1, 3x150x220", "[densenet]") {
       x = model.self_test->input;
       ref = model.self_test->logits;
     }
-    for (int threads : {1, 2}) {
-      DenseNet net(model, {.threads = threads, .run_self_test = false});
-      net.logits(x); // warm-up: buffers allocated here, never again
-      const int reps = arch == "densenet161" ? 5 : 9;
-      const std::clock_t cpu0 = std::clock();
-      const double ms = median_ms([&] { net.logits(x); }, reps);
-      // Process CPU time per forward (all threads): on a shared machine, the work done
-      // independent of how long other processes kept the cores.
-      const double cpu_ms = 1000.0 * double(std::clock() - cpu0) / CLOCKS_PER_SEC / reps;
-      double diff = -1;
-      if (!ref.empty()) {
-        const auto got = net.logits(x);
-        diff = 0;
-        for (std::size_t i = 0; i < ref.size(); ++i)
-          diff = std::max(diff, std::abs(double(got[i]) - double(ref[i])));
+    for (int threads : {1, 2})
+      for (auto conv : {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::automatic}) {
+        const std::string method = conv == DenseNet::Conv3x3::direct ? "direct" : "automatic";
+        DenseNet net(model, {.threads = threads, .conv3x3 = conv, .run_self_test = false});
+        net.logits(x); // warm-up: buffers allocated here, never again
+        const int reps = arch == "densenet161" ? 5 : 9;
+        const std::clock_t cpu0 = std::clock();
+        const double ms = median_ms([&] { net.logits(x); }, reps);
+        // Process CPU time per forward (all threads): on a shared machine, the work done
+        // independent of how long other processes kept the cores.
+        const double cpu_ms = 1000.0 * double(std::clock() - cpu0) / CLOCKS_PER_SEC / reps;
+        double diff = -1;
+        if (!ref.empty()) {
+          const auto got = net.logits(x);
+          diff = 0;
+          for (std::size_t i = 0; i < ref.size(); ++i)
+            diff = std::max(diff, std::abs(double(got[i]) - double(ref[i])));
+        }
+        std::printf("\nshadowsense %s threads=%d kernel=%s conv3x3=%s ms=%.2f cpu_ms=%.2f "
+                    "GFLOP/s=%.1f weights_mb=%.1f "
+                    "activations_mb=%.2f max_abs_diff_vs_torchvision=%s\n",
+                    arch.c_str(), threads, net.kernel_name(), method.c_str(), ms, cpu_ms,
+                    2.0 * net.macs(150, 220) / ms / 1e6, net.weight_bytes() / 1e6,
+                    net.activation_bytes() / 1e6, diff < 0 ? "n/a" : std::to_string(diff).c_str());
+        BENCHMARK(arch + " threads=" + std::to_string(threads) + " conv3x3=" + method) {
+          return net.logits(x)[0];
+        };
       }
-      std::printf("\nshadowsense %s threads=%d kernel=%s ms=%.2f cpu_ms=%.2f GFLOP/s=%.1f "
-                  "weights_mb=%.1f "
-                  "activations_mb=%.2f max_abs_diff_vs_torchvision=%s\n",
-                  arch.c_str(), threads, net.kernel_name(), ms, cpu_ms,
-                  2.0 * net.macs(150, 220) / ms / 1e6, net.weight_bytes() / 1e6,
-                  net.activation_bytes() / 1e6, diff < 0 ? "n/a" : std::to_string(diff).c_str());
-      BENCHMARK(arch + " threads=" + std::to_string(threads)) {
-        return net.logits(x)[0];
-      };
-    }
     if (have_torch()) {
       const std::string cmd =
           "/usr/bin/python3 " + source_dir() + "/tools/bench_torch.py --reps 5 --archs " + arch;
