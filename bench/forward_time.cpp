@@ -3,7 +3,7 @@
 // ONNX Runtime timer alternately). Prints one JSON object on stdout: per-iteration wall times
 // (ms), the process CPU time per pass (ms, all threads), the multiply-adds of one forward pass, the
 // kernel and the logits.
-//   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3]]
+//   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL]]]
 // INPUT.f32: 3 x H x W little-endian float32 values (CHW, already preprocessed).
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
@@ -25,12 +25,13 @@ using bench::positive_int;
 namespace {
 
 constexpr std::string_view usage =
-    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3]]\n"
+    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL]]]\n"
     "Times the DenseNet forward pass on a 1 x 3 x H x W float32 input (raw little-endian CHW)\n"
     "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
     "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
     "default 300; 0 = sleep at once).\n"
-    "CONV3X3: automatic (default), direct or winograd (DenseNet::Config::conv3x3).\n";
+    "CONV3X3: automatic (default), direct or winograd (DenseNet::Config::conv3x3).\n"
+    "KERNEL: automatic (default), avx512, avx2, neon, portable or reference (Config::kernel).\n";
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);
@@ -55,8 +56,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    if (argc < 7 || argc > 9)
-      throw ss::InvalidArgument("expected 6 to 8 arguments, got " + std::to_string(argc - 1));
+    if (argc < 7 || argc > 10)
+      throw ss::InvalidArgument("expected 6 to 9 arguments, got " + std::to_string(argc - 1));
     const int h = positive_int(argv[3], "H"), w = positive_int(argv[4], "W");
     const int threads = positive_int(argv[5], "THREADS");
     const int iterations = positive_int(argv[6], "ITERATIONS");
@@ -64,7 +65,7 @@ int main(int argc, char** argv) {
                         : std::string_view(argv[7]) == "0" ? 0
                                                            : positive_int(argv[7], "SPIN_US");
     auto conv3x3 = ss::DenseNet::Conv3x3::automatic;
-    if (argc == 9) {
+    if (argc >= 9) {
       const std::string_view c = argv[8];
       if (c == "direct")
         conv3x3 = ss::DenseNet::Conv3x3::direct;
@@ -74,10 +75,30 @@ int main(int argc, char** argv) {
         throw ss::InvalidArgument("CONV3X3 is '" + std::string(c) +
                                   "', expected automatic, direct or winograd");
     }
+    auto kernel = ss::GemmKernelKind::automatic;
+    if (argc == 10) {
+      const std::string_view k = argv[9];
+      if (k == "avx512")
+        kernel = ss::GemmKernelKind::avx512;
+      else if (k == "avx2")
+        kernel = ss::GemmKernelKind::avx2;
+      else if (k == "neon")
+        kernel = ss::GemmKernelKind::neon;
+      else if (k == "portable")
+        kernel = ss::GemmKernelKind::portable;
+      else if (k == "reference")
+        kernel = ss::GemmKernelKind::reference;
+      else if (k != "automatic")
+        throw ss::InvalidArgument("KERNEL is '" + std::string(k) +
+                                  "', expected automatic, avx512, avx2, neon, portable or "
+                                  "reference");
+    }
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
-    ss::DenseNet net(
-        model,
-        {.threads = threads, .spin_us = spin_us, .conv3x3 = conv3x3, .run_self_test = false});
+    ss::DenseNet net(model, {.threads = threads,
+                             .spin_us = spin_us,
+                             .kernel = kernel,
+                             .conv3x3 = conv3x3,
+                             .run_self_test = false});
     const ss::Tensor input = read_input(argv[2], h, w);
     for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
     std::vector<double> ms;
