@@ -229,6 +229,14 @@ private:
     int c_in = 0, c_out = 0;
   };
 
+  // Whether any block may use Winograd: forced, or automatic with enough output channels
+  // (detail::winograd_pays); otherwise its weights are not built.
+  bool builds_winograd() const {
+    return config_.conv3x3 == Conv3x3::winograd ||
+           (config_.conv3x3 == Conv3x3::automatic &&
+            arch_.growth_rate >= detail::winograd_min_outputs);
+  }
+
   Affine affine(const ModelFile& m, const std::string& prefix) const {
     const auto& g = m.tensor(prefix + ".weight").values;
     const auto& b = m.tensor(prefix + ".bias").values;
@@ -279,7 +287,7 @@ private:
         layer.conv1.pack(w.data(), inner, cin, kernel_.mr);
         const auto& w2 = m.tensor(p + ".conv2.weight").values;
         layer.conv2.pack(w2.data(), k, inner * 9, kernel_.mr);
-        if (config_.conv3x3 != Conv3x3::direct) layer.winograd.set(w2.data(), k, inner, kernel_.mr);
+        if (builds_winograd()) layer.winograd.set(w2.data(), k, inner, kernel_.mr);
         max_k_ = std::max(max_k_, cin);
         blk.layers.push_back(std::move(layer));
       }
@@ -304,7 +312,7 @@ private:
       s.tile.assign(static_cast<std::size_t>(kernel_.mr) * kernel_.nr, 0.0f);
       s.index.assign(static_cast<std::size_t>(kernel_.nr), 0);
     }
-    if (config_.conv3x3 != Conv3x3::direct)
+    if (builds_winograd())
       winograd_scratch_.assign(static_cast<std::size_t>(pool_->size()),
                                detail::make_winograd_scratch(inner, arch_.growth_rate, kernel_));
   }

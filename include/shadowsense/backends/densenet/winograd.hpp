@@ -82,8 +82,10 @@ struct WinogradWeights {
   }
 };
 
+inline constexpr int winograd_min_outputs = 16; // output channels below which direct wins
+
 inline bool winograd_pays(int h, int w, int m, int nr) {
-  if (m < 16) return false;
+  if (m < winograd_min_outputs) return false;
   const long tiles = long((h + 1) / 2) * ((w + 1) / 2);
   const long wino = (tiles + nr - 1) / nr * 16;
   const long direct = (long(h) * (w + 2) + nr - 1) / nr * 9;
