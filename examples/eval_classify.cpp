@@ -13,6 +13,8 @@
 // --backbone: Tables 1 and 2 (must not have seen the evaluation users).
 // --backbone-dir: no_<lighting>.ssm (Table 3: never saw that lighting) and only_<lighting>.ssm
 // (Table 4: saw only that lighting), for daylight, dusk and night.
+// --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
+// (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
