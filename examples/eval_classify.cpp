@@ -13,6 +13,8 @@
 // --backbone: Tables 1 and 2 (must not have seen the evaluation users).
 // --backbone-dir: no_<lighting>.ssm (Table 3: never saw that lighting) and only_<lighting>.ssm
 // (Table 4: saw only that lighting), for daylight, dusk and night.
+// --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
+// (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
@@ -50,6 +52,9 @@ struct Options {
   std::string score_model;
   int subsample = 1;
   bool quiet = false;
+  // The heads' recipe: the paper's by default (docs/classification_eval.md, "Heads retrained").
+  ss::HeadTrainer::Config head{};
+  double head_val_fraction = 0.3;
 };
 
 // Features of every frame of the set under one backbone, computed once.
@@ -83,10 +88,10 @@ Eigen::MatrixXd rows(const Eigen::MatrixXd& x, const Indices& idx) {
 
 // Trains a head on `pool` (70/30 train/validation by time) and returns the predicted class of
 // every test frame.
-std::vector<int> train_and_predict(const ss::GestureSamples& set, const Features& f,
-                                   const Indices& pool, const Indices& test) {
-  const auto [train, val] = ss::time_split(set, pool, 0.3);
-  if (train.empty() || val.empty() || test.empty())
+std::vector<int> train_and_predict(const Options& o, const ss::GestureSamples& set,
+                                   const Features& f, const Indices& pool, const Indices& test) {
+  const auto [train, val] = ss::time_split(set, pool, o.head_val_fraction);
+  if (train.empty() || (o.head_val_fraction > 0 && val.empty()) || test.empty())
     throw ss::DatasetError("a split has no training, validation or test frames (" +
                            std::to_string(train.size()) + "/" + std::to_string(val.size()) + "/" +
                            std::to_string(test.size()) + ")");
@@ -97,9 +102,9 @@ std::vector<int> train_and_predict(const ss::GestureSamples& set, const Features
       throw ss::DatasetError("class '" + set.class_names[static_cast<std::size_t>(c)] +
                              "' of the model has no training frames in a split of this data "
                              "(a class folder is missing or empty)");
-  const auto r =
-      ss::HeadTrainer().train(ss::LinearHead::random(classes, static_cast<int>(f.x.cols()), 0),
-                              rows(f.x, train), yt, rows(f.x, val), ss::labels_of(set, val));
+  const auto r = ss::HeadTrainer(o.head).train(
+      ss::LinearHead::random(classes, static_cast<int>(f.x.cols()), 0), rows(f.x, train), yt,
+      rows(f.x, val), ss::labels_of(set, val));
   const Eigen::MatrixXd xs = rows(f.x, test);
   Eigen::MatrixXd z = xs * r.head.weight.transpose();
   z.rowwise() += r.head.bias.transpose();
@@ -277,7 +282,7 @@ int run_speed(const Options& o) {
       for (std::size_t k = 0; k < all.size(); ++k)
         f.x.row(static_cast<Eigen::Index>(all[k])) = part.row(static_cast<Eigen::Index>(k));
       const auto [pool, test] = ss::time_split(*set, all, 0.3);
-      const auto pred = train_and_predict(*set, f, pool, test);
+      const auto pred = train_and_predict(o, *set, f, pool, test);
       double sum = 0;
       for (auto l : lightings)
         sum += score(*set, test, pred, [&](const ss::GestureSample& s) {
@@ -392,6 +397,13 @@ Options parse_options(int argc, char** argv) {
            o.subsample)
       .range(1, 1000000);
   p.flag("--quiet", "no progress messages", o.quiet);
+  p.option("--head-val-fraction", "F",
+           "heads: validation share of the training part (0: none, the last epoch is kept)",
+           o.head_val_fraction)
+      .range(0.0, 0.99);
+  p.option("--head-epochs", "N", "heads: training epochs", o.head.epochs).range(1, 100000);
+  p.flag("--head-standardise", "heads: train on standardised features", o.head.standardise);
+  p.flag("--head-balanced", "heads: class-balanced batches", o.head.balanced_batches);
   p.parse(argc, argv);
   o.tables = std::set<int>(tables.begin(), tables.end());
   if (o.speed_models.empty() && o.score_model.empty()) {
@@ -434,7 +446,7 @@ struct TableRun {
 // Table 1: combined data, every gesture x lighting block split 70/30 by collection time.
 void table1_combined(TableRun& r) {
   const auto [pool, test] = ss::time_split(r.set, r.all, 0.3);
-  const auto pred = train_and_predict(r.set, r.backbone_features(r.o.backbone), pool, test);
+  const auto pred = train_and_predict(r.o, r.set, r.backbone_features(r.o.backbone), pool, test);
   std::cout << "\nTable 1: combined data, every gesture x lighting split 70/30 by collection time"
             << r.mode << "\n";
   std::cout << "  lighting    accuracy   test frames\n";
@@ -476,8 +488,8 @@ void table2_leave_one_user_out(TableRun& r) {
         ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.user != u; });
     const Indices test =
         ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.user == u; });
-    const Score s =
-        score(r.set, test, train_and_predict(r.set, r.backbone_features(r.o.backbone), pool, test));
+    const Score s = score(
+        r.set, test, train_and_predict(r.o, r.set, r.backbone_features(r.o.backbone), pool, test));
     sum += s.accuracy;
     std::cout << "  " << std::setw(5) << u << "  " << pct(s.accuracy) << "\n";
     r.json.field(std::to_string(u), s.accuracy);
@@ -498,7 +510,7 @@ void table3_leave_one_lighting_out(TableRun& r) {
     const Indices test =
         ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting == l; });
     const Score s =
-        score(r.set, test, train_and_predict(r.set, r.lighting_backbone("no", l), pool, test));
+        score(r.set, test, train_and_predict(r.o, r.set, r.lighting_backbone("no", l), pool, test));
     sum += s.accuracy;
     std::cout << "  " << std::left << std::setw(14) << lname(l) << "  " << pct(s.accuracy) << "\n";
     r.json.field(lname(l), s.accuracy);
@@ -521,7 +533,7 @@ void table4_one_lighting_to_others(TableRun& r) {
         ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting == l; });
     const Indices test =
         ss::select_samples(r.set, [&](const ss::GestureSample& f) { return f.lighting != l; });
-    const auto pred = train_and_predict(r.set, r.lighting_backbone("only", l), pool, test);
+    const auto pred = train_and_predict(r.o, r.set, r.lighting_backbone("only", l), pool, test);
     std::cout << "  " << std::left << std::setw(12) << lname(l);
     r.json.key(lname(l)).begin_object(cli::JsonWriter::compact);
     for (const auto m : lightings) {

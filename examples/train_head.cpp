@@ -5,14 +5,21 @@
 //   ss_train_head --model BASE.ssm --data DIR --out NEW.ssm [--val-fraction 0.3]
 //                 [--users 0,1] [--lightings night] [--epochs 20] [--lighting-normalise]
 //                 [--fine-tune] [--seed S] [--threads N]
+//                 [--anchor L] [--balanced] [--standardise] [--augment K]
+//                 [--learning-rate R] [--batch-size B]
 //
 // DIR: a dataset folder with metadata.csv (docs/dataset_format.md), or a plain class-per-folder
 // tree DIR/<class>/**/*.png (no metadata: user and lighting unknown, path order is the
 // collection order, the model's dark-frame rule decides dark frames).
-// Validation: the last 30% (by timestamp) of every session x class block. --fine-tune starts
-// from the model's own classifier instead of a fresh one (same classes required). The new
-// model keeps the base model's preprocessing; --lighting-normalise (for version-1 base models)
-// is recorded in it.
+// Validation: the last 30% (by timestamp) of every session x class block; --val-fraction 0
+// trains on every selected frame and keeps the last epoch. --fine-tune starts from the model's
+// own classifier instead of a fresh one (same classes required). The new model keeps the base
+// model's preprocessing; --lighting-normalise (for version-1 base models) is recorded in it.
+// Few-shot options (docs/classification_eval.md, "Few-shot adaptation"): --anchor L pulls the
+// head toward its initial weights (L2), --balanced uses class-balanced batches, --standardise
+// trains on standardised features (folded back into the written classifier), --augment K adds
+// K randomly shifted/scaled/rotated/mirrored/re-exposed copies of every training frame
+// (FrameAugmenter, through the real preprocessing and backbone).
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
@@ -31,6 +38,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> lightings;
     double val_fraction = 0.3;
     bool normalise = false, fine_tune = false;
+    int augment = 0;
     ss::HeadTrainer::Config tc;
     int threads = 1;
     cli::Parser p("ss_train_head",
@@ -40,7 +48,9 @@ int main(int argc, char** argv) {
     p.option("--model", "BASE.ssm", "model file whose features are used", model_path).required();
     p.option("--data", "DIR", "labelled gesture folder (dataset format)", data).required();
     p.option("--out", "NEW.ssm", "model file to write", out).required();
-    p.option("--val-fraction", "F", "validation share of every session x class block (by time)",
+    p.option("--val-fraction", "F",
+             "validation share of every session x class block (by time); 0: none, the last epoch "
+             "is kept",
              val_fraction)
         .range(0.0, 1.0);
     p.list("--users", "LIST", "train on these user ids only (default: all)", users)
@@ -53,9 +63,19 @@ int main(int argc, char** argv) {
            fine_tune);
     p.option("--seed", "S", "random seed of the initial classifier", tc.seed);
     p.option("--threads", "N", "worker threads", threads).range(1, 256);
+    p.option("--anchor", "L", "L2 pull toward the initial head (0: off)", tc.anchor)
+        .range(0.0, 1e6);
+    p.flag("--balanced", "class-balanced batches (smaller classes repeated)", tc.balanced_batches);
+    p.flag("--standardise", "train on standardised features (folded back into the head)",
+           tc.standardise);
+    p.option("--augment", "K", "augmented copies of every training frame (0: off)", augment)
+        .range(0, 1000);
+    p.option("--learning-rate", "R", "Adam learning rate", tc.learning_rate).range(1e-8, 10.0);
+    p.option("--batch-size", "B", "mini-batch size", tc.batch_size).range(1, 1000000);
     p.parse(argc, argv);
-    if (!(val_fraction > 0 && val_fraction < 1))
-      throw cli::UsageError("--val-fraction: expected a number in (0, 1), got " +
+    if (!(val_fraction >= 0 && val_fraction < 1))
+      throw cli::UsageError("--val-fraction: expected a number in [0, 1) (0: no validation, the "
+                            "last epoch is kept), got " +
                             std::to_string(val_fraction));
 
     const auto model = ss::ModelFile::load(model_path);
@@ -80,31 +100,63 @@ int main(int argc, char** argv) {
              (l.empty() || l.count(std::string(ss::sim::to_string(f.lighting))));
     });
     const auto [train, val] = ss::time_split(set, pool, val_fraction);
-    if (train.empty() || val.empty())
+    if (train.empty() || (val_fraction > 0 && val.empty()))
       throw ss::DatasetError(data + ": the selection leaves " + std::to_string(train.size()) +
                              " training and " + std::to_string(val.size()) +
-                             " validation frames; expected both non-empty");
+                             " validation frames; expected both non-empty (or --val-fraction 0)");
     std::cout << train.size() << " training, " << val.size() << " validation frames, "
-              << set.class_names.size() << " classes\n";
+              << set.class_names.size() << " classes";
+    if (augment > 0) std::cout << ", " << augment << " augmented copies of each training frame";
+    std::cout << "\n";
 
     ss::FeatureExtractor fx(model, {.threads = threads});
     ss::FrameEncoder enc(model.preprocess, normalise);
     auto progress = [](std::size_t d, std::size_t n) {
       std::cout << "  features " << d << "/" << n << "\n" << std::flush;
     };
-    const Eigen::MatrixXd xt = ss::extract_features(fx, enc, set, train, progress);
+    Eigen::MatrixXd xt = ss::extract_features(fx, enc, set, train, progress);
     const Eigen::MatrixXd xv = ss::extract_features(fx, enc, set, val, progress);
-    const auto yt = ss::labels_of(set, train), yv = ss::labels_of(set, val);
+    auto yt = ss::labels_of(set, train);
+    const auto yv = ss::labels_of(set, val);
+    if (augment > 0) { // the copies follow the originals
+      ss::FrameAugmenter aug(ss::FrameAugmenter::Config{}, tc.seed);
+      const Eigen::Index n0 = xt.rows();
+      xt.conservativeResize(n0 * (1 + augment), Eigen::NoChange);
+      cv::Mat copy;
+      ss::Tensor t;
+      Eigen::Index row = n0;
+      for (std::size_t k = 0; k < train.size(); ++k) {
+        const auto& f = set.frames[train[k]];
+        const cv::Mat image = ss::read_colour_image(f.path);
+        for (int a = 0; a < augment; ++a, ++row) {
+          aug.run(image, copy);
+          if (f.from_metadata)
+            enc.run(copy, ss::is_dark(f), t);
+          else
+            enc.run(copy, t);
+          const auto v = fx.extract(t);
+          for (int c = 0; c < fx.dim(); ++c) xt(row, c) = v[static_cast<std::size_t>(c)];
+          yt.push_back(f.label);
+        }
+      }
+      std::cout << "  augmented features " << (row - n0) << "\n";
+    }
 
     const int classes = static_cast<int>(set.class_names.size());
     ss::LinearHead init = fine_tune ? ss::LinearHead::from_model(model)
                                     : ss::LinearHead::random(classes, fx.dim(), tc.seed);
-    const auto result = ss::HeadTrainer(tc).train(init, xt, yt, xv, yv, [](const ss::HeadEpoch& e) {
-      std::printf("epoch %2d  train loss %.4f  train acc %.4f  val loss %.4f  val acc %.4f%s\n",
-                  e.epoch, e.train_loss, e.train_accuracy, e.val_loss, e.val_accuracy,
-                  e.best ? "  best" : "");
-      std::fflush(stdout);
-    });
+    const auto result =
+        ss::HeadTrainer(tc).train(init, xt, yt, xv, yv, [&](const ss::HeadEpoch& e) {
+          if (val.empty())
+            std::printf("epoch %2d  train loss %.4f  train acc %.4f\n", e.epoch, e.train_loss,
+                        e.train_accuracy);
+          else
+            std::printf(
+                "epoch %2d  train loss %.4f  train acc %.4f  val loss %.4f  val acc %.4f%s\n",
+                e.epoch, e.train_loss, e.train_accuracy, e.val_loss, e.val_accuracy,
+                e.best ? "  best" : "");
+          std::fflush(stdout);
+        });
     auto trained = ss::model_with_head(model, result.head, set.class_names);
     if (normalise) trained.preprocess.lighting_normalise = true; // recorded for the Classifier
     ss::save_model_file(trained, out);

@@ -1,9 +1,11 @@
 // On-device transfer learning: the loss and its gradient (finite differences), Adam against
 // torch.optim.Adam, the frozen feature extractor against the DenseNet's own classifier, the
-// saved model reloading to the same predictions, and training on generated gesture frames.
+// saved model reloading to the same predictions, training on generated gesture frames, and the
+// few-shot options (anchor, balanced batches, standardised features, frame augmentation).
 #include <shadowsense/classify/lighting_normalise.hpp>
 #include <shadowsense/classify/preprocess.hpp>
 #include <shadowsense/sim.hpp>
+#include <shadowsense/train/frame_augment.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 #include <shadowsense/train/head_trainer.hpp>
 
@@ -107,6 +109,195 @@ TEST_CASE("HeadTrainer: rejects mismatched data with clear errors") {
   CHECK_THROWS_AS(trainer.train(h, x, y, Eigen::MatrixXd(), {}), InvalidArgument);
   CHECK_THROWS_AS(HeadTrainer({.epochs = 0}), InvalidArgument);
   CHECK_THROWS_AS(HeadTrainer({.learning_rate = -1}), InvalidArgument);
+}
+
+namespace {
+// n rows of d columns, deterministic, labels in [0, k): class c has its mean at +1 in column c.
+void blobs(int n, int d, int k, Eigen::MatrixXd& x, std::vector<int>& y) {
+  x.resize(n, d);
+  y.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const int c = i % k;
+    y[static_cast<std::size_t>(i)] = c;
+    for (int j = 0; j < d; ++j) x(i, j) = (j == c ? 1.0 : 0.0) + 0.6 * std::sin(1.7 * i + 2.3 * j);
+  }
+}
+Eigen::MatrixXd logits(const LinearHead& h, const Eigen::MatrixXd& x) {
+  Eigen::MatrixXd z = x * h.weight.transpose();
+  z.rowwise() += h.bias.transpose();
+  return z;
+}
+LinearHead zero_head(int k, int d) {
+  return {Eigen::MatrixXd::Zero(k, d), Eigen::VectorXd::Zero(k)};
+}
+} // namespace
+
+TEST_CASE("HeadTrainer standardise: folded back exactly, invariant to per-column scale/offset") {
+  Eigen::MatrixXd x;
+  std::vector<int> y;
+  blobs(40, 3, 3, x, y);
+  // The same features in other units: column j scaled by d_j and shifted by c_j.
+  const Eigen::RowVector3d d(1e3, 1e-3, 7.0), c(5.0, -2.0, 100.0);
+  const Eigen::MatrixXd x2 = ((x.array().rowwise() * d.array()).rowwise() + c.array()).matrix();
+  const HeadTrainer std_trainer({.epochs = 5, .batch_size = 8, .standardise = true});
+  const auto a = std_trainer.train(zero_head(3, 3), x, y, Eigen::MatrixXd(), {});
+  const auto b = std_trainer.train(zero_head(3, 3), x2, y, Eigen::MatrixXd(), {});
+  // The returned heads apply to raw features: equal logits on the two encodings.
+  const double diff = (logits(a.head, x) - logits(b.head, x2)).cwiseAbs().maxCoeff();
+  CHECK(diff < 1e-9);
+  REQUIRE(a.epochs.size() == 5u);
+  CHECK(a.epochs.back().train_loss == doctest::Approx(b.epochs.back().train_loss).epsilon(1e-12));
+  // Without standardisation the units matter (this comparison can fail).
+  const HeadTrainer plain({.epochs = 5, .batch_size = 8});
+  const auto pa = plain.train(zero_head(3, 3), x, y, Eigen::MatrixXd(), {});
+  const auto pb = plain.train(zero_head(3, 3), x2, y, Eigen::MatrixXd(), {});
+  CHECK((logits(pa.head, x) - logits(pb.head, x2)).cwiseAbs().maxCoeff() > 1e-3);
+  // Ill-conditioned: the label is in a column of scale 1e-3 next to a noise column of scale
+  // 1e3. Twenty epochs of Adam (steps ~1e-3 per weight) cannot use the tiny column; on
+  // standardised features they separate the classes.
+  Eigen::MatrixXd xi(60, 2);
+  std::vector<int> yi(60);
+  for (int i = 0; i < 60; ++i) {
+    yi[static_cast<std::size_t>(i)] = i % 2;
+    xi(i, 0) = 1e-3 * ((i % 2 ? 1.0 : -1.0) + 0.3 * std::sin(0.9 * i));
+    xi(i, 1) = 1e3 * std::sin(2.1 * i);
+  }
+  int ok_plain = 0, ok_std = 0;
+  head_loss(HeadTrainer({.epochs = 20}).train(zero_head(2, 2), xi, yi, {}, {}).head, xi, yi,
+            nullptr, &ok_plain);
+  head_loss(
+      HeadTrainer({.epochs = 20, .standardise = true}).train(zero_head(2, 2), xi, yi, {}, {}).head,
+      xi, yi, nullptr, &ok_std);
+  MESSAGE("ill-conditioned: plain " << ok_plain << "/60, standardised " << ok_std << "/60");
+  CHECK(ok_std == 60);
+  CHECK(ok_plain <= 45);
+  // A constant column (sd 0) keeps scale 1 and does not produce NaN.
+  Eigen::MatrixXd xc = x;
+  xc.col(2).setConstant(4.0);
+  const auto rc = std_trainer.train(zero_head(3, 3), xc, y, Eigen::MatrixXd(), {});
+  CHECK(rc.head.weight.allFinite());
+  CHECK(rc.head.bias.allFinite());
+}
+
+TEST_CASE("HeadTrainer anchor: L2 toward the initial head") {
+  Eigen::MatrixXd x;
+  std::vector<int> y;
+  LinearHead h;
+  fixed_problem(x, y, h);
+  // From a zero head the anchor is weight decay (checked against torch.optim.Adam above).
+  const auto wd = HeadTrainer({.epochs = 30, .batch_size = 3, .weight_decay = 0.7})
+                      .train(zero_head(4, 3), x, y, Eigen::MatrixXd(), {});
+  const auto an = HeadTrainer({.epochs = 30, .batch_size = 3, .anchor = 0.7})
+                      .train(zero_head(4, 3), x, y, Eigen::MatrixXd(), {});
+  CHECK((wd.head.weight - an.head.weight).cwiseAbs().maxCoeff() == 0.0);
+  CHECK((wd.head.bias - an.head.bias).cwiseAbs().maxCoeff() == 0.0);
+  // From a non-zero head it pulls toward that head: the stronger, the closer.
+  auto distance = [&](double anchor) {
+    const auto r =
+        HeadTrainer({.epochs = 200, .batch_size = 8, .learning_rate = 1e-2, .anchor = anchor})
+            .train(h, x, y, Eigen::MatrixXd(), {});
+    return std::sqrt((r.head.weight - h.weight).squaredNorm() +
+                     (r.head.bias - h.bias).squaredNorm());
+  };
+  const double d0 = distance(0), d1 = distance(0.1), d2 = distance(10);
+  MESSAGE("distance to the initial head: anchor 0 " << d0 << ", 0.1 " << d1 << ", 10 " << d2);
+  CHECK(d1 < 0.8 * d0);
+  CHECK(d2 < 0.2 * d1);
+  CHECK_THROWS_WITH_AS(HeadTrainer({.anchor = -1}), doctest::Contains("anchor must be"),
+                       InvalidArgument);
+  CHECK_THROWS_AS(HeadTrainer({.anchor = std::nan("")}), InvalidArgument);
+}
+
+TEST_CASE("balanced_order and class-balanced batches") {
+  const std::vector<int> labels = {0, 0, 2, 0, 1, 0, 2, 0}; // 5 x class 0, 1 x 1, 2 x 2, no 3
+  std::mt19937_64 rng(4);
+  const auto order = detail::balanced_order(labels, 4, rng);
+  REQUIRE(order.size() == 15u); // 3 present classes x 5
+  std::vector<int> seen(labels.size(), 0);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    CHECK(labels[static_cast<std::size_t>(order[k])] == static_cast<int>(k % 3));
+    ++seen[static_cast<std::size_t>(order[k])];
+  }
+  CHECK(seen == std::vector<int>{1, 1, 2, 1, 5, 1, 3, 1}); // class 2: 5 visits over 2 rows
+  CHECK_THROWS_AS(detail::balanced_order(std::vector<int>{0, 4}, 4, rng), InvalidArgument);
+  // Imbalanced, overlapping 1-D classes: 50 frames of class 0 on [-1, 0.4], 5 of class 1 on
+  // [-0.4, 1]. The plain head sets its threshold near class 1's side; balanced batches move it
+  // to the middle, so more of class 1's frames are recognised.
+  Eigen::MatrixXd x(55, 1);
+  std::vector<int> y(55);
+  for (int i = 0; i < 50; ++i) x(i, 0) = -1 + 1.4 * i / 49.0, y[static_cast<std::size_t>(i)] = 0;
+  for (int i = 0; i < 5; ++i)
+    x(50 + i, 0) = -0.4 + 1.4 * i / 4.0, y[50 + static_cast<std::size_t>(i)] = 1;
+  auto threshold = [&](bool balanced) {
+    const auto r = HeadTrainer({.epochs = 300, .learning_rate = 0.02, .balanced_batches = balanced})
+                       .train(zero_head(2, 1), x, y, Eigen::MatrixXd(), {});
+    // logit1 - logit0 = a x + c crosses 0 at -c / a
+    const double a = r.head.weight(1, 0) - r.head.weight(0, 0);
+    const double c = r.head.bias(1) - r.head.bias(0);
+    REQUIRE(a > 0);
+    return -c / a;
+  };
+  const double plain = threshold(false), balanced = threshold(true);
+  MESSAGE("decision threshold: plain " << plain << ", balanced " << balanced);
+  CHECK(plain > 0.5);
+  CHECK(std::abs(balanced) < 0.15);
+}
+
+TEST_CASE("FrameAugmenter: identity at zero, exact mirror, deterministic, bad input rejected") {
+  cv::Mat img(30, 40, CV_8UC3);
+  for (int r = 0; r < img.rows; ++r)
+    for (int c = 0; c < img.cols; ++c)
+      img.at<cv::Vec3b>(r, c) = cv::Vec3b(static_cast<uchar>(r * 8), static_cast<uchar>(c * 6),
+                                          static_cast<uchar>((r * c) % 256));
+  const FrameAugmenter::Config none{0, 0, 0, 0, 0, 0, 0, 0};
+  cv::Mat out;
+  FrameAugmenter(none, 1).run(img, out);
+  REQUIRE(out.type() == CV_8UC3);
+  CHECK(cv::norm(out, img, cv::NORM_INF) == 0);
+  FrameAugmenter::Config flip = none;
+  flip.flip_probability = 1;
+  cv::Mat mirrored;
+  cv::flip(img, mirrored, 1);
+  FrameAugmenter(flip, 1).run(img, out);
+  CHECK(cv::norm(out, mirrored, cv::NORM_INF) == 0);
+  // A shift moves a bright dot by at most shift x size, and moves it.
+  FrameAugmenter::Config shift = none;
+  shift.shift = 0.1;
+  cv::Mat dot(30, 40, CV_8UC3, cv::Scalar::all(0));
+  dot.at<cv::Vec3b>(15, 20) = cv::Vec3b(255, 255, 255);
+  FrameAugmenter sa(shift, 7);
+  bool moved = false;
+  for (int i = 0; i < 5; ++i) {
+    sa.run(dot, out);
+    cv::Mat gray;
+    cv::cvtColor(out, gray, cv::COLOR_BGR2GRAY);
+    cv::Point at;
+    cv::minMaxLoc(gray, nullptr, nullptr, nullptr, &at);
+    CHECK(std::abs(at.x - 20) <= 5);
+    CHECK(std::abs(at.y - 15) <= 4);
+    moved = moved || at != cv::Point(20, 15);
+  }
+  CHECK(moved);
+  // Default config: the same seed gives the same images, another seed others.
+  cv::Mat a1, a2, b1;
+  FrameAugmenter fa({}, 3), fb({}, 3), fc({}, 4);
+  fa.run(img, a1);
+  fb.run(img, a2);
+  fc.run(img, b1);
+  CHECK(cv::norm(a1, a2, cv::NORM_INF) == 0);
+  CHECK(cv::norm(a1, b1, cv::NORM_INF) > 0);
+  CHECK(a1.size() == img.size());
+  CHECK_THROWS_AS(FrameAugmenter().run(cv::Mat(), out), InvalidArgument);
+  CHECK_THROWS_AS(FrameAugmenter().run(cv::Mat(4, 4, CV_8UC1), out), InvalidArgument);
+  FrameAugmenter::Config bad;
+  bad.shift = 0.6;
+  CHECK_THROWS_WITH_AS(FrameAugmenter(bad, 0), doctest::Contains("shift"), InvalidArgument);
+  bad = {};
+  bad.flip_probability = 1.5;
+  CHECK_THROWS_AS(FrameAugmenter(bad, 0), InvalidArgument);
+  bad = {};
+  bad.noise = std::nan("");
+  CHECK_THROWS_AS(FrameAugmenter(bad, 0), InvalidArgument);
 }
 
 TEST_CASE("FeatureExtractor + the model's own head reproduce the DenseNet's logits") {

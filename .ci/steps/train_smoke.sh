@@ -21,6 +21,15 @@ trap 'rm -rf "$work"' EXIT
 "$bin/ss_train_head" --model "$work/tiny.ssm" --data "$work/data" --out "$work/head.ssm" \
   --epochs 3 --lighting-normalise
 "$bin/ss_eval_classify" --score "$work/head.ssm" --data "$work/data" --lighting-normalise
+# The few-shot options: no validation share, augmented copies, balanced batches, fine-tuning.
+"$bin/ss_train_head" --model "$work/tiny.ssm" --data "$work/data" --out "$work/fewshot.ssm" \
+  --users 0 --epochs 2 --val-fraction 0 --augment 2 --balanced --standardise --fine-tune \
+  --anchor 0.1 --lighting-normalise
+"$bin/ss_eval_classify" --score "$work/fewshot.ssm" --data "$work/data" --lighting-normalise
+status=0
+"$bin/ss_train_head" --model "$work/tiny.ssm" --data "$work/data" --out "$work/bad.ssm" \
+  --anchor -1 2>/dev/null || status=$?
+test "$status" -eq 2 && test ! -e "$work/bad.ssm"
 # The shipped model on users it never saw (documented: 95.7% on users 0-5, seed 1).
 "$bin/ss_gesture_data" --out "$work/eval" --users 2 --frames 10 --seed 1
 "$bin/ss_eval_classify" --score "$root/models/default.ssm" --data "$work/eval" \

@@ -3,5 +3,6 @@
 #pragma once
 
 #include <shadowsense/io.hpp>
+#include <shadowsense/train/frame_augment.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 #include <shadowsense/train/head_trainer.hpp>

@@ -10,6 +10,23 @@
 //   auto init = LinearHead::random(classes, fx.dim(), seed); // or the model's own head
 //   auto r = HeadTrainer(HeadTrainer::Config{}).train(init, X, y, Xv, yv);
 //   save_model_file(model_with_head(model, r.head, names), "robot.ssm");
+//
+// Few-shot options of HeadTrainer::Config (off by default; measured in
+// docs/classification_eval.md, "Few-shot adaptation"): anchor (L2 toward the initial head),
+// balanced_batches (detail::balanced_order), standardise (per-column standardised features,
+// folded back into the returned head so it applies to raw features). Without validation data
+// the last epoch is kept (ss_train_head --val-fraction 0).
+//
+// HeadTrainer(config)
+//   requires: epochs in [1, 100000], batch_size >= 1, learning_rate > 0, betas in [0, 1),
+//   epsilon > 0, weight_decay >= 0, anchor finite and >= 0 (else InvalidArgument).
+// train(init, x, y, xv, yv, on_epoch)
+//   requires: one label per row, labels in [0, init.classes()), x.cols() == init.features(),
+//   finite features, x.rows() >= 1; xv may be empty (then yv too) (else InvalidArgument).
+//   ensures: the head of the best validation epoch (ties: lower validation loss), or of the
+//   last epoch without validation; deterministic for a given config.seed.
+// Threading: HeadTrainer is immutable after construction; train() may run concurrently on
+// different data. FeatureExtractor wraps a DenseNet: one instance per thread.
 #pragma once
 
 #include <shadowsense/backends/densenet/densenet.hpp>
@@ -20,6 +37,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -109,6 +127,42 @@ inline void check_head_data(const LinearHead& head, const Eigen::MatrixXd& x,
                                               ")");
   require(x.allFinite(), std::string(what) + ": features hold NaN or Inf, expected finite");
 }
+
+// One epoch's visiting order with class-balanced batches: for every class present in labels a
+// Fisher-Yates shuffled list of its rows, repeated (each repetition reshuffled) until it is as
+// long as the largest class's; then round after round, one row of every present class in
+// increasing class order. The result has (present classes) x (largest class count) entries;
+// classes absent from labels are skipped. requires: labels in [0, classes).
+template <class Rng>
+std::vector<int> balanced_order(std::span<const int> labels, int classes, Rng& rng) {
+  std::vector<std::vector<int>> by_class(static_cast<std::size_t>(classes));
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    require(labels[i] >= 0 && labels[i] < classes, "balanced_order: label outside [0, classes)");
+    by_class[static_cast<std::size_t>(labels[i])].push_back(static_cast<int>(i));
+  }
+  std::size_t most = 0;
+  for (const auto& c : by_class) most = std::max(most, c.size());
+  auto shuffle = [&](std::vector<int>& v) {
+    for (std::size_t i = v.size(); i > 1; --i)
+      std::swap(v[i - 1], v[static_cast<std::size_t>(rng() % i)]);
+  };
+  std::vector<std::vector<int>> lists;
+  for (auto& c : by_class) {
+    if (c.empty()) continue;
+    std::vector<int> list;
+    while (list.size() < most) {
+      shuffle(c);
+      list.insert(list.end(), c.begin(),
+                  c.begin() + static_cast<std::ptrdiff_t>(std::min(c.size(), most - list.size())));
+    }
+    lists.push_back(std::move(list));
+  }
+  std::vector<int> order;
+  order.reserve(lists.size() * most);
+  for (std::size_t k = 0; k < most; ++k)
+    for (const auto& l : lists) order.push_back(l[k]);
+  return order;
+}
 } // namespace detail
 
 // Mean negative log-likelihood of log-softmax(weight * x + bias) over the rows of x; when
@@ -167,6 +221,20 @@ public:
     double beta1 = 0.9, beta2 = 0.999, epsilon = 1e-8;
     double weight_decay = 0.0; // L2 added to the gradient, as torch.optim.Adam does
     std::uint64_t seed = 0;    // initialisation and shuffling
+    // Few-shot options (all off by default: the paper's recipe).
+    // anchor: L2 pull toward the initial head, anchor * (p - init) added to the gradient like
+    // weight_decay (which pulls toward 0): a fine-tuned head stays near the shipped classifier.
+    double anchor = 0.0;
+    // balanced_batches: every epoch visits each class equally often: per class a shuffled
+    // list, smaller classes repeated (reshuffled) up to the largest class's count, then
+    // interleaved class by class (balanced_order), so every batch of >= classes rows holds
+    // each class once before any class twice.
+    bool balanced_batches = false;
+    // standardise: train on features standardised by the training rows' per-column mean and
+    // standard deviation (columns with sd < 1e-12 keep scale 1), then fold the transform back
+    // into the returned head, so the head applies to raw features (same model file format).
+    // The initial head and anchor are mapped into the standardised space.
+    bool standardise = false;
   };
 
   HeadTrainer() : HeadTrainer(Config{}) {}
@@ -180,23 +248,51 @@ public:
                     "HeadTrainer: betas must be in [0, 1)");
     detail::require(config.epsilon > 0 && config.weight_decay >= 0,
                     "HeadTrainer: epsilon must be > 0 and weight_decay >= 0");
+    detail::require(std::isfinite(config.anchor) && config.anchor >= 0,
+                    "HeadTrainer: anchor must be a finite number >= 0, got " +
+                        std::to_string(config.anchor));
   }
   const Config& config() const { return config_; }
 
   // Trains from `init` (LinearHead::random for a new head, or the model's own classifier to
   // fine-tune it). Validation may be empty: then the last epoch is kept. on_epoch is called
-  // after every epoch (progress output).
+  // after every epoch (progress output). Reported losses and accuracies are of the features
+  // the head is trained on (standardised ones with Config::standardise).
   HeadTrainingResult train(LinearHead init, const Eigen::MatrixXd& x, std::span<const int> y,
                            const Eigen::MatrixXd& xv, std::span<const int> yv,
                            const std::function<void(const HeadEpoch&)>& on_epoch = {}) const {
     detail::check_head_data(init, x, y, "HeadTrainer::train (training set)");
     detail::require(x.rows() >= 1, "HeadTrainer::train: no training rows");
-    const bool has_val = xv.rows() > 0;
-    if (has_val)
+    if (xv.rows() > 0)
       detail::check_head_data(init, xv, yv, "HeadTrainer::train (validation set)");
     else
       detail::require(yv.empty(), "HeadTrainer::train: validation labels without features");
+    if (!config_.standardise) return run(std::move(init), x, y, xv, yv, on_epoch);
 
+    // x = sd * s + mean per column: W x + b = (W diag(sd)) s + (W mean + b).
+    const Eigen::RowVectorXd mean = x.colwise().mean();
+    Eigen::RowVectorXd sd =
+        ((x.rowwise() - mean).array().square().colwise().sum() / double(x.rows())).sqrt();
+    for (Eigen::Index c = 0; c < sd.size(); ++c)
+      if (!(sd(c) >= 1e-12)) sd(c) = 1.0;
+    auto standardised = [&](const Eigen::MatrixXd& m) -> Eigen::MatrixXd {
+      if (m.rows() == 0) return m;
+      return ((m.rowwise() - mean).array().rowwise() / sd.array()).matrix();
+    };
+    init.bias += init.weight * mean.transpose();
+    init.weight = init.weight * sd.asDiagonal();
+    HeadTrainingResult r = run(std::move(init), standardised(x), y, standardised(xv), yv, on_epoch);
+    r.head.weight = r.head.weight * sd.cwiseInverse().asDiagonal();
+    r.head.bias -= r.head.weight * mean.transpose();
+    return r;
+  }
+
+private:
+  HeadTrainingResult run(LinearHead init, const Eigen::MatrixXd& x, std::span<const int> y,
+                         const Eigen::MatrixXd& xv, std::span<const int> yv,
+                         const std::function<void(const HeadEpoch&)>& on_epoch) const {
+    const bool has_val = xv.rows() > 0;
+    const LinearHead anchor = init;
     LinearHead p = std::move(init), g, m, v;
     m.weight = Eigen::MatrixXd::Zero(p.weight.rows(), p.weight.cols());
     m.bias = Eigen::VectorXd::Zero(p.bias.size());
@@ -209,9 +305,14 @@ public:
     HeadTrainingResult result;
     double best_acc = -1, best_loss = std::numeric_limits<double>::infinity();
     for (int epoch = 1; epoch <= config_.epochs; ++epoch) {
-      std::iota(order.begin(), order.end(), 0);
-      for (std::size_t i = order.size(); i > 1; --i) // Fisher-Yates, portable
-        std::swap(order[i - 1], order[static_cast<std::size_t>(rng() % i)]);
+      if (config_.balanced_batches) {
+        order = detail::balanced_order(y, p.classes(), rng);
+      } else {
+        order.resize(static_cast<std::size_t>(x.rows()));
+        std::iota(order.begin(), order.end(), 0);
+        for (std::size_t i = order.size(); i > 1; --i) // Fisher-Yates, portable
+          std::swap(order[i - 1], order[static_cast<std::size_t>(rng() % i)]);
+      }
       double loss_sum = 0;
       long long correct_sum = 0;
       for (std::size_t s = 0; s < order.size(); s += static_cast<std::size_t>(config_.batch_size)) {
@@ -226,12 +327,16 @@ public:
         int correct = 0;
         loss_sum += head_loss(p, xb, yb, &g, &correct) * double(e - s);
         correct_sum += correct;
+        if (config_.anchor > 0) {
+          g.weight += config_.anchor * (p.weight - anchor.weight);
+          g.bias += config_.anchor * (p.bias - anchor.bias);
+        }
         adam_step(p, g, m, v, ++step);
       }
       HeadEpoch ep;
       ep.epoch = epoch;
-      ep.train_loss = loss_sum / double(x.rows());
-      ep.train_accuracy = double(correct_sum) / double(x.rows());
+      ep.train_loss = loss_sum / double(order.size());
+      ep.train_accuracy = double(correct_sum) / double(order.size());
       if (has_val) {
         int correct = 0;
         ep.val_loss = head_loss(p, xv, yv, nullptr, &correct);
@@ -254,7 +359,6 @@ public:
     return result;
   }
 
-private:
   // torch.optim.Adam (amsgrad off): bias-corrected first and second moments.
   void adam_step(LinearHead& p, LinearHead& g, LinearHead& m, LinearHead& v, long long t) const {
     const double b1 = config_.beta1, b2 = config_.beta2;
