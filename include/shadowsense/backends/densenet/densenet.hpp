@@ -12,8 +12,9 @@
 // - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
 //   buffer so packing needs no bounds checks.
 // - the dense layers' 3x3 convolutions use Winograd F(2x2, 3x3) (winograd.hpp: 2.25x fewer
-//   multiply-adds) where the image has enough 2x2 tiles to fill the GEMM panels; the small
-//   late-block images use the direct padded-grid convolution (Config::conv3x3).
+//   multiply-adds) where the image has enough 2x2 tiles to fill the GEMM panels and the layer
+//   has at least 16 output channels; the small late-block images and narrow models use the
+//   direct padded-grid convolution (Config::conv3x3).
 // - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
 //   result is the same up to rounding) which costs 4x fewer multiply-adds.
 // - all buffers are sized at construction for the largest input seen so far and reused.
@@ -42,8 +43,9 @@ SHADOWSENSE_NAMESPACE_BEGIN
 class DenseNet {
 public:
   // How the dense layers' 3x3 convolutions are computed: automatic picks Winograd per block
-  // where detail::winograd_pays(h, w, nr), direct everywhere else; direct and winograd force
-  // one method on every block (for tests and benchmarks).
+  // where detail::winograd_pays(h, w, growth_rate, nr), direct everywhere else; direct and
+  // winograd force one method on every block (tests, benchmarks; direct also saves the memory
+  // of the transformed weights, 16/9 of the 3x3 weights).
   enum class Conv3x3 { automatic, direct, winograd };
 
   struct Config {
