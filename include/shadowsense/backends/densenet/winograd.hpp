@@ -38,7 +38,11 @@
 //             for u.m x h x w floats; scratch holds pool.size() entries made by
 //             make_winograd_scratch(u.c, u.m, kernel).
 //   ensures:  out[o][y][x] = sum over c, ky, kx of w[o][c][ky][kx] * in[c][y + ky][x + kx]
-//             (padded coordinates), up to rounding. Tile panels are split over the pool.
+//             (padded coordinates), up to rounding. (tile panel, row panel) units are split
+//             over the pool in equal shares; each output element is computed by one thread in
+//             one order, so the result does not depend on the thread count.
+// make_winograd_scratch(c, m, kernel): one thread's slabs and products (16 x (c x nr + 16) and
+//   16 x (m rounded up to mr, x nr + 16) floats); requires 1 <= kernel.nr <= winograd_max_run.
 // No state beyond the arguments; scratch entries are per thread (one per pool thread).
 #pragma once
 
