@@ -331,6 +331,26 @@ private:
   std::atomic<bool> stop_{false}, caller_waiting_{false};
 };
 
+// Splits the (column panel, row panel) units of a GEMM, column panel major, into equal
+// contiguous shares over the pool's threads and calls fn(t, np, mp0, mp1) for each run of row
+// panels mp0..mp1-1 of column panel np in thread t's share (5 column panels x 4 row panels
+// split 10 / 10, where whole column panels would split 3 / 2).
+template <class Fn>
+inline void run_panel_units(ThreadPool& pool, int n_panels, int m_panels, Fn&& fn) {
+  const long units = long(n_panels) * m_panels;
+  const int tasks = static_cast<int>(std::min<long>(pool.size(), units));
+  auto task = [&](int t) {
+    const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
+    for (long u = u0; u < u1;) {
+      const int np = static_cast<int>(u / m_panels), mp0 = static_cast<int>(u % m_panels);
+      const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - u)));
+      fn(t, np, mp0, mp1);
+      u += mp1 - mp0;
+    }
+  };
+  pool.run(tasks, task);
+}
+
 // Per-thread scratch of the GEMM driver.
 struct GemmScratch {
   std::vector<float> panel; // K x NR
@@ -366,19 +386,9 @@ inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, i
     }
   };
   if (free_prepare) {
-    const long units = long(n_panels) * m_panels;
-    const int tasks = static_cast<int>(std::min<long>(threads, units));
-    auto task = [&](int t) {
-      auto& s = scratch[static_cast<std::size_t>(t)];
-      const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
-      for (long u = u0; u < u1;) {
-        const int np = static_cast<int>(u / m_panels), mp0 = static_cast<int>(u % m_panels);
-        const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - u)));
-        tile(s, np, mp0, mp1);
-        u += mp1 - mp0;
-      }
-    };
-    pool.run(tasks, task);
+    run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
+      tile(scratch[static_cast<std::size_t>(t)], np, mp0, mp1);
+    });
     return;
   }
   const bool split_n = n_panels >= 2 * threads || m_panels < threads;

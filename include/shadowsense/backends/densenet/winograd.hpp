@@ -226,16 +226,6 @@ winograd_input_avx512(const float* __restrict s, std::size_t plane, int channels
     }
   }
 }
-__attribute__((target("avx512f"))) inline void
-winograd_output_avx512(const float* __restrict m, std::size_t xs, int n, float* __restrict y) {
-  winograd_output_avx512_loops(m, xs, n, y);
-}
-__attribute__((target("avx512f"))) inline void winograd_interleave_avx512(const float* __restrict a,
-                                                                          const float* __restrict b,
-                                                                          float* __restrict d,
-                                                                          int n) {
-  winograd_interleave_avx512_loops(a, b, d, n);
-}
 #endif
 
 struct WinogradOps {
@@ -247,7 +237,8 @@ struct WinogradOps {
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
 #if SHADOWSENSE_X86_KERNELS
   if (kind == GemmKernelKind::avx512)
-    return {&winograd_input_avx512, &winograd_output_avx512, &winograd_interleave_avx512};
+    return {&winograd_input_avx512, &winograd_output_avx512_loops,
+            &winograd_interleave_avx512_loops};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2, &winograd_output_avx2, &winograd_interleave_avx2};
 #endif
@@ -295,56 +286,44 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
   const std::size_t xs_v = winograd_slab(c, nr);           // V_xi slab: c x nr (+ a line)
   const std::size_t xs_m = winograd_products(u.m, kernel); // M_xi block: m x nr (+ a line)
   const std::size_t image = static_cast<std::size_t>(h) * w;
-  // Work units: (tile panel, row panel), tile panel major, in equal contiguous shares per thread
-  // (5 tile panels x 4 row panels split 10 / 10, where whole tile panels would split 3 / 2). A
-  // tile panel shared by two threads is transformed by both.
-  const long units = long(n_panels) * m_panels;
-  const int tasks = static_cast<int>(std::min<long>(pool.size(), units));
-  auto task = [&](int t) {
+  // Work units (tile panel, row panel) in equal shares (run_panel_units); a tile panel shared
+  // by two threads is transformed by both.
+  run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
     WinogradScratch& s = scratch[static_cast<std::size_t>(t)];
-    const long u0 = units * t / tasks, u1 = units * (t + 1) / tasks;
-    for (long unit = u0; unit < u1;) {
-      const int np = static_cast<int>(unit / m_panels), mp0 = static_cast<int>(unit % m_panels);
-      const int mp1 = static_cast<int>(std::min<long>(m_panels, mp0 + (u1 - unit)));
-      unit += mp1 - mp0;
-      const int t0 = np * nr, cols = std::min(nr, tiles - t0);
-      // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
-      // values: the kernel's output columns are independent, and those columns are dropped.
-      for (int j = 0; j < cols;) { // runs within one tile row
-        const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-        const int run = std::min(cols - j, tiles_x - tx);
-        ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run, nr - j,
-                  s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
-        j += run;
-      }
-      // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
-      for (std::size_t xi = 0; xi < 16; ++xi)
-        for (int mp = mp0; mp < mp1; ++mp)
-          kernel.fn(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
-                    s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
-      for (int mp = mp0; mp < mp1; ++mp) {
-        const int rows = std::min(mr, u.m - mp * mr);
-        for (int r = 0; r < rows; ++r) {
-          ops.output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols,
-                     s.y.data());
-          float* o = out + static_cast<std::size_t>(mp * mr + r) * image;
-          const float* y = s.y.data();
-          for (int j = 0; j < cols;) { // runs within one tile row: 2 output rows each
-            const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-            const int run = std::min(cols - j, tiles_x - tx);
-            const int n = std::min(2 * run, w - 2 * tx); // output columns (odd w: one less)
-            float* row = o + static_cast<std::size_t>(2 * ty) * w + 2 * tx;
-            ops.interleave(y + j, y + winograd_max_run + j, row, n);
-            if (2 * ty + 1 < h)
-              ops.interleave(y + 2 * winograd_max_run + j, y + 3 * winograd_max_run + j, row + w,
-                             n);
-            j += run;
-          }
+    const int t0 = np * nr, cols = std::min(nr, tiles - t0);
+    // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
+    // values: the kernel's output columns are independent, and those columns are dropped.
+    for (int j = 0; j < cols;) { // runs within one tile row
+      const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
+      const int run = std::min(cols - j, tiles_x - tx);
+      ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run, nr - j,
+                s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
+      j += run;
+    }
+    // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
+    for (std::size_t xi = 0; xi < 16; ++xi)
+      for (int mp = mp0; mp < mp1; ++mp)
+        kernel.fn(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
+                  s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
+    for (int mp = mp0; mp < mp1; ++mp) {
+      const int rows = std::min(mr, u.m - mp * mr);
+      for (int r = 0; r < rows; ++r) {
+        ops.output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols, s.y.data());
+        float* o = out + static_cast<std::size_t>(mp * mr + r) * image;
+        const float* y = s.y.data();
+        for (int j = 0; j < cols;) { // runs within one tile row: 2 output rows each
+          const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
+          const int run = std::min(cols - j, tiles_x - tx);
+          const int n = std::min(2 * run, w - 2 * tx); // output columns (odd w: one less)
+          float* row = o + static_cast<std::size_t>(2 * ty) * w + 2 * tx;
+          ops.interleave(y + j, y + winograd_max_run + j, row, n);
+          if (2 * ty + 1 < h)
+            ops.interleave(y + 2 * winograd_max_run + j, y + 3 * winograd_max_run + j, row + w, n);
+          j += run;
         }
       }
     }
-  };
-  pool.run(tasks, task);
+  });
 }
 
 } // namespace detail
