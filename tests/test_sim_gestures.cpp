@@ -6,6 +6,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 
 using namespace shadowsense;
@@ -96,4 +98,66 @@ TEST_CASE("two_hands shows two separate contact regions, palm one") {
   CHECK(n_two >= 2);
   CHECK(n_one >= 1);
   CHECK(two.gt.contact_box->width > one.gt.contact_box->width);
+}
+
+TEST_CASE("a punch pressed deeper touches with more of the fist; the knuckle face alone is less") {
+  Renderer r(Rig::robot(), RenderConfig{.sensor_noise = false});
+  const Light l = preset(Lighting::daylight, 0);
+  GesturePose p;
+  p.position_cm = {5, 2};
+  const Frame knuckles = r.render(gesture_scene(Gesture::punch, User{}, p), l, 0);
+  p.press_depth = 1;
+  const Frame pressed = r.render(gesture_scene(Gesture::punch, User{}, p), l, 0);
+  const int a0 = cv::countNonZero(knuckles.gt.contact_mask);
+  const int a1 = cv::countNonZero(pressed.gt.contact_mask);
+  CAPTURE(a0);
+  CAPTURE(a1);
+  CHECK(a0 > 0);
+  // The fist face (0.38 x 0.52 hand lengths) against the knuckle strip (0.14 x 0.46).
+  CHECK(a1 > 2 * a0);
+  // The shadow box holds the contact in both.
+  CHECK((pressed.gt.contact_box.value() & pressed.gt.shadow_box.value()) ==
+        pressed.gt.contact_box.value());
+}
+
+TEST_CASE("a hug around a larger body keeps the hands near the chest's row; around the visible "
+          "top they wrap past the centre") {
+  const User u;
+  GesturePose p;
+  p.rotation_deg = 90; // the person stands at +y
+  p.position_cm = {0, 19};
+  auto hands_y = [&](const GesturePose& g) {
+    double y = 0;
+    int n = 0;
+    for (const auto& part : gesture_scene(Gesture::hug, u, g).parts)
+      if (part.kind == PartKind::palm)
+        for (const auto& v : part.outline_cm) y += v.y, ++n;
+    REQUIRE(n > 0);
+    return y / n;
+  };
+  const double wrapped = hands_y(p);
+  CHECK(wrapped < 0); // past the robot's centre, on the far side
+  p.hug_body_radius_cm = 90;
+  p.hug_centre_pull = 0.9;
+  const double chest_y = 19 * (1 - 0.9);
+  const double beside = hands_y(p);
+  CAPTURE(beside);
+  CHECK(std::abs(beside - chest_y) < 12);
+  // press_depth widens the chest's contact patch.
+  Renderer r(Rig::robot(), RenderConfig{.sensor_noise = false});
+  const Light l = preset(Lighting::daylight, 0);
+  const int light_press =
+      cv::countNonZero(r.render(gesture_scene(Gesture::hug, u, p), l, 0).gt.contact_mask);
+  p.press_depth = 1;
+  const int hard_press =
+      cv::countNonZero(r.render(gesture_scene(Gesture::hug, u, p), l, 0).gt.contact_mask);
+  CHECK(hard_press > light_press + light_press / 4);
+  // Out-of-range pose values are rejected by name.
+  p.hug_body_radius_cm = 5;
+  CHECK_THROWS_WITH_AS(gesture_scene(Gesture::hug, u, p), doctest::Contains("hug_body_radius_cm"),
+                       InvalidArgument);
+  p.hug_body_radius_cm = 0;
+  p.press_depth = 2;
+  CHECK_THROWS_WITH_AS(gesture_scene(Gesture::punch, u, p), doctest::Contains("press_depth"),
+                       InvalidArgument);
 }

@@ -7,6 +7,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -102,6 +104,7 @@ TEST_CASE("every drawn value lies inside its documented range and the ranges are
       {"hand_scale", r.hand_scale, [](const DomainSample& d) { return d.hand_scale; }},
       {"arm_elevation_offset_deg", r.arm_elevation_offset_deg,
        [](const DomainSample& d) { return d.arm_elevation_offset_deg; }},
+      {"press_depth", r.press_depth, [](const DomainSample& d) { return d.press_depth; }},
   };
   std::vector<DomainSample> samples;
   for (std::uint64_t s = 0; s < 200; ++s) samples.push_back(DomainSample::draw(s, r));
@@ -136,6 +139,31 @@ TEST_CASE("every drawn value lies inside its documented range and the ranges are
   CHECK(seams > 110); // probability 0.75
   CHECK(seams < 190);
   CHECK(occluded > 100); // 2 of 3 counts
+  // Big-body hugs (probability 0.5) draw a body radius and a chest pull inside their ranges;
+  // the others keep the hug around the visible top (both 0).
+  int big = 0;
+  double radius_lo = 1e300, radius_hi = 0, pull_lo = 1e300, pull_hi = 0;
+  for (const auto& d : samples) {
+    if (d.hug_body_radius_cm == 0) {
+      CHECK(d.hug_centre_pull == 0);
+      continue;
+    }
+    ++big;
+    radius_lo = std::min(radius_lo, d.hug_body_radius_cm);
+    radius_hi = std::max(radius_hi, d.hug_body_radius_cm);
+    pull_lo = std::min(pull_lo, d.hug_centre_pull);
+    pull_hi = std::max(pull_hi, d.hug_centre_pull);
+  }
+  CHECK(big > 70);
+  CHECK(big < 130);
+  CHECK(radius_lo >= r.hug_body_radius_cm.lo);
+  CHECK(radius_lo < r.hug_body_radius_cm.lo + 10);
+  CHECK(radius_hi <= r.hug_body_radius_cm.hi);
+  CHECK(radius_hi > r.hug_body_radius_cm.hi - 10);
+  CHECK(pull_lo >= r.hug_centre_pull.lo);
+  CHECK(pull_lo < 0.15);
+  CHECK(pull_hi <= r.hug_centre_pull.hi);
+  CHECK(pull_hi > r.hug_centre_pull.hi - 0.15);
   // Pure function of the seed.
   CHECK(DomainSample::draw(7, r).lens_k1 == DomainSample::draw(7, r).lens_k1);
 }
@@ -178,6 +206,16 @@ TEST_CASE("bad ranges and renderer changes are rejected with a message") {
   r = {};
   r.max_opacity = {0.3, 0.9};
   CHECK_THROWS_WITH_AS(r.validate(), doctest::Contains("max_opacity"), InvalidArgument);
+  r = {};
+  r.press_depth = {0.0, 1.5};
+  CHECK_THROWS_WITH_AS(r.validate(), doctest::Contains("press_depth"), InvalidArgument);
+  r = {};
+  r.hug_body_radius_cm = {5, 90};
+  CHECK_THROWS_WITH_AS(r.validate(), doctest::Contains("hug_body_radius_cm"), InvalidArgument);
+  r = {};
+  r.big_body_hug_probability = 1.5;
+  CHECK_THROWS_WITH_AS(r.validate(), doctest::Contains("big_body_hug_probability"),
+                       InvalidArgument);
   GestureSessionConfig c = randomised(1);
   c.ranges.max_occluders = 100;
   CHECK_THROWS_WITH_AS(GestureSession(1, User{}, 1.0, c), doctest::Contains("max_occluders"),

@@ -133,6 +133,7 @@ struct HandPose {
   bool left = false;             // left hand = mirror image of a right hand
   double arm_elevation_deg = 35; // forearm angle above the skin
   double wrist_bend_deg = 0;     // forearm direction relative to straight behind the hand
+  double press_depth = 0;        // fist: 0 = the knuckle face touches, 1 = the whole fist face
 
   void validate() const {
     detail::require(std::isfinite(position_cm.x) && std::isfinite(position_cm.y),
@@ -144,6 +145,8 @@ struct HandPose {
                     "HandPose: arm_elevation_deg must be in [0, 89]");
     detail::require(wrist_bend_deg >= -60 && wrist_bend_deg <= 60,
                     "HandPose: wrist_bend_deg must be in [-60, 60]");
+    detail::require(press_depth >= 0 && press_depth <= 1,
+                    "HandPose: press_depth must be in [0, 1]");
   }
 };
 
@@ -274,10 +277,12 @@ inline void add_hand(std::vector<BodyPart>& out, const User& user, const HandPos
   }
   case HandShape::fist: {
     // Punch: the flat of the proximal phalanges (the knuckle face) touches; the rest of the
-    // fist and the thumb are above it. origin = knuckle centre.
+    // fist and the thumb are above it, lower the deeper the fist presses into the soft skin
+    // (press_depth 1: the whole fist face touches). origin = knuckle centre.
     const double half_w = 0.26 * L, half_l = 0.19 * L;
-    out.push_back(
-        internal::blob(PartKind::fist, at(0, -half_l + 0.08 * L), f, half_l, half_w, h + 2.0, 4.0));
+    const double lift = 2.0 * (1.0 - pose.press_depth);
+    out.push_back(internal::blob(PartKind::fist, at(0, -half_l + 0.08 * L), f, half_l, half_w,
+                                 h + lift, 4.0));
     out.push_back(internal::blob(PartKind::fist, at(0, 0), f, 0.07 * L, 0.23 * L, h, 6.0, 28));
     const cv::Point2d tb{0.20 * L, -0.18 * L}, te{0.05 * L, 0.0};
     out.push_back(internal::segment(PartKind::thumb, at(tb.x, tb.y), at(te.x, te.y), fw * 1.2,

@@ -64,6 +64,10 @@ struct GesturePose {
   double hand_gap_cm = 24;    // two_hands: distance between the palm centres
   double body_height_cm = 50; // nothing: height of the closest body part above the skin
   double hug_reach = 1.0;     // hug: how far the arms wrap around (0.6 .. 1.3)
+  // hug: radius of the body the arms wrap around, its centre behind the chest (0: the
+  // visible top's centre), and how far the chest moves from position_cm to the view's middle.
+  double hug_body_radius_cm = 0, hug_centre_pull = 0;
+  double press_depth = 0; // punch and hug: how hard the fist or chest presses (0 .. 1)
   bool left = false;
 
   void validate() const {
@@ -78,16 +82,28 @@ struct GesturePose {
         "GesturePose: body_height_cm must be in [30, 300] (a nothing frame casts no shadow box)");
     detail::require(hug_reach >= 0.2 && hug_reach <= 2,
                     "GesturePose: hug_reach must be in [0.2, 2]");
+    detail::require(hug_body_radius_cm == 0 ||
+                        (hug_body_radius_cm >= 10 && hug_body_radius_cm <= 500),
+                    "GesturePose: hug_body_radius_cm must be 0 or in [10, 500]");
+    detail::require(hug_centre_pull >= 0 && hug_centre_pull <= 0.95,
+                    "GesturePose: hug_centre_pull must be in [0, 0.95]");
+    detail::require(press_depth >= 0 && press_depth <= 1,
+                    "GesturePose: press_depth must be in [0, 1]");
   }
 };
 
 // Domain randomisation of a pose (randomise.hpp): arm elevation, wrist bend, spread and hug
-// reach offset by the sample, clamped to the valid ranges of GesturePose and HandPose.
+// reach offset by the sample, clamped to the valid ranges of GesturePose and HandPose; press
+// depth and the hug's body size and chest place set from it.
 inline GesturePose randomise_pose(GesturePose p, const DomainSample& d) {
   p.arm_elevation_deg = std::clamp(p.arm_elevation_deg + d.arm_elevation_offset_deg, 5.0, 85.0);
   p.wrist_bend_deg = std::clamp(p.wrist_bend_deg + d.wrist_bend_offset_deg, -55.0, 55.0);
   p.spread = std::clamp(p.spread + d.spread_offset, 0.0, 1.0);
   p.hug_reach = std::clamp(p.hug_reach * d.hug_reach_scale, 0.3, 1.9);
+  p.press_depth = std::clamp(d.press_depth, 0.0, 1.0);
+  p.hug_body_radius_cm =
+      d.hug_body_radius_cm == 0 ? 0.0 : std::clamp(d.hug_body_radius_cm, 10.0, 500.0);
+  p.hug_centre_pull = std::clamp(d.hug_centre_pull, 0.0, 0.95);
   p.validate();
   return p;
 }
@@ -113,30 +129,41 @@ inline HandPose hand_from(const GesturePose& g, HandShape shape) {
   h.spread = g.spread;
   h.arm_elevation_deg = g.arm_elevation_deg;
   h.wrist_bend_deg = g.wrist_bend_deg;
+  h.press_depth = g.press_depth;
   h.left = g.left;
   h.shape = shape;
   return h;
 }
 
-// Hug: the chest presses against the skin at the side the person stands on; the arms wrap
-// around along an ellipse about the robot's centre, forearms and hands in contact.
+// Hug: the chest presses against the skin at the side the person stands on (or, pulled by
+// hug_centre_pull, nearer the view's middle); the arms wrap around along a circle about the
+// body's centre (the visible top's centre, or hug_body_radius_cm behind the chest for a
+// larger body), forearms and hands in contact. press_depth widens the chest's contact patch
+// towards the torso's outline.
 inline void add_hug(std::vector<BodyPart>& out, const User& user, const GesturePose& g) {
   const double a = g.rotation_deg * deg;
   const cv::Point2d out_dir{std::cos(a), std::sin(a)}; // from the robot centre to the person
   const cv::Point2d side{-out_dir.y, out_dir.x};
-  const cv::Point2d chest = g.position_cm;
+  const cv::Point2d chest = g.position_cm * (1.0 - g.hug_centre_pull);
   const double s = user.hand_length_cm / 18.0;
   out.push_back(blob(PartKind::torso, chest + out_dir * (4 * s), side, 19 * s, 12 * s, 4.0));
-  out.push_back(blob(PartKind::torso, chest, side, 13 * s, 5 * s, 0.0, 3.0));
-  // Arms: along an ellipse around the centre through the shoulders.
-  const double rx = std::max(std::hypot(chest.x, chest.y), 8.0);
+  const double press = g.press_depth;
+  out.push_back(
+      blob(PartKind::torso, chest, side, (13 + 3 * press) * s, (5 + 5 * press) * s, 0.0, 3.0));
+  const bool big = g.hug_body_radius_cm > 0;
+  const cv::Point2d centre = big ? chest - out_dir * g.hug_body_radius_cm : cv::Point2d{0, 0};
+  // Arms: along a circle around the centre through the shoulders; around a larger body the
+  // sweep angle shrinks so that the arms keep their length.
+  const double rx = std::max(std::hypot(chest.x - centre.x, chest.y - centre.y), 8.0);
   for (int k = -1; k <= 1; k += 2) {
-    const cv::Point2d shoulder = chest + side * (k * 17 * s) + out_dir * (3 * s);
+    const cv::Point2d shoulder = chest + side * (k * 17 * s) + out_dir * (3 * s) - centre;
     const double phi0 = std::atan2(shoulder.y, shoulder.x);
     const double r0 = std::hypot(shoulder.x, shoulder.y);
     std::vector<cv::Point2d> upper, fore;
     const int steps = 4;
-    const double sweep_upper = 0.45 * g.hug_reach, sweep_fore = 0.5 * g.hug_reach;
+    const double length_keep = big ? std::min(1.0, 25.0 * s / r0) : 1.0;
+    const double sweep_upper = 0.45 * g.hug_reach * length_keep,
+                 sweep_fore = 0.5 * g.hug_reach * length_keep;
     // Sign of the sweep: the arm goes around on its own side of the body.
     const double dir =
         (side * k).dot(cv::Point2d{-std::sin(phi0), std::cos(phi0)}) >= 0 ? 1.0 : -1.0;
@@ -144,13 +171,16 @@ inline void add_hug(std::vector<BodyPart>& out, const User& user, const GestureP
       const double t = static_cast<double>(i) / steps;
       const double phi = phi0 + dir * sweep_upper * t;
       const double r = r0 * (1 - 0.15 * t) + rx * 0.15 * t;
-      upper.push_back({r * std::cos(phi), r * std::sin(phi)});
+      upper.push_back(centre + cv::Point2d{r * std::cos(phi), r * std::sin(phi)});
     }
-    const double phi1 = phi0 + dir * sweep_upper, r1 = std::hypot(upper.back().x, upper.back().y);
+    const cv::Point2d last = upper.back() - centre;
+    const double phi1 = phi0 + dir * sweep_upper, r1 = std::hypot(last.x, last.y);
     for (int i = 0; i <= steps; ++i) {
       const double t = static_cast<double>(i) / steps;
       const double phi = phi1 + dir * sweep_fore * t;
-      fore.push_back({r1 * (1 - 0.1 * t) * std::cos(phi), r1 * (1 - 0.1 * t) * std::sin(phi)});
+      // The forearm closes in on the body by about 2.5 cm whatever the body's size.
+      const double r = big ? r1 - 0.1 * t * std::min(r1, 25.0 * s) : r1 * (1 - 0.1 * t);
+      fore.push_back(centre + cv::Point2d{r * std::cos(phi), r * std::sin(phi)});
     }
     add_limb(out, PartKind::upper_arm, upper, user.arm_width_cm * 1.6, user.arm_width_cm * 1.35,
              3.0, 1.0);

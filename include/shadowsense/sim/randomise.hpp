@@ -104,6 +104,15 @@ struct DomainRanges {
   Range wrist_bend_offset_deg{-20, 20};
   Range spread_offset{-0.3, 0.3};
   Range hug_reach_scale{0.8, 1.2};
+  // How hard people press into the soft skin (0 = only the knuckle face of a punch and the
+  // middle of a hugging chest touch; 1 = the whole fist face, most of the chest).
+  Range press_depth{0.0, 1.0};
+  // Hugs of a robot body larger than its visible top: the arms wrap around a centre this far
+  // behind the chest (else around the visible top's centre), and the chest lands anywhere
+  // between its usual place at the view's edge and the view's middle (pull 0 .. 1).
+  double big_body_hug_probability = 0.5;
+  Range hug_body_radius_cm{35, 90};
+  Range hug_centre_pull{0.0, 0.9};
   // Occluders: sharp-ish shadows of objects (bags, sleeves, cables) that are not the user.
   int max_occluders = 2;
 
@@ -145,9 +154,14 @@ struct DomainRanges {
     check(wrist_bend_offset_deg, "wrist_bend_offset_deg", -40, 40);
     check(spread_offset, "spread_offset", -1, 1);
     check(hug_reach_scale, "hug_reach_scale", 0.3, 2);
+    check(press_depth, "press_depth", 0, 1);
+    check(hug_body_radius_cm, "hug_body_radius_cm", 10, 500);
+    check(hug_centre_pull, "hug_centre_pull", 0, 0.95);
     detail::require(seam_probability >= 0 && seam_probability <= 1 && jpeg_probability >= 0 &&
-                        jpeg_probability <= 1,
-                    "DomainRanges: seam_probability and jpeg_probability must be in [0, 1]");
+                        jpeg_probability <= 1 && big_body_hug_probability >= 0 &&
+                        big_body_hug_probability <= 1,
+                    "DomainRanges: seam_probability, jpeg_probability and "
+                    "big_body_hug_probability must be in [0, 1]");
     detail::require(max_occluders >= 0 && max_occluders <= 8,
                     "DomainRanges: max_occluders must be in [0, 8]");
   }
@@ -173,6 +187,8 @@ struct DomainSample {
   double hand_scale = 1, palm_width_scale = 1, finger_scale = 1, arm_width_scale = 1;
   double arm_elevation_offset_deg = 0, wrist_bend_offset_deg = 0, spread_offset = 0,
          hug_reach_scale = 1;
+  double press_depth = 0;
+  double hug_body_radius_cm = 0, hug_centre_pull = 0; // 0: a hug around the visible top
   int occluders = 0;
 
   static DomainSample draw(std::uint64_t seed, const DomainRanges& r) {
@@ -220,6 +236,12 @@ struct DomainSample {
     d.spread_offset = r.spread_offset.draw(rng);
     d.hug_reach_scale = r.hug_reach_scale.draw(rng);
     d.occluders = r.max_occluders > 0 ? rng.integer(0, r.max_occluders) : 0;
+    // Drawn last, so the draws above are those of the samples before these fields existed.
+    d.press_depth = r.press_depth.draw(rng);
+    if (rng.chance(r.big_body_hug_probability)) {
+      d.hug_body_radius_cm = r.hug_body_radius_cm.draw(rng);
+      d.hug_centre_pull = r.hug_centre_pull.draw(rng);
+    }
     return d;
   }
 };
