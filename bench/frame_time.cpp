@@ -10,7 +10,7 @@
 // Times are medians over rounds of the per-frame mean (each round runs every frame once), as
 // wall time and as the thread's CPU time (the CPU time is the figure to trust when other
 // processes share the machine). Allocations are counted by this program's own global operator
-// new (the library is not changed for it).
+// new (common/counting_new.hpp; the library is not changed for it).
 //   frame_time [--model PATH] [--frames N] [--rounds R] [--json]
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
@@ -18,76 +18,19 @@
 #include <shadowsense/sim.hpp>
 
 #include "common/bench_util.hpp"
+#include "common/counting_new.hpp"
 
 #include <opencv2/core.hpp>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <iostream>
-#include <new>
 #include <string>
 #include <string_view>
 #include <vector>
-
-namespace {
-
-std::atomic<std::size_t> g_allocations{0};
-volatile bool g_trace = false; // set while measuring (a debugger can break on allocations then)
-
-__attribute__((noinline)) void* counted_alloc(std::size_t n) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* counted_alloc_aligned(std::size_t n, std::align_val_t a) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  const auto al = static_cast<std::size_t>(a);
-  if (void* p = std::aligned_alloc(al, (std::max<std::size_t>(n, 1) + al - 1) / al * al)) return p;
-  throw std::bad_alloc();
-}
-
-} // namespace
-
-void* operator new(std::size_t n) {
-  return counted_alloc(n);
-}
-void* operator new[](std::size_t n) {
-  return counted_alloc(n);
-}
-void* operator new(std::size_t n, std::align_val_t a) {
-  return counted_alloc_aligned(n, a);
-}
-void* operator new[](std::size_t n, std::align_val_t a) {
-  return counted_alloc_aligned(n, a);
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::align_val_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::align_val_t) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept {
-  std::free(p);
-}
 
 namespace ss = shadowsense;
 using bench::positive_int;
@@ -115,15 +58,15 @@ StageResult measure(const std::string& name, int frames, int rounds,
   std::vector<double> wall, cpu;
   std::size_t allocs = 0;
   for (int r = 0; r < rounds; ++r) {
-    g_trace = true;
-    const std::size_t a0 = g_allocations.load();
+    counting_new::measuring = true;
+    const std::size_t a0 = counting_new::count();
     const double c0 = thread_cpu_ms();
     const auto t0 = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) step(i);
     const auto t1 = std::chrono::steady_clock::now();
     const double c1 = thread_cpu_ms();
-    allocs += g_allocations.load() - a0;
-    g_trace = false;
+    allocs += counting_new::count() - a0;
+    counting_new::measuring = false;
     wall.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count() / frames);
     cpu.push_back((c1 - c0) / frames);
   }

@@ -2,8 +2,9 @@
 // state machines) and Classifier::classify (frame encoder + forward pass of the shipped model)
 // on robot-rig generator frames: slides (long tracks whose direction window slides) and random
 // tracking frames (tracks appearing and ending). Counted by replacing the global operator new in
-// this test binary only (AddressSanitizer keeps working: this operator new takes precedence over
-// its replacement and the memory still comes from its intercepted malloc).
+// this test binary only (bench/common/counting_new.hpp) (AddressSanitizer keeps working: this
+// operator new takes precedence over its replacement and the memory still comes from its
+// intercepted malloc).
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
@@ -11,51 +12,17 @@
 
 #include <doctest/doctest.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
+#include "common/counting_new.hpp"
+
 #include <vector>
-
-namespace {
-std::atomic<std::size_t> allocations{0};
-volatile bool counting = false; // set while measuring (a debugger can break on allocations then)
-} // namespace
-
-// The replacements pair malloc with free; GCC cannot see that once they are inlined.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
-void* operator new(std::size_t n) {
-  allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) {
-  allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
-void operator delete[](void* p, std::size_t) noexcept {
-  std::free(p);
-}
 
 using namespace shadowsense;
 
 TEST_CASE("counting operator new sees allocations in this binary") {
-  const std::size_t before = allocations.load();
+  const std::size_t before = counting_new::count();
   std::vector<int> v(100, 7);
   CHECK(v[99] == 7);
-  CHECK(allocations.load() - before >= 1);
+  CHECK(counting_new::count() - before >= 1);
 }
 
 TEST_CASE("the whole frame (touch pipeline + classifier) allocates nothing after warm-up") {
@@ -93,11 +60,11 @@ TEST_CASE("the whole frame (touch pipeline + classifier) allocates nothing after
     }
   };
   run(); // warm-up: buffers grow to the scene
-  const std::size_t before = allocations.load();
-  counting = true;
+  const std::size_t before = counting_new::count();
+  counting_new::measuring = true;
   run();
   run();
-  const std::size_t after = allocations.load();
+  const std::size_t after = counting_new::count();
   INFO(frames.size() << " frames x 2");
   CHECK(after - before == 0);
   // The frames did exercise the pipeline: tracks and events every round.

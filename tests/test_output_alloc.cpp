@@ -1,35 +1,16 @@
 // The firmware promise of output/: after warm-up, building an OutputFrame and encoding it as
-// TUIO bundles allocates nothing. Counted by replacing the global operator new in this binary.
+// TUIO bundles allocates nothing. Counted by replacing the global operator new in this binary
+// (bench/common/counting_new.hpp).
 #include <shadowsense/output/event_sink.hpp>
 #include <shadowsense/output/tuio_sink.hpp>
 
 #include <doctest/doctest.h>
 
-#include <cstdlib>
-#include <new>
+#include "common/counting_new.hpp"
+
+#include <memory>
 #include <optional>
 #include <vector>
-
-namespace {
-std::size_t allocations = 0;
-}
-
-// The replacements pair malloc with free; GCC cannot see that once they are inlined.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-#endif
-
-void* operator new(std::size_t n) {
-  ++allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept {
-  std::free(p);
-}
-void operator delete(void* p, std::size_t) noexcept {
-  std::free(p);
-}
 
 using namespace shadowsense;
 
@@ -51,6 +32,13 @@ struct Frame {
 };
 } // namespace
 
+TEST_CASE("the counting operator new sees allocations in this binary") {
+  const std::size_t before = counting_new::count();
+  auto v = std::make_unique<std::vector<int>>(100, 7);
+  CHECK((*v)[99] == 7);
+  CHECK(counting_new::count() - before >= 2);
+}
+
 TEST_CASE("OutputFrameBuilder + TuioEncoder allocate nothing per frame after warm-up") {
   Frame f;
   for (int id = 1; id <= 4; ++id)
@@ -68,12 +56,12 @@ TEST_CASE("OutputFrameBuilder + TuioEncoder allocate nothing per frame after war
     f.timestamp_ms = 33.0 * i;
     encoder.encode(builder.build(f, {320, 240}), count_bytes);
   }
-  const std::size_t before = allocations;
+  const std::size_t before = counting_new::count();
   for (int i = 3; i < 100; ++i) {
     f.timestamp_ms = 33.0 * i;
     for (Track& t : f.tracks) t.contact->x += 1.0f;
     encoder.encode(builder.build(f, {320, 240}), count_bytes);
   }
-  CHECK(allocations - before == 0);
+  CHECK(counting_new::count() - before == 0);
   CHECK(bytes > 0);
 }
