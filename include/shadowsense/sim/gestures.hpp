@@ -155,13 +155,16 @@ inline void add_hug(std::vector<BodyPart>& out, const User& user, const GestureP
   // Arms: along a circle around the centre through the shoulders; around a larger body the
   // sweep angle shrinks so that the arms keep their length.
   const double rx = std::max(std::hypot(chest.x - centre.x, chest.y - centre.y), 8.0);
+  // Shoulder radius of a typical hug around the visible top: a larger body keeps these arc
+  // lengths and this closing-in, not the angles.
+  const double top_radius = 25.0 * s;
   for (int k = -1; k <= 1; k += 2) {
     const cv::Point2d shoulder = chest + side * (k * 17 * s) + out_dir * (3 * s) - centre;
     const double phi0 = std::atan2(shoulder.y, shoulder.x);
     const double r0 = std::hypot(shoulder.x, shoulder.y);
     std::vector<cv::Point2d> upper, fore;
     const int steps = 4;
-    const double length_keep = big ? std::min(1.0, 25.0 * s / r0) : 1.0;
+    const double length_keep = big ? std::min(1.0, top_radius / r0) : 1.0;
     const double sweep_upper = 0.45 * g.hug_reach * length_keep,
                  sweep_fore = 0.5 * g.hug_reach * length_keep;
     // Sign of the sweep: the arm goes around on its own side of the body.
@@ -178,8 +181,7 @@ inline void add_hug(std::vector<BodyPart>& out, const User& user, const GestureP
     for (int i = 0; i <= steps; ++i) {
       const double t = static_cast<double>(i) / steps;
       const double phi = phi1 + dir * sweep_fore * t;
-      // The forearm closes in on the body by about 2.5 cm whatever the body's size.
-      const double r = big ? r1 - 0.1 * t * std::min(r1, 25.0 * s) : r1 * (1 - 0.1 * t);
+      const double r = big ? r1 - 0.1 * t * std::min(r1, top_radius) : r1 * (1 - 0.1 * t);
       fore.push_back(centre + cv::Point2d{r * std::cos(phi), r * std::sin(phi)});
     }
     add_limb(out, PartKind::upper_arm, upper, user.arm_width_cm * 1.6, user.arm_width_cm * 1.35,
