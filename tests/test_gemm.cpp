@@ -112,6 +112,135 @@ TEST_CASE("micro-kernels: K = 0 gives zeros, NaN and Inf propagate") {
   }
 }
 
+TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others untouched") {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
+  int tested = 0;
+  for (const auto& mk : kernels_under_test()) {
+    if (!mk.half) continue;
+    const std::string name = mk.name;
+    CAPTURE(name);
+    ++tested;
+    for (int K : {0, 1, 9, 300}) {
+      CAPTURE(K);
+      std::vector<float> a(static_cast<std::size_t>(K) * mk.mr + 1),
+          b(static_cast<std::size_t>(K) * mk.nr + 1);
+      for (auto& v : a) v = ud(rng);
+      for (auto& v : b) v = ud(rng);
+      std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), half(full.size(), 7.0f);
+      mk.fn(K, a.data(), b.data(), full.data());
+      mk.half(K, a.data(), b.data(), half.data());
+      for (int r = 0; r < mk.mr; ++r)
+        for (int j = 0; j < mk.nr; ++j) {
+          const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
+          CAPTURE(r);
+          CAPTURE(j);
+          CHECK(half[i] == (j < mk.nr / 2 ? full[i] : 7.0f));
+        }
+    }
+  }
+#if SHADOWSENSE_X86_KERNELS
+  if (detail::cpu_has(GemmKernelKind::avx512)) CHECK(tested == 1);
+#endif
+}
+
+TEST_CASE("image_row_segments: the runs of a panel over image rows, exactly") {
+  detail::TileSegments seg;
+  // The bottleneck store: 55-wide rows into a grid padded by 1 (row stride 57, lead 57 + 1).
+  detail::image_row_segments(50, 32, 55, 55, 57, 58, seg);
+  REQUIRE(seg.count == 2);
+  CHECK(seg.mask[0] == 0x1Fu); // pixels 50..54 of row 0
+  CHECK(seg.offset[0] == 58 + 50);
+  CHECK(seg.mask[1] == 0xFFFFFFE0u); // pixels 0..26 of row 1 at (2, 1): 2 * 57 + 1 = 5 + 110
+  CHECK(seg.offset[1] == 2 + 58 + 50);
+  // A padded grid (8 wide) whose last 2 columns are dropped, into 6-wide rows.
+  detail::image_row_segments(0, 32, 8, 6, 6, 0, seg);
+  REQUIRE(seg.count == 4);
+  for (int y = 0; y < 4; ++y) {
+    CHECK(seg.mask[y] == 0x3Fu << (8 * y));
+    CHECK(seg.offset[y] == -2 * y);
+  }
+  // A short last panel that starts in a dropped column: columns 46, 47 dropped, 48.. row 6.
+  detail::image_row_segments(46, 5, 8, 6, 6, 0, seg);
+  REQUIRE(seg.count == 1);
+  CHECK(seg.mask[0] == 0x1Cu);
+  CHECK(seg.offset[0] == 6 * (6 - 8) + 46);
+  // One pixel per row: a run per column, the most a panel has.
+  detail::image_row_segments(3, 32, 1, 1, 4, 0, seg);
+  REQUIRE(seg.count == 32);
+  for (int j = 0; j < 32; ++j) {
+    CHECK(seg.mask[j] == 1u << j);
+    CHECK(seg.offset[j] == (3 + j) * 3 + 3);
+  }
+  // Contiguous: one run.
+  detail::image_row_segments(64, 17, 81, 81, 81, 0, seg);
+  REQUIRE(seg.count == 1);
+  CHECK(seg.mask[0] == 0x1FFFFu);
+  CHECK(seg.offset[0] == 64);
+}
+
+#if SHADOWSENSE_X86_KERNELS
+TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by the segments") {
+  if (!detail::cpu_has(GemmKernelKind::avx512)) return;
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
+  const float sentinel = 1234.5f;
+  for (int K : {0, 1, 64, 333})
+    for (int width : {1, 5, 13, 40})
+      for (int cols : {32, 16, 9})
+        for (int rows : {8, 3})
+          for (bool bias_relu : {true, false})
+            for (bool in_place : {false, true}) {
+              CAPTURE(K);
+              CAPTURE(width);
+              CAPTURE(cols);
+              CAPTURE(rows);
+              CAPTURE(bias_relu);
+              CAPTURE(in_place);
+              std::vector<float> a(static_cast<std::size_t>(K) * 8 + 1),
+                  b(static_cast<std::size_t>(K) * 32 + 1), bias(8);
+              for (auto& v : a) v = ud(rng);
+              for (auto& v : b) v = ud(rng);
+              for (auto& v : bias) v = ud(rng);
+              bias[2] = std::numeric_limits<float>::quiet_NaN(); // relu(NaN) stays NaN
+              std::vector<float> tile(8 * 32);
+              detail::micro_kernel_avx512(K, a.data(), b.data(), tile.data());
+              // Columns are pixels n0.. of width-wide rows, stored into rows 2 wider with a
+              // lead of 3; destination rows of C are 600 floats apart.
+              const int n0 = 7, stride = width + 2, lead = 3;
+              detail::TileSegments seg;
+              detail::image_row_segments(n0, cols, width, width, stride, lead, seg);
+              std::vector<float> got(8 * 600, sentinel), want(got.size(), sentinel);
+              for (int r = 0; r < rows; ++r)
+                for (int j = 0; j < cols; ++j) {
+                  const int q = n0 + j, y = q / width, x = q % width;
+                  float v = tile[static_cast<std::size_t>(r) * 32 + j];
+                  if (bias_relu) v = detail::relu_reference(v + bias[static_cast<std::size_t>(r)]);
+                  want[static_cast<std::size_t>(r) * 600 + y * stride + x + lead] = v;
+                }
+              const detail::TileDest dest{got.data(), 600,  bias_relu ? bias.data() : nullptr,
+                                          bias_relu,  rows, &seg};
+              std::vector<int> offsets(static_cast<std::size_t>(K) + 1);
+              for (int k = 0; k < K; ++k) offsets[static_cast<std::size_t>(k)] = k * 32;
+              if (in_place) {
+                const detail::OffsetRows rb{b.data(), offsets.data()};
+                cols <= 16 ? detail::micro_kernel_avx512_fused<1>(K, a.data(), rb, dest)
+                           : detail::micro_kernel_avx512_fused<2>(K, a.data(), rb, dest);
+              } else {
+                const detail::PackedRows rb{b.data()};
+                cols <= 16 ? detail::micro_kernel_avx512_fused<1>(K, a.data(), rb, dest)
+                           : detail::micro_kernel_avx512_fused<2>(K, a.data(), rb, dest);
+              }
+              int mismatches = 0;
+              for (std::size_t i = 0; i < got.size(); ++i) {
+                const bool same = std::isnan(want[i]) ? std::isnan(got[i]) : got[i] == want[i];
+                mismatches += same ? 0 : 1;
+              }
+              CHECK(mismatches == 0);
+            }
+}
+#endif
+
 TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmetic to 1 ulp)") {
   const auto ref = detail::select_vector_ops(GemmKernelKind::reference);
   std::mt19937 rng(5);

@@ -80,6 +80,7 @@ public:
       ops_ = detail::select_vector_ops(kernel_.kind);
     }
     winograd_ops_ = detail::select_winograd_ops(kernel_.kind);
+    fused_ = detail::has_fused_stores(kernel_);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -414,6 +415,17 @@ private:
           }
     };
     float* out0 = conv0_out_.data();
+#if SHADOWSENSE_X86_KERNELS
+    if (fused_) {
+      detail::gemm_fused_avx512(
+          conv0_, n, pack, nullptr, nullptr,
+          [&](int n0, int cols, detail::TileSegments& seg) {
+            detail::image_row_segments(n0, cols, n, n, n, 0, seg);
+          },
+          out0, static_cast<std::size_t>(n), bias0_.data(), true, *pool_, scratch_);
+      return;
+    }
+#endif
     auto store = [&](int m, int n0, int cols, const float* v) {
       float* d = out0 + static_cast<std::size_t>(m) * n + n0;
       ops_.bias_relu(v, d, cols, bias0_[static_cast<std::size_t>(m)]);
@@ -494,6 +506,17 @@ private:
         if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
+#if SHADOWSENSE_X86_KERNELS
+    if (fused_) { // pixel (y, x) to the padded position (y + 1, x + 1)
+      detail::gemm_fused_avx512(
+          layer.conv1, n, pack, nullptr, nullptr,
+          [&](int n0, int cols, detail::TileSegments& seg) {
+            detail::image_row_segments(n0, cols, bw, bw, pw, pw + 1, seg);
+          },
+          bott, plane, layer.bias1.data(), true, *pool_, scratch_);
+      return;
+    }
+#endif
     auto store = [&](int m, int n0, int cols, const float* v) {
       float* d = bott + static_cast<std::size_t>(m) * plane;
       const float bias = layer.bias1[static_cast<std::size_t>(m)];
@@ -545,9 +568,13 @@ private:
       }
     };
 #if SHADOWSENSE_X86_KERNELS
-    if (kernel_.fn == &detail::micro_kernel_avx512) { // B read in place: nothing packed
-      detail::gemm_in_place(kernel_, &detail::micro_kernel_avx512_offsets, layer.conv2, bh * pw,
-                            bott, tap_offsets_[b].data(), store, *pool_, scratch_);
+    if (fused_) { // B read in place: nothing packed; the pad columns dropped by the store
+      detail::gemm_fused_avx512(
+          layer.conv2, bh * pw, pack, bott, tap_offsets_[b].data(),
+          [&](int n0, int cols, detail::TileSegments& seg) {
+            detail::image_row_segments(n0, cols, pw, bw, bw, 0, seg);
+          },
+          outp, static_cast<std::size_t>(n), nullptr, false, *pool_, scratch_);
       return;
     }
 #endif
@@ -581,6 +608,17 @@ private:
       }
     };
     float* next = block_buf_[b + 1].data();
+#if SHADOWSENSE_X86_KERNELS
+    if (fused_) {
+      detail::gemm_fused_avx512(
+          blk.transition, on, pack, nullptr, nullptr,
+          [&](int n0, int cols, detail::TileSegments& seg) {
+            detail::image_row_segments(n0, cols, on, on, on, 0, seg);
+          },
+          next, static_cast<std::size_t>(on), nullptr, false, *pool_, scratch_);
+      return;
+    }
+#endif
     auto store = [&](int m, int n0, int cols, const float* v) {
       std::copy_n(v, cols, next + static_cast<std::size_t>(m) * on + n0);
     };
@@ -651,6 +689,7 @@ private:
   detail::MicroKernel kernel_{};
   detail::VectorOps ops_{};
   detail::WinogradOps winograd_ops_{};
+  bool fused_ = false; // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
   std::unique_ptr<detail::ThreadPool> pool_;
   std::vector<detail::GemmScratch> scratch_;
   std::vector<detail::WinogradScratch> winograd_scratch_;

@@ -31,6 +31,13 @@
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
 // gemm_in_place(kernel, fn, a, n, base, offsets, store, pool, scratch): gemm() with B read in
 //   place by an offsets micro-kernel (micro_kernel_avx512_offsets), no packing.
+// MicroKernel::half (optional): the kernel for the first nr / 2 columns only; gemm() and the
+//   Winograd GEMMs run it on a last panel of at most nr / 2 columns (half the multiply-adds).
+// gemm_fused_avx512(a, n, pack, base, offsets, segments, dst, row_stride, bias, relu, pool,
+//   scratch): gemm() or gemm_in_place() on the AVX-512 kernel with no tile and no store calls:
+//   the kernel adds the bias, applies ReLU and writes each row from its registers, laid out by
+//   the caller's segments (image_row_segments: e.g. into a zero-padded grid, or dropping a
+//   padded grid's pad columns). Requires has_fused_stores(kernel) for the kernel in use.
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm_neon.hpp>
@@ -67,6 +74,9 @@ struct MicroKernel {
   int nr; // columns of C per tile (B panel width)
   MicroKernelFn fn;
   const char* name;
+  // Optional: fn for the first nr / 2 columns only (out's other columns untouched), for a last
+  // panel of at most nr / 2 columns.
+  MicroKernelFn half = nullptr;
 };
 
 // The element-wise loops of the forward pass, one set per kernel kind:
@@ -167,7 +177,7 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
   switch (kind) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {kind, 8, 32, &micro_kernel_avx512, "avx512"};
+    return {kind, 8, 32, &micro_kernel_avx512, "avx512", &micro_kernel_avx512_half};
   case GemmKernelKind::avx2:
     return {kind, 4, 24, &micro_kernel_avx2, "avx2+fma"};
 #endif
@@ -356,6 +366,8 @@ struct GemmScratch {
   std::vector<float> panel; // K x NR
   std::vector<float> tile;  // MR x NR
   std::vector<int> index;   // NR ints for packers (pixel offsets)
+  TileSegments segments;    // the fused kernels' column runs for the current column panel
+  int cols = 0;             // columns of the current column panel
 };
 
 // The split shared by gemm() and gemm_in_place(). For every column panel, prepare(s, n0, cols)
@@ -418,11 +430,82 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
   gemm_over_panels(
       kernel, a, n,
       [&](GemmScratch& s, int n0, int cols) { pack(s.panel.data(), n0, cols, s.index.data()); },
-      [&](int mp, GemmScratch& s, int) {
-        kernel.fn(a.k, a.panel(mp), s.panel.data(), s.tile.data());
+      [&](int mp, GemmScratch& s, int n0) {
+        const bool half = kernel.half && n - n0 <= kernel.nr / 2;
+        (half ? kernel.half : kernel.fn)(a.k, a.panel(mp), s.panel.data(), s.tile.data());
       },
       store, pool, scratch);
 }
+
+// The column runs of a panel of cols <= 32 columns starting at column n0, where column q of
+// C is pixel (y, x) = (q / src_width, q % src_width) of an image: pixels with x < kept go to
+// y * dst_stride + x + lead, the others are dropped (a padded grid's pad columns).
+inline void image_row_segments(int n0, int cols, int src_width, int kept, int dst_stride, int lead,
+                               TileSegments& seg) {
+  seg.count = 0;
+  for (int y = n0 / src_width; y * src_width < n0 + cols; ++y) {
+    const int j0 = std::max(0, y * src_width - n0);
+    const int j1 = std::min(cols, y * src_width + kept - n0);
+    if (j1 <= j0) continue;
+    const std::uint32_t upto = j1 == 32 ? ~0u : (1u << j1) - 1u;
+    seg.mask[seg.count] = upto & ~((1u << j0) - 1u);
+    seg.offset[seg.count] = std::ptrdiff_t(y) * (dst_stride - src_width) + lead + n0;
+    ++seg.count;
+  }
+}
+
+// Whether k is the library's AVX-512 kernel, the one with fused stores (gemm_fused_avx512).
+inline bool has_fused_stores(const MicroKernel& k) {
+#if SHADOWSENSE_X86_KERNELS
+  return k.fn == &micro_kernel_avx512;
+#else
+  (void)k;
+  return false;
+#endif
+}
+
+#if SHADOWSENSE_X86_KERNELS
+// gemm() (B packed by pack) or gemm_in_place() (offsets set: B read in place at base + n0 +
+// offsets[k]) on the AVX-512 kernel, with the store fused into the kernel: row m of C goes to
+// dst + m * row_stride, plus bias[m] when bias is set, through ReLU when relu, its columns laid
+// out by segments(n0, cols, TileSegments&) (called once per column panel and thread). A last
+// panel of at most 16 columns runs the 8 x 16 kernel. Same split over threads as gemm() and
+// gemm_in_place().
+template <class Pack, class Segments>
+inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const float* base,
+                              const int* offsets, Segments&& segments, float* dst,
+                              std::size_t row_stride, const float* bias, bool relu,
+                              ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+  const MicroKernel kernel{GemmKernelKind::avx512, 8, 32, &micro_kernel_avx512, "avx512"};
+  gemm_over_panels(
+      kernel, a, n,
+      [&](GemmScratch& s, int n0, int cols) {
+        if (!offsets) pack(s.panel.data(), n0, cols, s.index.data());
+        segments(n0, cols, s.segments);
+        s.cols = cols;
+      },
+      [&](int mp, GemmScratch& s, int n0) {
+        const int m0 = mp * kernel.mr;
+        const TileDest d{dst + static_cast<std::size_t>(m0) * row_stride,
+                         row_stride,
+                         bias ? bias + m0 : nullptr,
+                         relu,
+                         std::min(kernel.mr, a.m - m0),
+                         &s.segments};
+        const bool half = s.cols <= 16;
+        if (offsets) {
+          const OffsetRows rows{base + n0, offsets};
+          half ? micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d)
+               : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
+        } else {
+          const PackedRows rows{s.panel.data()};
+          half ? micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d)
+               : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
+        }
+      },
+      [](int, int, int, const float*) {}, pool, scratch, /*free_prepare=*/offsets != nullptr);
+}
+#endif
 
 using MicroKernelOffsetsFn = void (*)(int K, const float* a, const float* b, const int* offsets,
                                       float* out);

@@ -10,6 +10,18 @@
 //   them only through gemm.hpp's selection).
 // micro_kernel_avx512_offsets(K, a, b, offsets, out): as micro_kernel_avx512 with B row k
 //   read in place at b + offsets[k] (32 floats, all readable) instead of from a packed panel.
+// micro_kernel_avx512_half(K, a, b, out): as micro_kernel_avx512 for the first 16 columns
+//   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
+//   panel of at most 16 columns: half the multiply-adds.
+// micro_kernel_avx512_fused<NV>(K, a, rows, dest): the 8 x 16NV block (NV = 1 or 2) over B
+//   rows rows(k) (PackedRows or OffsetRows), accumulated as micro_kernel_avx512, then written
+//   from the registers to dest (TileDest) instead of to a tile: row r < dest.rows gets
+//   dest.bias[r] added (when bias is set) and ReLU (when relu), and column j goes to
+//   dest.dst + r * dest.row_stride + seg.offset[s] + j for the segment s whose mask has bit j.
+//   Columns in no segment are dropped; NV = 1 writes columns < 16 only.
+//   requires: segments disjoint, every written address valid; mask bits >= 16 NV clear.
+// TileSegments: how a tile's columns map to destination offsets (at most 33 runs: a 32-column
+//   panel crosses at most 32 row ends). Plain data, defined for every target.
 // No state; callable from any thread.
 #pragma once
 
@@ -17,6 +29,7 @@
 #include <shadowsense/core/version.hpp>
 
 #include <cstddef>
+#include <cstdint>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define SHADOWSENSE_X86_KERNELS 1
@@ -27,6 +40,24 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
+
+// Runs of a tile's columns and where each goes (see the header comment).
+struct TileSegments {
+  static constexpr int max_runs = 33;
+  int count = 0;
+  std::uint32_t mask[max_runs] = {};    // bit j: column j belongs to this run
+  std::ptrdiff_t offset[max_runs] = {}; // column j of the run goes to row + offset + j
+};
+
+// Where a fused kernel writes its rows.
+struct TileDest {
+  float* dst = nullptr;        // row 0 of the tile's destination
+  std::size_t row_stride = 0;  // floats from one row to the next
+  const float* bias = nullptr; // per row, or none
+  bool relu = false;
+  int rows = 0; // rows written (the rest of the 8 are padding of the last row panel)
+  const TileSegments* segments = nullptr;
+};
 
 #if SHADOWSENSE_X86_KERNELS
 // The 8x32 AVX-512 block over K rows of B, row k at row_b(k) (32 floats, unaligned): one body
@@ -107,6 +138,63 @@ __attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const 
 __attribute__((target("avx512f"))) inline void
 micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* offsets, float* out) {
   micro_kernel_avx512_rows(K, a, OffsetRows{b, offsets}, out);
+}
+
+// The fused kernel (see the header comment). The accumulators are an array the unrolled loops
+// index with constants only, so they live in registers (8 x NV of the 32).
+template <int NV, class RowB>
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& dest) {
+  static_assert(NV == 1 || NV == 2, "16 or 32 columns");
+  constexpr int MR = 8;
+  __m512 c[MR][NV];
+  SHADOWSENSE_UNROLL(8)
+  for (int r = 0; r < MR; ++r) SHADOWSENSE_UNROLL(2)
+  for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
+  for (int k = 0; k < K; ++k, a += MR) {
+    const float* bk = row_b(k);
+    __m512 b[NV];
+    SHADOWSENSE_UNROLL(2)
+    for (int v = 0; v < NV; ++v) b[v] = _mm512_loadu_ps(bk + 16 * v);
+    SHADOWSENSE_UNROLL(8)
+    for (int r = 0; r < MR; ++r) {
+      const __m512 x = _mm512_set1_ps(a[r]);
+      SHADOWSENSE_UNROLL(2)
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_fmadd_ps(x, b[v], c[r][v]);
+    }
+  }
+  const __m512 z = _mm512_setzero_ps();
+  const TileSegments& seg = *dest.segments;
+  SHADOWSENSE_UNROLL(8)
+  for (int r = 0; r < MR; ++r) {
+    if (r >= dest.rows) break;
+    if (dest.bias) {
+      const __m512 bias = _mm512_set1_ps(dest.bias[r]);
+      SHADOWSENSE_UNROLL(2)
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_add_ps(c[r][v], bias);
+    }
+    if (dest.relu) { // max(0, v) keeps a NaN (the second operand), as relu_reference does
+      SHADOWSENSE_UNROLL(2)
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_maskz_max_ps(0xFFFF, z, c[r][v]);
+    }
+    float* row =
+        dest.dst + static_cast<std::ptrdiff_t>(r) * static_cast<std::ptrdiff_t>(dest.row_stride);
+    for (int s = 0; s < seg.count; ++s) {
+      float* p = row + seg.offset[s];
+      SHADOWSENSE_UNROLL(2)
+      for (int v = 0; v < NV; ++v)
+        _mm512_mask_storeu_ps(p + 16 * v, static_cast<__mmask16>(seg.mask[s] >> (16 * v)), c[r][v]);
+    }
+  }
+}
+
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_half(int K, const float* a, const float* b, float* out) {
+  TileSegments seg;
+  seg.count = 1;
+  seg.mask[0] = 0xFFFFu;
+  const TileDest dest{out, 32, nullptr, false, 8, &seg};
+  micro_kernel_avx512_fused<1>(K, a, PackedRows{b}, dest);
 }
 
 __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
