@@ -241,6 +241,55 @@ TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by 
 }
 #endif
 
+#if SHADOWSENSE_X86_KERNELS
+TEST_CASE("AVX-512 pool0 and classifier rows: bit for bit the baseline code, NaN kept") {
+  if (!detail::cpu_has(GemmKernelKind::avx512)) return;
+  std::mt19937 rng(14);
+  std::uniform_real_distribution<float> ud(0.0f, 3.0f);
+  for (int h0 : {1, 2, 7, 75})
+    for (int w0 : {1, 3, 110}) {
+      CAPTURE(h0);
+      CAPTURE(w0);
+      const int channels = 5, bh = (h0 - 1) / 2 + 1, bw = (w0 - 1) / 2 + 1;
+      std::vector<float> src(static_cast<std::size_t>(channels) * h0 * w0);
+      for (auto& v : src) v = ud(rng);
+      src[src.size() / 2] = std::numeric_limits<float>::quiet_NaN();
+      std::vector<float> base(static_cast<std::size_t>(channels) * bh * bw, -1.0f), wide(base);
+      std::vector<float> vm(static_cast<std::size_t>(w0)), vs(vm);
+      detail::pool0_channels(src.data(), h0, w0, base.data(), bh, bw, 0, channels, vm.data(),
+                             vs.data());
+      detail::pool0_channels_avx512(src.data(), h0, w0, wide.data(), bh, bw, 0, channels, vm.data(),
+                                    vs.data());
+      int nans = 0, mismatches = 0;
+      for (std::size_t i = 0; i < base.size(); ++i) {
+        nans += std::isnan(base[i]) ? 1 : 0;
+        const bool same = std::isnan(base[i]) ? std::isnan(wide[i]) : base[i] == wide[i];
+        mismatches += same ? 0 : 1;
+      }
+      CHECK(nans >= 1);
+      CHECK(mismatches == 0);
+    }
+  std::uniform_real_distribution<float> sd(-1.0f, 1.0f);
+  for (int c_out : {1, 8, 13, 1024}) {
+    CAPTURE(c_out);
+    const int classes = 37;
+    std::vector<float> w(static_cast<std::size_t>(classes) * c_out), b(classes), pooled(c_out);
+    for (auto& v : w) v = sd(rng);
+    for (auto& v : b) v = sd(rng);
+    for (auto& v : pooled) v = ud(rng);
+    std::vector<float> base(classes, -9.0f), wide(base);
+    detail::classifier_rows(w.data(), b.data(), pooled.data(), c_out, 2, classes, base.data());
+    detail::classifier_rows_avx512(w.data(), b.data(), pooled.data(), c_out, 2, classes,
+                                   wide.data());
+    for (int o = 0; o < classes; ++o) {
+      CAPTURE(o);
+      CHECK(wide[static_cast<std::size_t>(o)] == base[static_cast<std::size_t>(o)]);
+    }
+    CHECK(base[0] == -9.0f); // rows before o0 untouched
+  }
+}
+#endif
+
 TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmetic to 1 ulp)") {
   const auto ref = detail::select_vector_ops(GemmKernelKind::reference);
   std::mt19937 rng(5);
