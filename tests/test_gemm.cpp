@@ -242,6 +242,24 @@ TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by 
 #endif
 
 #if SHADOWSENSE_X86_KERNELS
+TEST_CASE("copy_stride2_avx512: every second float, nothing written past n") {
+  if (!detail::cpu_has(GemmKernelKind::avx512)) return;
+  std::vector<float> src(2 * 48 + 32);
+  for (std::size_t i = 0; i < src.size(); ++i) src[i] = static_cast<float>(i) + 0.5f;
+  for (int n = 0; n <= 48; ++n) {
+    CAPTURE(n);
+    std::vector<float> d(64, -1.0f);
+    detail::copy_stride2_avx512(src.data() + 1, d.data(), n);
+    int wrong = 0;
+    for (int i = 0; i < 64; ++i)
+      wrong += d[static_cast<std::size_t>(i)] ==
+                       (i < n ? src[static_cast<std::size_t>(2 * i + 1)] : -1.0f)
+                   ? 0
+                   : 1;
+    CHECK(wrong == 0);
+  }
+}
+
 TEST_CASE("AVX-512 pool0 and classifier rows: bit for bit the baseline code, NaN kept") {
   if (!detail::cpu_has(GemmKernelKind::avx512)) return;
   std::mt19937 rng(14);

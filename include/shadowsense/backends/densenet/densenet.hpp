@@ -406,7 +406,8 @@ private:
     if (h == in_h_ && w == in_w_) return;
     in_h_ = h;
     in_w_ = w;
-    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
+    // (+ 32: conv0's AVX-512 packing reads up to 32 floats from each run's start)
+    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6) + 32, 0.0f);
     h0_ = (h - 1) / 2 + 1;
     w0_ = (w - 1) / 2 + 1;
     conv0_out_.assign(static_cast<std::size_t>(arch_.init_features) * h0_ * w0_, 0.0f);
@@ -488,7 +489,12 @@ private:
             for (int j = 0; j < cols;) {
               const int run = std::min(cols - j, w0 - x);
               const float* r = s + static_cast<std::size_t>(2 * y) * PW + 2 * x;
-              for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
+#if SHADOWSENSE_X86_KERNELS
+              if (avx512_)
+                detail::copy_stride2_avx512(r, d + j, run);
+              else
+#endif
+                for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
               j += run;
               x = 0;
               ++y;
