@@ -313,36 +313,18 @@ pack3x3_avx512(const float* __restrict s, float* __restrict d, int cols, int nr,
       for (; j < nr; ++j) d[j] = j < cols ? r[j] : 0.0f;
     }
 }
-// relu(x * sc + sh) of the lanes of r in m; 0 in the others.
-__attribute__((target("avx512f"))) inline __m512
-affine_relu_load_avx512(const float* r, __mmask16 m, __m512 vs, __m512 vh) {
-  return _mm512_maskz_max_ps(m, _mm512_setzero_ps(),
-                             _mm512_fmadd_ps(_mm512_maskz_loadu_ps(m, r), vs, vh));
-}
-// 16 outputs per step: the 32 floats of each row under BN + ReLU, then the even and odd lanes
-// (two permutes) summed in the reference's order ((a + b) + (c + e)) * 0.25. A step of fewer
-// outputs loads only the floats it needs (masked).
 __attribute__((target("avx512f"))) inline void pool_affine_relu_avx512(const float* __restrict r0,
                                                                        const float* __restrict r1,
                                                                        float* __restrict d, int n,
                                                                        float sc, float sh) {
-  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-  const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
-  const __m512 vs = _mm512_set1_ps(sc), vh = _mm512_set1_ps(sh);
-  const __m512 quarter = _mm512_set1_ps(0.25f);
-  for (int j = 0; j < n; j += 16, r0 += 32, r1 += 32) {
-    const int outs = n - j < 16 ? n - j : 16;
-    const __mmask16 m0 = tail_mask_avx512(2 * outs), m1 = tail_mask_avx512(2 * outs - 16);
-    const __m512 a0 = affine_relu_load_avx512(r0, m0, vs, vh);
-    const __m512 a1 = affine_relu_load_avx512(r0 + 16, m1, vs, vh);
-    const __m512 c0 = affine_relu_load_avx512(r1, m0, vs, vh);
-    const __m512 c1 = affine_relu_load_avx512(r1 + 16, m1, vs, vh);
-    const __m512 ab =
-        _mm512_add_ps(_mm512_permutex2var_ps(a0, even, a1), _mm512_permutex2var_ps(a0, odd, a1));
-    const __m512 ce =
-        _mm512_add_ps(_mm512_permutex2var_ps(c0, even, c1), _mm512_permutex2var_ps(c0, odd, c1));
-    _mm512_mask_storeu_ps(d + j, tail_mask_avx512(outs),
-                          _mm512_mul_ps(_mm512_add_ps(ab, ce), quarter));
+  for (int j = 0; j < n; ++j) {
+    float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;
+    float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;
+    a = a < 0.0f ? 0.0f : a;
+    b = b < 0.0f ? 0.0f : b;
+    c = c < 0.0f ? 0.0f : c;
+    e = e < 0.0f ? 0.0f : e;
+    d[j] = ((a + b) + (c + e)) * 0.25f;
   }
 }
 SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
