@@ -37,88 +37,6 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-namespace detail {
-
-#if defined(__GNUC__)
-#define SHADOWSENSE_ALWAYS_INLINE __attribute__((always_inline)) inline
-#else
-#define SHADOWSENSE_ALWAYS_INLINE inline
-#endif
-
-// pool0 (max 3x3, stride 2, pad 1) of channels c0..c1-1 of the h0 x w0 planes at src into the
-// bh x bw planes at dst; vm and vs hold w0 floats. Separable: the max (and the NaN probe: a sum
-// of >= 0 terms, NaN exactly when a NaN is in the window) over the valid rows of each window
-// first, contiguous and vectorised, then over the three columns. Inputs are >= 0 after ReLU, so
-// padding never wins; a NaN in the window wins, so it reaches the logits check.
-SHADOWSENSE_ALWAYS_INLINE void pool0_channels(const float* src, int h0, int w0, float* dst, int bh,
-                                              int bw, int c0, int c1, float* vm, float* vs) {
-  for (int c = c0; c < c1; ++c) {
-    const float* s = src + static_cast<std::size_t>(c) * h0 * w0;
-    for (int y = 0; y < bh; ++y) {
-      const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0 - 1);
-      const float* r = s + static_cast<std::size_t>(y0) * w0;
-      for (int x = 0; x < w0; ++x) {
-        vm[x] = r[x];
-        vs[x] = r[x];
-      }
-      for (int iy = y0 + 1; iy <= y1; ++iy) {
-        r = s + static_cast<std::size_t>(iy) * w0;
-        for (int x = 0; x < w0; ++x) {
-          vm[x] = std::max(vm[x], r[x]);
-          vs[x] += r[x];
-        }
-      }
-      float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
-      for (int x = 0; x < bw; ++x) {
-        const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0 - 1);
-        float mx = vm[x0], nan_probe = vs[x0];
-        for (int ix = x0 + 1; ix <= x1; ++ix) {
-          mx = std::max(mx, vm[ix]);
-          nan_probe += vs[ix];
-        }
-        d[x] = nan_probe == nan_probe ? mx : nan_probe;
-      }
-    }
-  }
-}
-
-// Classifier rows o0..o1-1: out[o] = b[o] + sum over c of w[o][c] * pooled[c], in double with
-// eight interleaved sums (one serial chain of additions made a 1000-class head latency-bound).
-// Products of two floats are exact in double, so a fused multiply-add gives the same bits.
-SHADOWSENSE_ALWAYS_INLINE void classifier_rows(const float* w, const float* b, const float* pooled,
-                                               int c_out, int o0, int o1, float* out) {
-  const int c8 = c_out / 8 * 8;
-  for (int o = o0; o < o1; ++o) {
-    const float* wr = w + static_cast<std::size_t>(o) * c_out;
-    double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-    for (int c = 0; c < c8; c += 8)
-      for (int j = 0; j < 8; ++j) part[j] += double(wr[c + j]) * pooled[c + j];
-    double acc = b[o];
-    for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[c];
-    acc +=
-        ((part[0] + part[1]) + (part[2] + part[3])) + ((part[4] + part[5]) + (part[6] + part[7]));
-    out[o] = static_cast<float>(acc);
-  }
-}
-
-// The same two bodies compiled for AVX-512 (wider vectors, identical results: max, additions
-// and exact products only).
-#if SHADOWSENSE_X86_KERNELS
-__attribute__((target("avx512f"))) inline void pool0_channels_avx512(const float* src, int h0,
-                                                                     int w0, float* dst, int bh,
-                                                                     int bw, int c0, int c1,
-                                                                     float* vm, float* vs) {
-  pool0_channels(src, h0, w0, dst, bh, bw, c0, c1, vm, vs);
-}
-__attribute__((target("avx512f"))) inline void
-classifier_rows_avx512(const float* w, const float* b, const float* pooled, int c_out, int o0,
-                       int o1, float* out) {
-  classifier_rows(w, b, pooled, c_out, o0, o1, out);
-}
-#endif
-
-} // namespace detail
-
 // One instance per thread of the caller: logits()/features() reuse internal buffers, so
 // concurrent calls on the same instance are not allowed (the instance's own worker threads,
 // Config::threads, are managed internally). Movable, not copyable.
@@ -162,7 +80,7 @@ public:
       ops_ = detail::select_vector_ops(kernel_.kind);
     }
     winograd_ops_ = detail::select_winograd_ops(kernel_.kind);
-    avx512_ = detail::has_fused_stores(kernel_);
+    fused_ = detail::has_fused_stores(kernel_);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -406,8 +324,7 @@ private:
     if (h == in_h_ && w == in_w_) return;
     in_h_ = h;
     in_w_ = w;
-    // (+ 32: conv0's AVX-512 packing reads up to 32 floats from each run's start)
-    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6) + 32, 0.0f);
+    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
     h0_ = (h - 1) / 2 + 1;
     w0_ = (w - 1) / 2 + 1;
     conv0_out_.assign(static_cast<std::size_t>(arch_.init_features) * h0_ * w0_, 0.0f);
@@ -489,12 +406,7 @@ private:
             for (int j = 0; j < cols;) {
               const int run = std::min(cols - j, w0 - x);
               const float* r = s + static_cast<std::size_t>(2 * y) * PW + 2 * x;
-#if SHADOWSENSE_X86_KERNELS
-              if (avx512_)
-                detail::copy_stride2_avx512(r, d + j, run);
-              else
-#endif
-                for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
+              for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
               j += run;
               x = 0;
               ++y;
@@ -504,7 +416,7 @@ private:
     };
     float* out0 = conv0_out_.data();
 #if SHADOWSENSE_X86_KERNELS
-    if (avx512_) {
+    if (fused_) {
       detail::gemm_fused_avx512(
           conv0_, n, pack, nullptr, nullptr,
           [&](int n0, int cols, detail::TileSegments& seg) {
@@ -524,7 +436,9 @@ private:
   // pool0: max 3x3, stride 2, pad 1 -> the first block's buffer (inputs are >= 0 after ReLU,
   // padding never wins). A NaN in the window wins, so it reaches the logits check.
   void pool0() {
-    // Channels are split over the pool's threads.
+    // Separable: the max (and the NaN probe: a sum of >= 0 terms, NaN exactly when a NaN is
+    // in the window) over the valid rows of each window first, contiguous and vectorised, then
+    // over the three columns. Channels are split over the pool's threads.
     const int bh = block_h_[0], bw = block_w_[0];
     float* dst = block_buf_[0].data();
     const int tasks = std::min(pool_->size(), arch_.init_features);
@@ -534,13 +448,34 @@ private:
       float* vm = pool_max_.data() + static_cast<std::size_t>(w0_) * t;
       float* vs = pool_sum_.data() + static_cast<std::size_t>(w0_) * t;
       const int c0 = arch_.init_features * t / tasks, c1 = arch_.init_features * (t + 1) / tasks;
-#if SHADOWSENSE_X86_KERNELS
-      if (avx512_) {
-        detail::pool0_channels_avx512(conv0_out_.data(), h0_, w0_, dst, bh, bw, c0, c1, vm, vs);
-        return;
+      for (int c = c0; c < c1; ++c) {
+        const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
+        for (int y = 0; y < bh; ++y) {
+          const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0_ - 1);
+          const float* r = s + static_cast<std::size_t>(y0) * w0_;
+          for (int x = 0; x < w0_; ++x) {
+            vm[x] = r[x];
+            vs[x] = r[x];
+          }
+          for (int iy = y0 + 1; iy <= y1; ++iy) {
+            r = s + static_cast<std::size_t>(iy) * w0_;
+            for (int x = 0; x < w0_; ++x) {
+              vm[x] = std::max(vm[x], r[x]);
+              vs[x] += r[x];
+            }
+          }
+          float* d = dst + (static_cast<std::size_t>(c) * bh + y) * bw;
+          for (int x = 0; x < bw; ++x) {
+            const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0_ - 1);
+            float mx = vm[x0], nan_probe = vs[x0];
+            for (int ix = x0 + 1; ix <= x1; ++ix) {
+              mx = std::max(mx, vm[ix]);
+              nan_probe += vs[ix];
+            }
+            d[x] = nan_probe == nan_probe ? mx : nan_probe;
+          }
+        }
       }
-#endif
-      detail::pool0_channels(conv0_out_.data(), h0_, w0_, dst, bh, bw, c0, c1, vm, vs);
     };
     pool_->run(tasks, task);
   }
@@ -572,7 +507,7 @@ private:
       }
     };
 #if SHADOWSENSE_X86_KERNELS
-    if (avx512_) { // pixel (y, x) to the padded position (y + 1, x + 1)
+    if (fused_) { // pixel (y, x) to the padded position (y + 1, x + 1)
       detail::gemm_fused_avx512(
           layer.conv1, n, pack, nullptr, nullptr,
           [&](int n0, int cols, detail::TileSegments& seg) {
@@ -633,7 +568,7 @@ private:
       }
     };
 #if SHADOWSENSE_X86_KERNELS
-    if (avx512_) { // B read in place: nothing packed; the pad columns dropped by the store
+    if (fused_) { // B read in place: nothing packed; the pad columns dropped by the store
       detail::gemm_fused_avx512(
           layer.conv2, bh * pw, pack, bott, tap_offsets_[b].data(),
           [&](int n0, int cols, detail::TileSegments& seg) {
@@ -674,7 +609,7 @@ private:
     };
     float* next = block_buf_[b + 1].data();
 #if SHADOWSENSE_X86_KERNELS
-    if (avx512_) {
+    if (fused_) {
       detail::gemm_fused_avx512(
           blk.transition, on, pack, nullptr, nullptr,
           [&](int n0, int cols, detail::TileSegments& seg) {
@@ -713,18 +648,23 @@ private:
       }
     };
     pool_->run(gap_tasks, gap);
+    // Eight interleaved double sums: one serial chain of additions made the 1000-class head
+    // latency-bound (about 1 ms of DenseNet-121); the order differs only in double rounding.
+    const int c8 = c_out / 8 * 8;
     const int fc_tasks = std::min(threads, classes);
     auto fc = [&](int t) {
-      const int o0 = classes * t / fc_tasks, o1 = classes * (t + 1) / fc_tasks;
-#if SHADOWSENSE_X86_KERNELS
-      if (avx512_) {
-        detail::classifier_rows_avx512(classifier_w_.data(), classifier_b_.data(), pooled.data(),
-                                       c_out, o0, o1, out.data());
-        return;
+      for (int o = classes * t / fc_tasks; o < classes * (t + 1) / fc_tasks; ++o) {
+        const float* wr = classifier_w_.data() + static_cast<std::size_t>(o) * c_out;
+        double part[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+        for (int c = 0; c < c8; c += 8)
+          for (int j = 0; j < 8; ++j)
+            part[j] += double(wr[c + j]) * pooled[static_cast<std::size_t>(c + j)];
+        double acc = classifier_b_[static_cast<std::size_t>(o)];
+        for (int c = c8; c < c_out; ++c) acc += double(wr[c]) * pooled[static_cast<std::size_t>(c)];
+        acc += ((part[0] + part[1]) + (part[2] + part[3])) +
+               ((part[4] + part[5]) + (part[6] + part[7]));
+        out[static_cast<std::size_t>(o)] = static_cast<float>(acc);
       }
-#endif
-      detail::classifier_rows(classifier_w_.data(), classifier_b_.data(), pooled.data(), c_out, o0,
-                              o1, out.data());
     };
     pool_->run(fc_tasks, fc);
   }
@@ -749,9 +689,7 @@ private:
   detail::MicroKernel kernel_{};
   detail::VectorOps ops_{};
   detail::WinogradOps winograd_ops_{};
-  // The library's AVX-512 kernel is in use: fused stores (gemm_fused_avx512), AVX-512 pool0 and
-  // classifier.
-  bool avx512_ = false;
+  bool fused_ = false; // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
   std::unique_ptr<detail::ThreadPool> pool_;
   std::vector<detail::GemmScratch> scratch_;
   std::vector<detail::WinogradScratch> winograd_scratch_;

@@ -283,16 +283,6 @@ pack_affine_relu_avx512(const float* __restrict s, std::size_t stride, int chann
     }
   }
 }
-// d[i] = s[2 i] for i < n (conv0's stride-2 columns); reads s[0 .. 32 * ceil(n / 16)), so the
-// caller keeps 32 readable floats past the last element it needs.
-__attribute__((target("avx512f"))) inline void copy_stride2_avx512(const float* __restrict s,
-                                                                   float* __restrict d, int n) {
-  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-  for (int i = 0; i < n; i += 16, s += 32)
-    _mm512_mask_storeu_ps(
-        d + i, tail_mask_avx512(n - i),
-        _mm512_permutex2var_ps(_mm512_loadu_ps(s), even, _mm512_loadu_ps(s + 16)));
-}
 __attribute__((target("avx512f"))) inline void
 bias_relu_avx512(const float* __restrict s, float* __restrict d, int n, float b) {
   const __m512 vb = _mm512_set1_ps(b), z = _mm512_setzero_ps();

@@ -30,11 +30,6 @@
 //   output(m, xs, n, y): m[xi * xs + j] (xi = 0..15, j < n <= winograd_max_run) to the 2x2
 //     outputs y[(2i + k) * winograd_max_run + j] = A^T M A [i][k].
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
-//   output_rows(m, xs, t0, cols, tiles_x, h, w, o) (optional, AVX-512): output then interleave
-//     for one output channel: tiles t0..t0+cols-1 (tile j's products at m[xi * xs + j - t0])
-//     to their 2x2 outputs in the h x w image o; reads 16 floats from every 16-tile step's start
-//     in each M_xi row (the products' padding keeps them readable). Same results as output +
-//     interleave.
 // winograd_conv3x3(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch):
 //   requires: in holds u.c channels of (h + 2) x pw padded images (pw >= w + 2, zero border),
 //             plane floats apart, readable for pw + winograd_read_slack floats past the last
@@ -231,64 +226,19 @@ winograd_input_avx512(const float* __restrict s, std::size_t plane, int channels
     }
   }
 }
-
-// output and interleave in one pass, 16 tiles per step, for one output channel (see
-// WinogradOps::output_rows): the 2x2 outputs of 16 tiles come out as four vectors, and two lane
-// permutes per output row interleave them. The same additions in the same order as
-// winograd_output_*, so the results are identical.
-__attribute__((target("avx512f"))) inline void
-winograd_output_rows_avx512(const float* __restrict m, std::size_t xs, int t0, int cols,
-                            int tiles_x, int h, int w, float* __restrict o) {
-  const __m512i lo = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23);
-  const __m512i hi =
-      _mm512_setr_epi32(8, 24, 9, 25, 10, 26, 11, 27, 12, 28, 13, 29, 14, 30, 15, 31);
-  for (int j = 0; j < cols;) { // runs within one tile row: 2 output rows each
-    const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-    const int run = std::min(cols - j, tiles_x - tx);
-    const int n = std::min(2 * run, w - 2 * tx); // output columns (odd w: one less)
-    float* row = o + static_cast<std::size_t>(2 * ty) * w + 2 * tx;
-    const bool second = 2 * ty + 1 < h;
-    for (int i = 0; i < run; i += 16) {
-      const float* mj = m + j + i;
-      __m512 s0[4], s1[4]; // A^T M
-      for (int q = 0; q < 4; ++q) {
-        const __m512 m0 = _mm512_loadu_ps(mj + static_cast<std::size_t>(q) * xs);
-        const __m512 m1 = _mm512_loadu_ps(mj + static_cast<std::size_t>(4 + q) * xs);
-        const __m512 m2 = _mm512_loadu_ps(mj + static_cast<std::size_t>(8 + q) * xs);
-        const __m512 m3 = _mm512_loadu_ps(mj + static_cast<std::size_t>(12 + q) * xs);
-        s0[q] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
-        s1[q] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
-      }
-      const int left = n - 2 * i;
-      const __mmask16 m_lo = tail_mask_avx512(left), m_hi = tail_mask_avx512(left - 16);
-      const __m512* s[2] = {s0, s1};
-      for (int k = 0; k < (second ? 2 : 1); ++k) { // output row 2 ty + k
-        const __m512* t = s[k];
-        const __m512 y0 = _mm512_add_ps(_mm512_add_ps(t[0], t[1]), t[2]);
-        const __m512 y1 = _mm512_sub_ps(_mm512_sub_ps(t[1], t[2]), t[3]);
-        float* d = row + static_cast<std::size_t>(k) * w + 2 * i;
-        _mm512_mask_storeu_ps(d, m_lo, _mm512_permutex2var_ps(y0, lo, y1));
-        _mm512_mask_storeu_ps(d + 16, m_hi, _mm512_permutex2var_ps(y0, hi, y1));
-      }
-    }
-    j += run;
-  }
-}
 #endif
 
 struct WinogradOps {
   void (*input)(const float*, std::size_t, int, int, int, int, float*, std::size_t, std::size_t);
   void (*output)(const float*, std::size_t, int, float*);
   void (*interleave)(const float*, const float*, float*, int);
-  // Optional: output and interleave in one call for one output channel (see the header).
-  void (*output_rows)(const float*, std::size_t, int, int, int, int, int, float*) = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
 #if SHADOWSENSE_X86_KERNELS
   if (kind == GemmKernelKind::avx512)
     return {&winograd_input_avx512, &winograd_output_avx512_loops,
-            &winograd_interleave_avx512_loops, &winograd_output_rows_avx512};
+            &winograd_interleave_avx512_loops};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2, &winograd_output_avx2, &winograd_interleave_avx2};
 #endif
@@ -360,11 +310,6 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
     for (int mp = mp0; mp < mp1; ++mp) {
       const int rows = std::min(mr, u.m - mp * mr);
       for (int r = 0; r < rows; ++r) {
-        if (ops.output_rows) {
-          ops.output_rows(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, t0, cols,
-                          tiles_x, h, w, out + static_cast<std::size_t>(mp * mr + r) * image);
-          continue;
-        }
         ops.output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols, s.y.data());
         float* o = out + static_cast<std::size_t>(mp * mr + r) * image;
         const float* y = s.y.data();
