@@ -174,10 +174,13 @@ __attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* 
   const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
   const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
   const __m512 a = _mm512_loadu_ps(r), b = _mm512_loadu_ps(r + 16);
-  const __m512 a2 = _mm512_loadu_ps(r + 2), b2 = _mm512_loadu_ps(r + 18);
   const __m512 e0 = _mm512_permutex2var_ps(a, even, b), o0 = _mm512_permutex2var_ps(a, odd, b);
-  const __m512 e1 = _mm512_permutex2var_ps(a2, even, b2);
-  const __m512 o1 = _mm512_permutex2var_ps(a2, odd, b2);
+  // e1, o1: e0, o0 one lane on, r[32] and r[33] entering at the top (a lane shift instead of two
+  // more loads and permutes; maskz with a full mask: GCC 12 warns maybe-uninitialized on alignr)
+  const __m512 e1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[32])), _mm512_castps_si512(e0), 1));
+  const __m512 o1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[33])), _mm512_castps_si512(o0), 1));
   t[0] = _mm512_sub_ps(e0, e1);
   t[1] = _mm512_add_ps(o0, e1);
   t[2] = _mm512_sub_ps(e1, o0);
