@@ -4,11 +4,14 @@
 --random-init) and the shipped models/default.ssm, the shadowsense model file NAME.ssm, the same
 network exported by torch.onnx (opset 13) as NAME.onnx, one preprocessed input NAME.input.f32
 (1 x 3 x H x W float32, little-endian) and PyTorch's logits for it, NAME.torch.f32, plus
-models.json listing name, H, W. Both engines run the identical weights: the ONNX graph is
+models.json listing name, H, W and the .ssm's SHA-256 (run.py refuses a model file that changed
+since: the .onnx and the logits would no longer match it). The shipped model is copied into OUT, so
+the set stays consistent when models/default.ssm is retrained. Both engines run the identical weights: the ONNX graph is
 exported from the model file read back into torchvision.
 
 usage: /usr/bin/python3 tools/onnxruntime_bench/make_models.py OUT
 """
+import hashlib
 import json
 import os
 import subprocess
@@ -48,7 +51,9 @@ def main(argv):
         subprocess.run([sys.executable, os.path.join(ROOT, "tools", "densenet_to_model.py"),
                         "--arch", name, "--random-init", "--seed", "1", "-o", path], check=True)
         models.append((name, path, h, w))
-    shipped = os.path.join(ROOT, "models", "default.ssm")
+    shipped = os.path.join(out, "shipped.ssm")
+    with open(os.path.join(ROOT, "models", "default.ssm"), "rb") as f:
+        atomic_write(shipped, f.read())
     _, pre, _, _ = train.read_model_file(shipped)
     models.append(("shipped", shipped, pre["resize_height"], pre["resize_width"]))
     listing = []
@@ -65,7 +70,10 @@ def main(argv):
         atomic_write(os.path.join(out, f"{name}.input.f32"), x.numpy().astype("<f4").tobytes())
         atomic_write(os.path.join(out, f"{name}.torch.f32"),
                      logits.numpy().astype("<f4").tobytes())
-        listing.append({"name": name, "ssm": os.path.abspath(path), "h": h, "w": w})
+        with open(path, "rb") as f:
+            digest = hashlib.sha256(f.read()).hexdigest()
+        listing.append({"name": name, "ssm": os.path.abspath(path), "sha256": digest, "h": h,
+                        "w": w})
     atomic_write(os.path.join(out, "models.json"), json.dumps(listing, indent=1).encode())
     return 0
 

@@ -13,6 +13,7 @@ usage: /usr/bin/python3 tools/onnxruntime_bench/run.py MODELS_DIR FORWARD_TIME O
   ORT_NODE_MODULES  the node_modules folder holding onnxruntime-node
 """
 import argparse
+import hashlib
 import json
 import os
 import statistics
@@ -50,6 +51,13 @@ def main(argv):
     threads = [int(t) for t in a.threads.split(",")]
     env = dict(os.environ, NODE_PATH=os.path.abspath(a.ort_node_modules))
     models = json.load(open(os.path.join(a.models_dir, "models.json")))
+    for m in models:  # the .onnx and PyTorch's logits were made from this exact file
+        with open(m["ssm"], "rb") as f:
+            digest = hashlib.sha256(f.read()).hexdigest()
+        if digest != m.get("sha256", digest):
+            print(f"run.py: error: {m['ssm']} changed since make_models.py wrote "
+                  f"{a.models_dir}; run make_models.py again", file=sys.stderr)
+            return 2
     print(f"{'model':12} {'thr':>3} {'ORT ms':>8} {'ours ms':>8} {'ratio':>6} "
           f"{'ORT GF/s':>8} {'ours GF/s':>9} {'ORT rel':>8} {'ours rel':>8} argmax "
           f"{'ORT cpu':>8} {'ours cpu':>8} {'cpu ratio':>9} {'load':>5}")
