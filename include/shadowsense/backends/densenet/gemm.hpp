@@ -29,12 +29,11 @@
 //   there (like ONNX Runtime's allow_spinning = 0), or one thread.
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
-// gemm_in_place(kernel, fn, a, n, base, offsets, store, pool, scratch): gemm() with B read in
-//   place by an offsets micro-kernel (micro_kernel_avx512_offsets), no packing.
 // MicroKernel::half (optional): the kernel for the first nr / 2 columns only; gemm() and the
 //   Winograd GEMMs run it on a last panel of at most nr / 2 columns (half the multiply-adds).
 // gemm_fused_avx512(a, n, pack, base, offsets, segments, dst, row_stride, bias, relu, pool,
-//   scratch): gemm() or gemm_in_place() on the AVX-512 kernel with no tile and no store calls:
+//   scratch): gemm() on the AVX-512 kernel with no tile and no store calls (or, offsets set, with
+//   B read in place at base + n0 + offsets[k], nothing packed: the direct 3x3 convolution):
 //   the kernel adds the bias, applies ReLU and writes each row from its registers, laid out by
 //   the caller's segments (image_row_segments: e.g. into a zero-padded grid, or dropping a
 //   padded grid's pad columns). Requires has_fused_stores(kernel) for the kernel in use.
@@ -370,7 +369,7 @@ struct GemmScratch {
   int cols = 0;             // columns of the current column panel
 };
 
-// The split shared by gemm() and gemm_in_place(). For every column panel, prepare(s, n0, cols)
+// The split shared by gemm() and gemm_fused_avx512(). For every column panel, prepare(s, n0, cols)
 // readies B in the thread's scratch s, then multiply(mp, s, n0) writes the MR x NR tile of row
 // panel mp to s.tile, and store(m, n0, cols, row) takes its rows.
 // - B packed (prepare does work): column panels over the pool's threads, so each panel is
@@ -465,12 +464,13 @@ inline bool has_fused_stores(const MicroKernel& k) {
 }
 
 #if SHADOWSENSE_X86_KERNELS
-// gemm() (B packed by pack) or gemm_in_place() (offsets set: B read in place at base + n0 +
-// offsets[k]) on the AVX-512 kernel, with the store fused into the kernel: row m of C goes to
-// dst + m * row_stride, plus bias[m] when bias is set, through ReLU when relu, its columns laid
-// out by segments(n0, cols, TileSegments&) (called once per column panel and thread). A last
-// panel of at most 16 columns runs the 8 x 16 kernel. Same split over threads as gemm() and
-// gemm_in_place().
+// gemm() on the AVX-512 kernel with the store fused into the kernel. B is packed by pack or,
+// when offsets is set, read in place at base + n0 + offsets[k] (the caller guarantees 32
+// readable floats there, past n included). Row m of C goes to dst + m * row_stride, plus bias[m]
+// when bias is set, through ReLU when relu; its columns are laid out by segments(n0, cols,
+// TileSegments&), called once per column panel and thread. A last panel of at most 16 columns
+// runs the 8 x 16 kernel. Same split over threads as gemm() (packed) or as the in-place tiles
+// of gemm_over_panels (offsets).
 template <class Pack, class Segments>
 inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const float* base,
                               const int* offsets, Segments&& segments, float* dst,
@@ -506,24 +506,6 @@ inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const f
       [](int, int, int, const float*) {}, pool, scratch, /*free_prepare=*/offsets != nullptr);
 }
 #endif
-
-using MicroKernelOffsetsFn = void (*)(int K, const float* a, const float* b, const int* offsets,
-                                      float* out);
-
-// gemm() without a packer: B column panel n0 is read in place by fn at base + n0 + offsets[k]
-// (k < a.k; the caller guarantees nr readable floats there, past n included). Same split over
-// threads and the same store() calls as gemm().
-template <class Store>
-inline void gemm_in_place(const MicroKernel& kernel, MicroKernelOffsetsFn fn, const PackedMatrix& a,
-                          int n, const float* base, const int* offsets, Store&& store,
-                          ThreadPool& pool, std::vector<GemmScratch>& scratch) {
-  gemm_over_panels(
-      kernel, a, n, [](GemmScratch&, int, int) {},
-      [&](int mp, GemmScratch& s, int n0) {
-        fn(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
-      },
-      store, pool, scratch, /*free_prepare=*/true);
-}
 
 } // namespace detail
 

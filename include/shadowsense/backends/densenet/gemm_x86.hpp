@@ -8,8 +8,6 @@
 //   micro_kernel_reference<8, 32> and <4, 24> (gemm_reference.hpp), accumulated with FMA in k
 //   order; require the CPU to support the instruction set (undefined behaviour otherwise: call
 //   them only through gemm.hpp's selection).
-// micro_kernel_avx512_offsets(K, a, b, offsets, out): as micro_kernel_avx512 with B row k
-//   read in place at b + offsets[k] (32 floats, all readable) instead of from a packed panel.
 // micro_kernel_avx512_half(K, a, b, out): as micro_kernel_avx512 for the first 16 columns
 //   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
 //   panel of at most 16 columns: half the multiply-adds.
@@ -60,8 +58,8 @@ struct TileDest {
 };
 
 #if SHADOWSENSE_X86_KERNELS
-// The 8x32 AVX-512 block over K rows of B, row k at row_b(k) (32 floats, unaligned): one body
-// for the packed panel (micro_kernel_avx512) and the in-place read (micro_kernel_avx512_offsets).
+// The 8x32 AVX-512 block over K rows of B, row k at row_b(k) (32 floats, unaligned), written
+// to a tile: micro_kernel_avx512 (a packed panel).
 template <class RowB>
 __attribute__((target("avx512f"))) inline void micro_kernel_avx512_rows(int K, const float* a,
                                                                         RowB row_b, float* out) {
@@ -116,7 +114,9 @@ __attribute__((target("avx512f"))) inline void micro_kernel_avx512_rows(int K, c
   _mm512_storeu_ps(out + 240, c71);
 }
 
-// Rows of a packed K x 32 panel, and rows read in place at b + offsets[k].
+// Rows of a packed K x 32 panel, and rows read in place at b + offsets[k] (the fused kernel on
+// the zero-padded grid of a 3x3 convolution: offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw
+// + kx, so no B panel is packed).
 struct PackedRows {
   const float* b;
   const float* operator()(int k) const { return b + static_cast<std::ptrdiff_t>(k) * 32; }
@@ -130,14 +130,6 @@ struct OffsetRows {
 __attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
                                                                    const float* b, float* out) {
   micro_kernel_avx512_rows(K, a, PackedRows{b}, out);
-}
-
-// micro_kernel_avx512 with B read in place: row k of the K x 32 B panel is the 32 floats at
-// b + offsets[k] (unaligned). The 3x3 convolution on the zero-padded grid uses it with
-// offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw + kx, so no B panel is ever packed.
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_offsets(int K, const float* a, const float* b, const int* offsets, float* out) {
-  micro_kernel_avx512_rows(K, a, OffsetRows{b, offsets}, out);
 }
 
 // The fused kernel (see the header comment). The accumulators are an array the unrolled loops
