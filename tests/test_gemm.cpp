@@ -281,7 +281,7 @@ TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmeti
         CHECK(close(d[i], e[i], scale));
       }
       CHECK(d[static_cast<std::size_t>(n)] == 9.0f); // nothing written past n
-      if (n > 2) CHECK(std::isnan(d[1])); // the window holding s[2]
+      if (n > 2) CHECK(std::isnan(d[1]));            // the window holding s[2]
       // The 1x1 input panel: every channel as affine_relu, zeros to nr (32: the AVX-512 full
       // panel when n == 32; 24 and 40 the masked paths).
       for (int nr : {24, 32, 40})
