@@ -12,7 +12,7 @@
 //   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
 //   panel of at most 16 columns: half the multiply-adds.
 // micro_kernel_avx512_fused<NV>(K, a, rows, dest): the 8 x 16NV block (NV = 1 or 2) over B
-//   rows rows(k) (PackedRows or OffsetRows), accumulated as micro_kernel_avx512, then written
+//   rows rows(k) (PackedRows or OffsetRows), accumulated with FMA in k order, then written
 //   from the registers to dest (TileDest) instead of to a tile: row r < dest.rows gets
 //   dest.bias[r] added (when bias is set) and ReLU (when relu), and column j goes to
 //   dest.dst + r * dest.row_stride + seg.offset[s] + j for the segment s whose mask has bit j.
@@ -58,62 +58,6 @@ struct TileDest {
 };
 
 #if SHADOWSENSE_X86_KERNELS
-// The 8x32 AVX-512 block over K rows of B, row k at row_b(k) (32 floats, unaligned), written
-// to a tile: micro_kernel_avx512 (a packed panel).
-template <class RowB>
-__attribute__((target("avx512f"))) inline void micro_kernel_avx512_rows(int K, const float* a,
-                                                                        RowB row_b, float* out) {
-  constexpr int MR = 8;
-  __m512 c00 = _mm512_setzero_ps(), c01 = c00, c10 = c00, c11 = c00, c20 = c00, c21 = c00,
-         c30 = c00, c31 = c00, c40 = c00, c41 = c00, c50 = c00, c51 = c00, c60 = c00, c61 = c00,
-         c70 = c00, c71 = c00;
-  for (int k = 0; k < K; ++k, a += MR) {
-    const float* bk = row_b(k);
-    const __m512 b0 = _mm512_loadu_ps(bk);
-    const __m512 b1 = _mm512_loadu_ps(bk + 16);
-    __m512 x = _mm512_set1_ps(a[0]);
-    c00 = _mm512_fmadd_ps(x, b0, c00);
-    c01 = _mm512_fmadd_ps(x, b1, c01);
-    x = _mm512_set1_ps(a[1]);
-    c10 = _mm512_fmadd_ps(x, b0, c10);
-    c11 = _mm512_fmadd_ps(x, b1, c11);
-    x = _mm512_set1_ps(a[2]);
-    c20 = _mm512_fmadd_ps(x, b0, c20);
-    c21 = _mm512_fmadd_ps(x, b1, c21);
-    x = _mm512_set1_ps(a[3]);
-    c30 = _mm512_fmadd_ps(x, b0, c30);
-    c31 = _mm512_fmadd_ps(x, b1, c31);
-    x = _mm512_set1_ps(a[4]);
-    c40 = _mm512_fmadd_ps(x, b0, c40);
-    c41 = _mm512_fmadd_ps(x, b1, c41);
-    x = _mm512_set1_ps(a[5]);
-    c50 = _mm512_fmadd_ps(x, b0, c50);
-    c51 = _mm512_fmadd_ps(x, b1, c51);
-    x = _mm512_set1_ps(a[6]);
-    c60 = _mm512_fmadd_ps(x, b0, c60);
-    c61 = _mm512_fmadd_ps(x, b1, c61);
-    x = _mm512_set1_ps(a[7]);
-    c70 = _mm512_fmadd_ps(x, b0, c70);
-    c71 = _mm512_fmadd_ps(x, b1, c71);
-  }
-  _mm512_storeu_ps(out + 0, c00);
-  _mm512_storeu_ps(out + 16, c01);
-  _mm512_storeu_ps(out + 32, c10);
-  _mm512_storeu_ps(out + 48, c11);
-  _mm512_storeu_ps(out + 64, c20);
-  _mm512_storeu_ps(out + 80, c21);
-  _mm512_storeu_ps(out + 96, c30);
-  _mm512_storeu_ps(out + 112, c31);
-  _mm512_storeu_ps(out + 128, c40);
-  _mm512_storeu_ps(out + 144, c41);
-  _mm512_storeu_ps(out + 160, c50);
-  _mm512_storeu_ps(out + 176, c51);
-  _mm512_storeu_ps(out + 192, c60);
-  _mm512_storeu_ps(out + 208, c61);
-  _mm512_storeu_ps(out + 224, c70);
-  _mm512_storeu_ps(out + 240, c71);
-}
-
 // Rows of a packed K x 32 panel, and rows read in place at b + offsets[k] (the fused kernel on
 // the zero-padded grid of a 3x3 convolution: offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw
 // + kx, so no B panel is packed).
@@ -127,11 +71,6 @@ struct OffsetRows {
   const float* operator()(int k) const { return b + offsets[k]; }
 };
 
-__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
-                                                                   const float* b, float* out) {
-  micro_kernel_avx512_rows(K, a, PackedRows{b}, out);
-}
-
 // The fused kernel (see the header comment). The accumulators are an array the unrolled loops
 // index with constants only, so they live in registers (8 x NV of the 32).
 template <int NV, class RowB>
@@ -141,8 +80,10 @@ micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& des
   constexpr int MR = 8;
   __m512 c[MR][NV];
   SHADOWSENSE_UNROLL(8)
-  for (int r = 0; r < MR; ++r) SHADOWSENSE_UNROLL(2)
-  for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(2)
+    for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
+  }
   for (int k = 0; k < K; ++k, a += MR) {
     const float* bk = row_b(k);
     __m512 b[NV];
@@ -180,13 +121,20 @@ micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& des
   }
 }
 
+// The fused kernel writing a plain 8 x 32 tile (its first 16 NV columns): one run, no bias.
+template <int NV>
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_tile(int K, const float* a, const float* b, float* out) {
+  static constexpr TileSegments whole{1, {NV == 2 ? ~0u : 0xFFFFu}, {0}};
+  micro_kernel_avx512_fused<NV>(K, a, PackedRows{b}, TileDest{out, 32, nullptr, false, 8, &whole});
+}
+__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
+                                                                   const float* b, float* out) {
+  micro_kernel_avx512_tile<2>(K, a, b, out);
+}
 __attribute__((target("avx512f"))) inline void
 micro_kernel_avx512_half(int K, const float* a, const float* b, float* out) {
-  TileSegments seg;
-  seg.count = 1;
-  seg.mask[0] = 0xFFFFu;
-  const TileDest dest{out, 32, nullptr, false, 8, &seg};
-  micro_kernel_avx512_fused<1>(K, a, PackedRows{b}, dest);
+  micro_kernel_avx512_tile<1>(K, a, b, out);
 }
 
 __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
