@@ -30,7 +30,8 @@ constexpr std::string_view usage =
     "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
     "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
     "default 300; 0 = sleep at once).\n"
-    "CONV3X3: automatic (default), direct or winograd (DenseNet::Config::conv3x3).\n"
+    "CONV3X3: automatic (default), direct, winograd (F(2x2, 3x3)) or winograd4x4 (F(4x4, 3x3))\n"
+    "  (DenseNet::Config::conv3x3).\n"
     "KERNEL: automatic (default), avx512, avx2, neon, portable or reference (Config::kernel).\n";
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
@@ -71,9 +72,11 @@ int main(int argc, char** argv) {
         conv3x3 = ss::DenseNet::Conv3x3::direct;
       else if (c == "winograd")
         conv3x3 = ss::DenseNet::Conv3x3::winograd;
+      else if (c == "winograd4x4")
+        conv3x3 = ss::DenseNet::Conv3x3::winograd4x4;
       else if (c != "automatic")
         throw ss::InvalidArgument("CONV3X3 is '" + std::string(c) +
-                                  "', expected automatic, direct or winograd");
+                                  "', expected automatic, direct, winograd or winograd4x4");
     }
     auto kernel = ss::GemmKernelKind::automatic;
     if (argc == 10) {

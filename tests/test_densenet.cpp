@@ -72,11 +72,12 @@ TEST_CASE("compact DenseNet fixture: logits equal torchvision's for every kernel
   const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
   REQUIRE(m.self_test.has_value());
   for (auto kernel : available_kernels())
-    for (int threads : {1, 2}) {
-      DenseNet net(
-          m, {.threads = threads,
-              .kernel = kernel,
-              .conv3x3 = threads == 1 ? DenseNet::Conv3x3::winograd : DenseNet::Conv3x3::direct});
+    for (int threads : {1, 2, 3}) {
+      // one 3x3 method per thread count: F(2x2), direct, F(4x4)
+      const auto conv = threads == 1   ? DenseNet::Conv3x3::winograd
+                        : threads == 2 ? DenseNet::Conv3x3::direct
+                                       : DenseNet::Conv3x3::winograd4x4;
+      DenseNet net(m, {.threads = threads, .kernel = kernel, .conv3x3 = conv});
       const std::string kernel_name = net.kernel_name();
       CAPTURE(kernel_name);
       CAPTURE(threads);
@@ -181,15 +182,16 @@ TEST_CASE("DenseNet-121 and DenseNet-161, random weights, 3x150x220: equal to to
     const auto path = generate(arch);
     const auto m = ModelFile::load(path);
     REQUIRE(m.self_test.has_value());
-    for (auto conv :
-         {DenseNet::Conv3x3::automatic, DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd}) {
+    for (auto conv : {DenseNet::Conv3x3::automatic, DenseNet::Conv3x3::direct,
+                      DenseNet::Conv3x3::winograd, DenseNet::Conv3x3::winograd4x4}) {
       const int method = static_cast<int>(conv);
       CAPTURE(method);
       DenseNet net(m, {.threads = 2, .conv3x3 = conv, .run_self_test = false});
       const double diff = check_against_torchvision(net, *m.self_test);
-      const std::string name = conv == DenseNet::Conv3x3::automatic ? "automatic"
-                               : conv == DenseNet::Conv3x3::direct  ? "direct"
-                                                                    : "winograd";
+      const std::string name = conv == DenseNet::Conv3x3::automatic  ? "automatic"
+                               : conv == DenseNet::Conv3x3::direct   ? "direct"
+                               : conv == DenseNet::Conv3x3::winograd ? "winograd"
+                                                                     : "winograd4x4";
       MESSAGE(arch, " conv3x3 ", name, ": max abs diff of logits vs torchvision ", diff);
     }
     std::filesystem::remove(path);

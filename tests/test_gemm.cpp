@@ -332,14 +332,17 @@ TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision a
     const std::vector<float> ref(reference.logits(st.input).begin(),
                                  reference.logits(st.input).end());
     for (auto kind : detail::available_kernels())
-      for (auto conv : {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd})
+      for (auto conv :
+           {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd, DenseNet::Conv3x3::winograd4x4})
         for (int threads : {1, 2}) {
           DenseNet net(
               m, {.threads = threads, .kernel = kind, .conv3x3 = conv, .run_self_test = false});
           const std::string name = net.kernel_name();
-          const bool winograd = conv == DenseNet::Conv3x3::winograd;
+          const char* method = conv == DenseNet::Conv3x3::direct     ? " direct"
+                               : conv == DenseNet::Conv3x3::winograd ? " winograd"
+                                                                     : " winograd4x4";
           CAPTURE(name);
-          CAPTURE(winograd);
+          CAPTURE(method);
           CAPTURE(threads);
           const auto got = net.logits(st.input);
           REQUIRE(got.size() == st.logits.size());
@@ -352,8 +355,8 @@ TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision a
             CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
             CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
           }
-          MESSAGE(file, " ", name, winograd ? " winograd" : " direct", " threads=", threads,
-                  ": max abs diff vs torchvision ", vs_torch, ", vs reference kernel ", vs_ref);
+          MESSAGE(file, " ", name, method, " threads=", threads, ": max abs diff vs torchvision ",
+                  vs_torch, ", vs reference kernel ", vs_ref);
         }
   }
 }
@@ -384,80 +387,179 @@ void reference_conv3x3(const std::vector<float>& w, const std::vector<float>& in
       }
 }
 
+// The error scale of Winograd F(T x T, 3x3) for each output: the algorithm run on absolute
+// values, |A^T| ( (|G| |g| |G^T|) . (|B^T| |d| |B|) ) |A| summed over channels, in double. Every
+// float rounding in the transforms and the channel sum is at most eps times a term of this sum,
+// so |winograd - exact| <= (c + terms) eps times it, with terms the few roundings per path
+// (3 per 1-D transform of at most 6 values, 2 dimensions, 3 transforms, G's inexact 1/6, 1/12,
+// 1/24): 32 covers them.
+void winograd_abs_scale(int tile, const std::vector<float>& w, const std::vector<float>& in, int m,
+                        int c, int h, int wd, int pw, std::size_t plane,
+                        std::vector<double>& scale) {
+  static const double bt2[4][4] = {{1, 0, 1, 0}, {0, 1, 1, 0}, {0, 1, 1, 0}, {0, 1, 0, 1}};
+  static const double g2[4][3] = {{1, 0, 0}, {.5, .5, .5}, {.5, .5, .5}, {0, 0, 1}};
+  static const double at2[2][4] = {{1, 1, 1, 0}, {0, 1, 1, 1}};
+  static const double bt4[6][6] = {{4, 0, 5, 0, 1, 0}, {0, 4, 4, 1, 1, 0}, {0, 4, 4, 1, 1, 0},
+                                   {0, 2, 1, 2, 1, 0}, {0, 2, 1, 2, 1, 0}, {0, 4, 0, 5, 0, 1}};
+  static const double g4[6][3] = {{1. / 4, 0, 0},
+                                  {1. / 6, 1. / 6, 1. / 6},
+                                  {1. / 6, 1. / 6, 1. / 6},
+                                  {1. / 24, 1. / 12, 1. / 6},
+                                  {1. / 24, 1. / 12, 1. / 6},
+                                  {0, 0, 1}};
+  static const double at4[4][6] = {
+      {1, 1, 1, 1, 1, 0}, {0, 1, 1, 2, 2, 0}, {0, 1, 1, 4, 4, 0}, {0, 1, 1, 8, 8, 1}};
+  const int a = tile + 2;
+  auto bt = [&](int p, int r) { return tile == 2 ? bt2[p][r] : bt4[p][r]; };
+  auto g = [&](int p, int k) { return tile == 2 ? g2[p][k] : g4[p][k]; };
+  auto at = [&](int i, int p) { return tile == 2 ? at2[i][p] : at4[i][p]; };
+  scale.assign(static_cast<std::size_t>(m) * h * wd, 0.0);
+  // |G| |g| |G^T| for every (o, i)
+  std::vector<double> u(static_cast<std::size_t>(m) * c * a * a);
+  for (int o = 0; o < m; ++o)
+    for (int i = 0; i < c; ++i)
+      for (int p = 0; p < a; ++p)
+        for (int q = 0; q < a; ++q) {
+          double acc = 0;
+          for (int ky = 0; ky < 3; ++ky)
+            for (int kx = 0; kx < 3; ++kx)
+              acc += g(p, ky) *
+                     std::abs(w[(static_cast<std::size_t>(o) * c + i) * 9 + ky * 3 + kx]) *
+                     g(q, kx);
+          u[((static_cast<std::size_t>(o) * c + i) * a + p) * a + q] = acc;
+        }
+  std::vector<double> v(static_cast<std::size_t>(c) * a * a);
+  for (int ty = 0; ty * tile < h; ++ty)
+    for (int tx = 0; tx * tile < wd; ++tx) {
+      for (int i = 0; i < c; ++i) // |B^T| |d| |B| of this tile's patch
+        for (int p = 0; p < a; ++p)
+          for (int q = 0; q < a; ++q) {
+            double acc = 0;
+            for (int r = 0; r < a; ++r)
+              for (int k = 0; k < a; ++k)
+                acc += bt(p, r) *
+                       std::abs(in[i * plane + static_cast<std::size_t>(ty * tile + r) * pw +
+                                   tx * tile + k]) *
+                       bt(q, k);
+            v[(static_cast<std::size_t>(i) * a + p) * a + q] = acc;
+          }
+      for (int o = 0; o < m; ++o) {
+        std::vector<double> mm(static_cast<std::size_t>(a) * a, 0.0);
+        for (int i = 0; i < c; ++i)
+          for (int x = 0; x < a * a; ++x)
+            mm[static_cast<std::size_t>(x)] +=
+                u[(static_cast<std::size_t>(o) * c + i) * a * a + x] *
+                v[static_cast<std::size_t>(i) * a * a + x];
+        for (int yi = 0; yi < tile && ty * tile + yi < h; ++yi)
+          for (int xi = 0; xi < tile && tx * tile + xi < wd; ++xi) {
+            double acc = 0;
+            for (int p = 0; p < a; ++p)
+              for (int q = 0; q < a; ++q)
+                acc += at(yi, p) * mm[static_cast<std::size_t>(p * a + q)] * at(xi, q);
+            scale[(static_cast<std::size_t>(o) * h + ty * tile + yi) * wd + tx * tile + xi] = acc;
+          }
+      }
+    }
+}
+
 } // namespace
 
-TEST_CASE("Winograd F(2x2, 3x3) equals the direct 3x3 convolution for every kernel") {
+TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution for every "
+          "kernel") {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
   struct Shape {
     int m, c, h, w;
   };
-  // Odd and even sizes, one tile, one row or column of tiles, several panels, rows of the
-  // weights that do not fill a panel (m % mr != 0).
-  const Shape shapes[] = {{3, 5, 1, 1},     {8, 4, 1, 2},     {5, 7, 2, 1},
-                          {32, 16, 3, 3},   {32, 128, 9, 13}, {12, 32, 19, 27},
-                          {16, 32, 38, 55}, {7, 3, 4, 6},     {8, 32, 22, 40}};
-  double worst = 0; // largest |diff| / (sum |w| |x|) seen
-  for (const auto& sh : shapes) {
-    CAPTURE(sh.m);
-    CAPTURE(sh.c);
-    CAPTURE(sh.h);
-    CAPTURE(sh.w);
-    const int pw = sh.w + 2;
-    const std::size_t plane = static_cast<std::size_t>(sh.h + 2) * pw;
-    // Zero border and the pw + 1 zeros of the contract past the last plane, then NaN: the rest
-    // of the readable slack (winograd_read_slack) and beyond. A NaN read into a column that is
-    // not dropped shows up in the results.
-    const std::size_t zeros = sh.c * plane + pw + 1;
-    std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
-    std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
-              std::numeric_limits<float>::quiet_NaN());
-    for (int i = 0; i < sh.c; ++i)
-      for (int y = 0; y < sh.h; ++y)
-        for (int x = 0; x < sh.w; ++x)
-          in[i * plane + static_cast<std::size_t>(y + 1) * pw + x + 1] = ud(rng);
-    std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
-    for (auto& v : w) v = ud(rng);
-    std::vector<double> ref, scale;
-    reference_conv3x3(w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
-    // gamma_n bound of an n = 9c term dot product, x4 for the transforms' sums.
-    const double bound = 4.0 * 9 * sh.c * std::numeric_limits<float>::epsilon();
-    const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
-    for (const auto& mk : kernels_under_test())
-      for (int threads : {1, 3}) {
-        const std::string name = mk.name;
-        CAPTURE(name);
-        CAPTURE(threads);
-        detail::WinogradWeights u;
-        u.set(w.data(), sh.m, sh.c, mk.mr);
-        detail::ThreadPool pool(threads);
-        std::vector<detail::WinogradScratch> scratch(static_cast<std::size_t>(threads),
-                                                     detail::make_winograd_scratch(sh.c, sh.m, mk));
-        // Guard values after the output: nothing may be written there.
-        std::vector<float> out(n_out + 64, -7.0f);
-        detail::winograd_conv3x3(mk, detail::select_winograd_ops(mk.kind), u, in.data(), pw, plane,
-                                 sh.h, sh.w, out.data(), pool, scratch);
-        int bad = 0;
-        for (std::size_t k = 0; k < n_out; ++k) {
-          const double rel = std::abs(double(out[k]) - ref[k]) / std::max(scale[k], 1e-30);
-          worst = std::max(worst, rel);
-          if (!(rel <= bound)) ++bad; // (NaN counts as bad)
+  // Odd and even sizes, sizes 1-3 past a multiple of 4, one tile, one row or column of tiles,
+  // several panels, a tile row longer than one 16-tile step, rows of the weights that do not
+  // fill a panel (m % mr != 0).
+  const Shape shapes[] = {{3, 5, 1, 1},     {8, 4, 1, 2},     {5, 7, 2, 1},     {32, 16, 3, 3},
+                          {32, 128, 9, 13}, {12, 32, 19, 27}, {16, 32, 38, 55}, {7, 3, 4, 6},
+                          {8, 32, 22, 40},  {9, 6, 5, 70},    {4, 3, 7, 66}};
+  for (int tile : {2, 4}) {
+    CAPTURE(tile);
+    double worst = 0, worst_bound = 0; // largest |diff| / (sum |w| |x|), and / the bound
+    for (const auto& sh : shapes) {
+      CAPTURE(sh.m);
+      CAPTURE(sh.c);
+      CAPTURE(sh.h);
+      CAPTURE(sh.w);
+      const int pw = detail::winograd_padded(sh.w, tile);
+      const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(sh.h, tile)) * pw;
+      // Zero border, then NaN past the last plane: the readable slack of the contract
+      // (winograd_read_slack) and beyond. A NaN read into a column that is not dropped shows up
+      // in the results.
+      const std::size_t zeros = sh.c * plane;
+      std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
+      std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
+                std::numeric_limits<float>::quiet_NaN());
+      for (int i = 0; i < sh.c; ++i)
+        for (int y = 0; y < sh.h; ++y)
+          for (int x = 0; x < sh.w; ++x)
+            in[i * plane + static_cast<std::size_t>(y + 1) * pw + x + 1] = ud(rng);
+      std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
+      for (auto& v : w) v = ud(rng);
+      std::vector<double> ref, scale, wscale;
+      reference_conv3x3(w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
+      winograd_abs_scale(tile, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, wscale);
+      const double eps = std::numeric_limits<float>::epsilon();
+      const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
+      for (const auto& mk : kernels_under_test())
+        for (int threads : {1, 3}) {
+          const std::string name = mk.name;
+          CAPTURE(name);
+          CAPTURE(threads);
+          detail::WinogradWeights u;
+          u.set(w.data(), sh.m, sh.c, mk.mr, tile);
+          detail::ThreadPool pool(threads);
+          std::vector<detail::WinogradScratch> scratch(
+              static_cast<std::size_t>(threads), detail::make_winograd_scratch(sh.c, sh.m, mk));
+          // Guard values after the output: nothing may be written there.
+          std::vector<float> out(n_out + 64, -7.0f);
+          detail::winograd_conv3x3(mk, detail::select_winograd_ops(mk.kind), u, in.data(), pw,
+                                   plane, sh.h, sh.w, out.data(), pool, scratch);
+          int bad = 0;
+          for (std::size_t k = 0; k < n_out; ++k) {
+            const double diff = std::abs(double(out[k]) - ref[k]);
+            const double bound = (sh.c + 32) * eps * wscale[k];
+            worst = std::max(worst, diff / std::max(scale[k], 1e-30));
+            worst_bound = std::max(worst_bound, diff / std::max(bound, 1e-30));
+            if (!(diff <= bound)) ++bad; // (NaN counts as bad)
+          }
+          CHECK(bad == 0);
+          CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
+                            [](float v) { return v == -7.0f; }));
         }
-        CHECK(bad == 0);
-        CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
-                          [](float v) { return v == -7.0f; }));
-      }
+    }
+    MESSAGE("Winograd F(", tile, "x", tile,
+            ", 3x3) vs direct (double): max |diff| / sum |w x| = ", worst,
+            ", max |diff| / bound = ", worst_bound);
+    CHECK(worst > 0); // the comparison ran on float results
   }
-  MESSAGE("Winograd vs direct (double): max |diff| / sum |w x| = ", worst);
-  CHECK(worst > 0); // the comparison ran on float results
 }
 
-TEST_CASE("winograd_pays: Winograd where the tiles fill the panels, direct on small images") {
-  CHECK(detail::winograd_pays(38, 55, 32, 32));     // DenseNet-121 block 1 at 3x150x220
-  CHECK(detail::winograd_pays(19, 27, 32, 32));     // block 2
-  CHECK(detail::winograd_pays(9, 13, 32, 32));      // block 3: 2 panels of tiles vs 5 direct
-  CHECK_FALSE(detail::winograd_pays(4, 6, 32, 32)); // block 4: 6 tiles in one 32-column panel
-  CHECK_FALSE(detail::winograd_pays(1, 1, 32, 32));
-  CHECK(detail::winograd_pays(38, 55, 16, 32));      // 16 output channels: still pays
-  CHECK_FALSE(detail::winograd_pays(38, 55, 8, 32)); // growth 8 (the shipped model): direct
+TEST_CASE("winograd_tile: F(4x4) on large images, F(2x2) or direct where tiles leave panels "
+          "empty") {
+  // DenseNet-121/-161 at 3x150x220 (growth 32 / 48, nr = 32): blocks 1-4
+  CHECK(detail::winograd_tile(38, 55, 32, 32) == 4);
+  CHECK(detail::winograd_tile(19, 27, 48, 32) == 2); // F(4x4): 2 panels x 36 > 0.85 x 5 x 16
+  CHECK(detail::winograd_tile(9, 13, 32, 32) == 2);  // 12 tiles of 4x4: one panel 3/8 full
+  CHECK(detail::winograd_tile(4, 6, 32, 32) == 0);   // block 4: 6 tiles in one 32-column panel
+  CHECK(detail::winograd_tile(1, 1, 32, 32) == 0);
+  CHECK(detail::winograd_tile(38, 55, 16, 32) == 4); // 16 output channels: still pays
+  CHECK(detail::winograd_tile(38, 55, 8, 32) == 0);  // growth 8 (the shipped model): direct
+  CHECK(detail::winograd_tile(38, 55, 32, 16) == 4); // AVX2's 16 columns
+}
+
+TEST_CASE("PackedMatrix::unpack returns the packed matrix") {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  for (int mr : {1, 6, 8}) {
+    std::vector<float> w(13 * 7);
+    for (auto& v : w) v = ud(rng);
+    detail::PackedMatrix p;
+    p.pack(w.data(), 13, 7, mr);
+    CHECK(p.unpack() == w);
+  }
 }

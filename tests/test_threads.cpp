@@ -151,9 +151,10 @@ TEST_CASE("DenseNet worker threads: 2 and 3 threads give the 1-thread logits exa
   const auto model = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
   Tensor x(1, 3, 72, 104);
   for (std::size_t i = 0; i < x.size(); ++i) x.data()[i] = std::sin(0.011f * float(i));
-  for (auto conv : {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd}) {
-    const bool winograd = conv == DenseNet::Conv3x3::winograd;
-    CAPTURE(winograd);
+  for (auto conv :
+       {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd, DenseNet::Conv3x3::winograd4x4}) {
+    const int method = static_cast<int>(conv);
+    CAPTURE(method);
     DenseNet one(model, {.threads = 1, .conv3x3 = conv, .run_self_test = false});
     REQUIRE(one.accepts(x.h(), x.w()));
     const auto ref = one.logits(x);

@@ -11,10 +11,11 @@
 //   channels behind the existing ones, concatenation copies nothing.
 // - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
 //   buffer so packing needs no bounds checks.
-// - the dense layers' 3x3 convolutions use Winograd F(2x2, 3x3) (winograd.hpp: 2.25x fewer
-//   multiply-adds) where the image has enough 2x2 tiles to fill the GEMM panels and the layer
-//   has at least 16 output channels; the small late-block images and narrow models use the
-//   direct padded-grid convolution (Config::conv3x3).
+// - the dense layers' 3x3 convolutions use Winograd F(4x4, 3x3) or F(2x2, 3x3) (winograd.hpp:
+//   4x or 2.25x fewer multiply-adds) where the image has enough tiles to fill the GEMM panels
+//   and the layer has at least 16 output channels; the small late-block images and narrow
+//   models use the direct padded-grid convolution (Config::conv3x3). The transformed weights
+//   of a tile size are built when a block first uses it (the first input of a new size).
 // - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
 //   result is the same up to rounding) which costs 4x fewer multiply-adds.
 // - all buffers are sized at construction for the largest input seen so far and reused.
@@ -42,11 +43,12 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // Config::threads, are managed internally). Movable, not copyable.
 class DenseNet {
 public:
-  // How the dense layers' 3x3 convolutions are computed: automatic picks Winograd per block
-  // where detail::winograd_pays(h, w, growth_rate, nr), direct everywhere else; direct and
-  // winograd force one method on every block (tests, benchmarks; direct also saves the memory
-  // of the transformed weights, 16/9 of the 3x3 weights).
-  enum class Conv3x3 { automatic, direct, winograd };
+  // How the dense layers' 3x3 convolutions are computed: automatic picks per block what
+  // detail::winograd_tile(h, w, growth_rate, nr) says (direct, F(2x2, 3x3) or F(4x4, 3x3));
+  // direct, winograd (F(2x2, 3x3)) and winograd4x4 (F(4x4, 3x3)) force one method on every
+  // block (tests, benchmarks; direct also saves the memory of the transformed weights, 16/9 of
+  // the 3x3 weights for F(2x2) and 36/9 for F(4x4)).
+  enum class Conv3x3 { automatic, direct, winograd, winograd4x4 };
 
   struct Config {
     int threads = 1; // worker threads incl. the caller
@@ -175,7 +177,8 @@ public:
       n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
       for (const auto& l : b.layers) {
         n += l.conv1.data.size() + l.conv2.data.size() + l.bias1.size() + 2 * l.norm1.scale.size();
-        for (const auto& u : l.winograd.u) n += u.data.size();
+        for (const auto* wg : {&l.winograd2, &l.winograd4})
+          for (const auto& u : wg->u) n += u.data.size();
       }
     }
     return n * sizeof(float);
@@ -223,7 +226,8 @@ private:
     detail::PackedMatrix conv1; // norm2 folded in
     std::vector<float> bias1;
     detail::PackedMatrix conv2;
-    detail::WinogradWeights winograd; // conv2 transformed (empty with Conv3x3::direct)
+    // conv2 transformed for F(2x2) and F(4x4); each built when a block first uses it
+    detail::WinogradWeights winograd2, winograd4;
   };
   struct Block {
     std::vector<Layer> layers;
@@ -233,11 +237,26 @@ private:
   };
 
   // Whether any block may use Winograd: forced, or automatic with enough output channels
-  // (detail::winograd_pays); otherwise its weights are not built.
+  // (detail::winograd_tile); otherwise no scratch is made for it.
   bool builds_winograd() const {
-    return config_.conv3x3 == Conv3x3::winograd ||
+    return config_.conv3x3 == Conv3x3::winograd || config_.conv3x3 == Conv3x3::winograd4x4 ||
            (config_.conv3x3 == Conv3x3::automatic &&
             arch_.growth_rate >= detail::winograd_min_outputs);
+  }
+
+  // The 3x3 method of an H x W block: 0 (direct) or the Winograd tile size.
+  int conv3x3_tile(int H, int W) const {
+    switch (config_.conv3x3) {
+    case Conv3x3::direct:
+      return 0;
+    case Conv3x3::winograd:
+      return 2;
+    case Conv3x3::winograd4x4:
+      return 4;
+    case Conv3x3::automatic:
+      break;
+    }
+    return detail::winograd_tile(H, W, arch_.growth_rate, kernel_.nr);
   }
 
   Affine affine(const ModelFile& m, const std::string& prefix) const {
@@ -290,7 +309,6 @@ private:
         layer.conv1.pack(w.data(), inner, cin, kernel_.mr);
         const auto& w2 = m.tensor(p + ".conv2.weight").values;
         layer.conv2.pack(w2.data(), k, inner * 9, kernel_.mr);
-        if (builds_winograd()) layer.winograd.set(w2.data(), k, inner, kernel_.mr);
         max_k_ = std::max(max_k_, cin);
         blk.layers.push_back(std::move(layer));
       }
@@ -334,20 +352,29 @@ private:
     block_buf_.clear();
     bottleneck_.clear();
     tap_offsets_.clear();
-    winograd_block_.clear();
+    block_tile_.clear();
+    block_pw_.clear();
+    block_plane_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
       block_buf_.emplace_back(static_cast<std::size_t>(blocks_[b].c_out) * H * W, 0.0f);
-      // Bottleneck output, zero-padded by one pixel for the 3x3 convolution; one buffer per
+      // Bottleneck output, zero-padded by one pixel for the 3x3 convolution (Winograd: more
+      // where its last tiles reach past the image, detail::winograd_padded); one buffer per
       // block so each border stays 0.
       // (+ one row of slack: the padded-grid conv2 reads 2 floats past the last plane.)
       // (+ nr + 2 more: a tail panel read in place reads a whole nr-wide row; Winograd's
       // transform reads up to winograd_read_slack floats.)
       const int inner = arch_.bn_size * arch_.growth_rate;
-      const std::size_t plane = static_cast<std::size_t>(H + 2) * (W + 2);
+      const int tile = conv3x3_tile(H, W);
+      const int pw = tile ? detail::winograd_padded(W, tile) : W + 2;
+      const int rows = tile ? detail::winograd_padded(H, tile) : H + 2;
+      const std::size_t plane = static_cast<std::size_t>(rows) * pw;
+      block_tile_.push_back(tile);
+      block_pw_.push_back(pw);
+      block_plane_.push_back(plane);
       bottleneck_.emplace_back(
-          static_cast<std::size_t>(inner) * plane + W + 2 +
+          static_cast<std::size_t>(inner) * plane + pw +
               static_cast<std::size_t>(std::max(kernel_.nr + 2, detail::winograd_read_slack)),
           0.0f);
       // Offsets of the 3x3 taps in the padded bottleneck, in the packed weights' k order.
@@ -355,11 +382,14 @@ private:
       for (int c = 0; c < inner; ++c)
         for (int t = 0; t < 9; ++t)
           taps[static_cast<std::size_t>(c * 9 + t)] =
-              static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * (W + 2) + t % 3;
+              static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * pw + t % 3;
       tap_offsets_.push_back(std::move(taps));
-      winograd_block_.push_back(config_.conv3x3 == Conv3x3::winograd ||
-                                (config_.conv3x3 == Conv3x3::automatic &&
-                                 detail::winograd_pays(H, W, arch_.growth_rate, kernel_.nr)));
+      if (tile) // this block's transformed weights, once per tile size
+        for (Layer& layer : blocks_[b].layers) {
+          detail::WinogradWeights& u = tile == 2 ? layer.winograd2 : layer.winograd4;
+          if (u.empty())
+            u.set(layer.conv2.unpack().data(), layer.conv2.m, layer.conv2.k / 9, kernel_.mr, tile);
+        }
       H /= 2;
       W /= 2;
     }
@@ -488,9 +518,9 @@ private:
     const Layer& layer = blk.layers[l];
     const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;
     const float* feat = block_buf_[b].data();
-    const int pw = bw + 2;
+    const int pw = block_pw_[b];
     float* bott = bottleneck_[b].data();
-    const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
+    const std::size_t plane = block_plane_[b];
     auto pack = [&](float* dst, int n0, int cols, int*) {
       if (ops_.pack_affine_relu) {
         ops_.pack_affine_relu(feat + n0, static_cast<std::size_t>(n), cin, layer.norm1.scale.data(),
@@ -541,9 +571,9 @@ private:
     const Block& blk = blocks_[b];
     const Layer& layer = blk.layers[l];
     const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;
-    const int pw = bw + 2;
+    const int pw = block_pw_[b];
     const float* bott = bottleneck_[b].data();
-    const std::size_t plane = static_cast<std::size_t>(bh + 2) * pw;
+    const std::size_t plane = block_plane_[b];
     const int inner = layer.conv1.m;
     auto pack = [&](float* dst, int n0, int cols, int*) {
       for (int c = 0; c < inner; ++c)
@@ -551,9 +581,10 @@ private:
                      pw);
     };
     float* outp = block_buf_[b].data() + static_cast<std::size_t>(cin) * n;
-    if (winograd_block_[b]) {
-      detail::winograd_conv3x3(kernel_, winograd_ops_, layer.winograd, bott, pw, plane, bh, bw,
-                               outp, *pool_, winograd_scratch_);
+    if (block_tile_[b]) {
+      detail::winograd_conv3x3(kernel_, winograd_ops_,
+                               block_tile_[b] == 2 ? layer.winograd2 : layer.winograd4, bott, pw,
+                               plane, bh, bw, outp, *pool_, winograd_scratch_);
       return;
     }
     auto store = [&](int m, int n0, int cols, const float* v) {
@@ -706,7 +737,10 @@ private:
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
   std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
-  std::vector<bool> winograd_block_;          // per block: its 3x3 convolutions use Winograd
+  std::vector<int> block_tile_; // per block: its 3x3 method, 0 (direct) or the Winograd tile
+  std::vector<int> block_pw_;   // per block: the padded bottleneck's row stride
+  std::vector<std::size_t>
+      block_plane_; // per block: floats from one bottleneck channel to the next
 };
 
 SHADOWSENSE_NAMESPACE_END

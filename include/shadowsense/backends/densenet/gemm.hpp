@@ -18,7 +18,7 @@
 // available_kernels(): every kind cpu_has() accepts, fastest first, reference last.
 // PackedMatrix::pack(w, rows, cols, panel_rows): packs a row-major rows x cols matrix into
 //   panel_rows-row panels (K x MR interleaved, zero-padded). Not thread-safe while packing;
-//   read-only use afterwards may be shared between threads.
+//   read-only use afterwards may be shared between threads. unpack() returns that matrix again.
 // ThreadPool(threads, spin_us = 300): requires 1 <= threads <= 256 and 0 <= spin_us <= 100000
 //   (InvalidArgument). run(tasks, fn) must be called from one thread at a time (the owner); the
 //   pool's workers are its own. requires 0 <= tasks <= 65535 (InvalidArgument); ensures fn(t)
@@ -210,6 +210,15 @@ struct PackedMatrix {
               w[static_cast<std::size_t>(p * mr + r) * k + c];
   }
   const float* panel(int p) const { return data.data() + static_cast<std::size_t>(p) * k * mr; }
+  // The m x k row-major matrix pack() was given.
+  std::vector<float> unpack() const {
+    std::vector<float> w(static_cast<std::size_t>(m) * k);
+    for (int r = 0; r < m; ++r)
+      for (int c = 0; c < k; ++c)
+        w[static_cast<std::size_t>(r) * k + c] =
+            data[(static_cast<std::size_t>(r / mr) * k + c) * mr + r % mr];
+    return w;
+  }
 };
 
 // A persistent pool: run(tasks, fn) calls fn(t) for t in [0, tasks) on the calling thread and

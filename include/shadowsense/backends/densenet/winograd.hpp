@@ -1,48 +1,63 @@
-// Winograd F(2x2, 3x3) for the dense layers' 3x3 convolutions (stride 1, pad 1): each 2x2
-// output tile is computed from its 4x4 input patch with 16 multiplications per (input, output)
-// channel pair instead of 36, so the GEMM work of a 3x3 convolution drops 2.25x; the input and
-// output transforms cost additions only. Results equal the direct convolution up to float
-// rounding (the transforms' coefficients are 0, +-1 and +-1/2).
+// Winograd F(2x2, 3x3) and F(4x4, 3x3) for the dense layers' 3x3 convolutions (stride 1, pad 1):
+// each T x T output tile (T = 2 or 4) is computed from its (T + 2) x (T + 2) input patch with
+// (T + 2)^2 multiplications per (input, output) channel pair instead of 9 T^2, so the GEMM work
+// of a 3x3 convolution drops 2.25x (T = 2) or 4x (T = 4); the input and output transforms cost
+// additions and small constant multiplications only. Results equal the direct convolution up
+// to float rounding: F(2x2)'s coefficients are 0, +-1 and +-1/2; F(4x4)'s reach 8 and 1/24,
+// so its rounding error is larger (measured in tests/test_gemm.cpp and docs/densenet.md).
 //
-// Math (Lavin & Gray 2016): Y = A^T [ (G g G^T) . (B^T d B) ] A, with
+// Math (Lavin & Gray 2016): Y = A^T [ (G g G^T) . (B^T d B) ] A, with, for F(2x2, 3x3),
 //   B^T = [1 0 -1 0; 0 1 1 0; 0 -1 1 0; 0 1 0 -1], G = [1 0 0; .5 .5 .5; .5 -.5 .5; 0 0 1],
-//   A^T = [1 1 1 0; 0 1 -1 -1].
-// The 16 element-wise products over channels become 16 GEMMs (xi = 0..15): for a panel of nr
-// tiles, M_xi (out x nr) = U_xi (out x in, the transformed weights, packed once at load) times
-// V_xi (in x nr, the transformed patches), each run by the forward pass's micro-kernel, so every
-// kernel (AVX-512, AVX2, NEON, portable, reference) gets it.
+//   A^T = [1 1 1 0; 0 1 -1 -1];
+// and for F(4x4, 3x3) (interpolation points 0, +-1, +-2, infinity),
+//   B^T = [4 0 -5 0 1 0; 0 -4 -4 1 1 0; 0 4 -4 -1 1 0; 0 -2 -1 2 1 0; 0 2 -1 -2 1 0;
+//          0 4 0 -5 0 1],
+//   G = [1/4 0 0; -1/6 -1/6 -1/6; -1/6 1/6 -1/6; 1/24 1/12 1/6; 1/24 -1/12 1/6; 0 0 1],
+//   A^T = [1 1 1 1 1 0; 0 1 -1 2 -2 0; 0 1 1 4 4 0; 0 1 -1 8 -8 1].
+// The (T + 2)^2 element-wise products over channels become as many GEMMs (xi = 0..(T + 2)^2 - 1):
+// for a panel of nr tiles, M_xi (out x nr) = U_xi (out x in, the transformed weights, packed
+// once) times V_xi (in x nr, the transformed patches), each run by the forward pass's
+// micro-kernel, so every kernel (AVX-512, AVX2, NEON, portable, reference) gets it.
 //
-// WinogradWeights::set(w, m, c, mr): w is m x c x 3 x 3 row-major (PyTorch's conv weight);
-//   ensures u[xi] is the m x c matrix (G g G^T)[xi / 4][xi % 4] packed in mr-row panels.
-// winograd_pays(h, w, m, nr): true when the layer has m >= 16 output channels and the tiles'
-//   GEMM columns (16 per nr tiles) are at most 3/4 of the direct padded-grid convolution's (9 per
-//   nr outputs of h x (w + 2)). Small late-block images, whose few tiles leave most of a panel
-//   empty, stay direct; so do layers with few output channels, where the transforms' additions
-//   per tile cost more than the 20 multiply-adds per output channel they save (measured: the
+// WinogradWeights::set(w, m, c, mr, tile): w is m x c x 3 x 3 row-major (PyTorch's conv weight),
+//   tile is 2 or 4; ensures u[xi] is the m x c matrix (G g G^T)[xi / (tile + 2)][xi % (tile + 2)]
+//   packed in mr-row panels. empty() until set.
+// winograd_tile(h, w, m, nr): the method for an h x w image with m output channels and a kernel
+//   of nr columns: 0 (direct), 2 or 4. Each method is costed in micro-kernel panel passes times
+//   the multiply-adds per pass (direct 9, F(2x2) 16, F(4x4) 36 per tile column), the last,
+//   partly empty panel counted whole; Winograd is taken where it costs at most 3/4 of the direct
+//   convolution (the transforms are not free) and F(4x4) where it costs at most
+//   winograd4_share of F(2x2). Layers with fewer than 16 output channels stay direct: there the
+//   transforms' additions per tile cost more than the multiply-adds they save (measured: the
 //   shipped model, growth 8, is 6% slower with Winograd).
+// winograd_padded(n, tile): the padded extent (rows or columns) a tile size reads for an image
+//   extent n: n + 2, or more where the last tile reaches past the image.
 // WinogradOps: the transforms for one instruction set (select_winograd_ops(kind)):
-//   input(s, plane, channels, pw, run, room, d, dc, xs): run (1..winograd_max_run) consecutive
-//     tiles of one tile row, for each channel ch < channels; s + ch * plane is the first tile's
-//     4x4 patch (top-left; row stride pw; the patches of tile j start 2j further). Writes
-//     B^T d B of tile j of channel ch to d[xi * xs + ch * dc + j], xi = 0..15; columns
-//     run..room-1 of those rows may be overwritten (room >= run). Reads up to
-//     winograd_read_slack floats from the start of each step of 16 tiles.
-//   output(m, xs, n, y): m[xi * xs + j] (xi = 0..15, j < n <= winograd_max_run) to the 2x2
-//     outputs y[(2i + k) * winograd_max_run + j] = A^T M A [i][k].
+//   input(s, plane, channels, pw, run, room, d, dc, xs) [F(2x2)] and input4 (same) [F(4x4)]:
+//     run (1..winograd_max_run) consecutive tiles of one tile row, for each channel
+//     ch < channels; s + ch * plane is the first tile's patch (top-left; row stride pw; the
+//     patches of tile j start T j further). Writes B^T d B of tile j of channel ch to
+//     d[xi * xs + ch * dc + j], xi = 0..(T + 2)^2 - 1; columns run..room-1 of those rows may be
+//     overwritten (room >= run). Reads up to winograd_read_slack floats from the start of each
+//     patch row of a step of 16 tiles.
+//   output(m, xs, n, y) [F(2x2)] and output4 [F(4x4)]: m[xi * xs + j] (j < n <=
+//     winograd_max_run) to the T x T outputs y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
+//   interleave4(y, d, n): d[4i + k] = y[k * winograd_max_run + i] for 4i + k < n.
 // winograd_conv3x3(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch):
-//   requires: in holds u.c channels of (h + 2) x pw padded images (pw >= w + 2, zero border),
-//             plane floats apart, readable for pw + winograd_read_slack floats past the last
-//             one, the first pw + 1 of them zero (the tiles of odd h or w read one row / column
-//             beyond the border; the rest is read into columns that are dropped); out has room
-//             for u.m x h x w floats; scratch holds pool.size() entries made by
-//             make_winograd_scratch(u.c, u.m, kernel).
+//   requires: in holds u.c channels of padded images, plane floats apart, each with the image at
+//             row 1, column 1, row stride pw >= winograd_padded(w, u.tile), at least
+//             winograd_padded(h, u.tile) rows, and zero everywhere else; in is readable for
+//             winograd_read_slack floats past the last plane (their values only reach columns
+//             that are dropped); out has room for u.m x h x w floats; scratch holds pool.size()
+//             entries made by make_winograd_scratch(u.c, u.m, kernel).
 //   ensures:  out[o][y][x] = sum over c, ky, kx of w[o][c][ky][kx] * in[c][y + ky][x + kx]
 //             (padded coordinates), up to rounding. (tile panel, row panel) units are split
 //             over the pool in equal shares; each output element is computed by one thread in
 //             one order, so the result does not depend on the thread count.
-// make_winograd_scratch(c, m, kernel): one thread's slabs and products (16 x (c x nr + 16) and
-//   16 x (m rounded up to mr, x nr + 16) floats); requires 1 <= kernel.nr <= winograd_max_run.
+// make_winograd_scratch(c, m, kernel): one thread's slabs and products for either tile size
+//   (36 x (c x nr + 16) and 36 x (m rounded up to mr, x nr + 16) floats); requires
+//   1 <= kernel.nr <= winograd_max_run.
 // No state beyond the arguments; scratch entries are per thread (one per pool thread).
 #pragma once
 
@@ -52,48 +67,100 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
 
-inline constexpr int winograd_max_run = 64;    // >= every kernel's nr
-inline constexpr int winograd_read_slack = 34; // floats a 16-tile step reads: 2 * 16 + 2
+inline constexpr int winograd_max_run = 64; // >= every kernel's nr
+// Floats a 16-tile step reads from the start of a patch row: F(2x2) 2 x 16 + 2, F(4x4) five
+// whole vectors (4 x 16 + 2 rounded up).
+inline constexpr int winograd_read_slack = 80;
+inline constexpr int winograd_max_products = 36; // (T + 2)^2 for the largest tile, T = 4
+
+inline int winograd_padded(int n, int tile) {
+  return std::max(n + 2, (n + tile - 1) / tile * tile + 2);
+}
 
 struct WinogradWeights {
-  int m = 0, c = 0;
-  std::array<PackedMatrix, 16> u;
+  int m = 0, c = 0, tile = 0;
+  std::vector<PackedMatrix> u; // (tile + 2)^2 matrices
 
-  void set(const float* w, int rows, int channels, int mr) {
+  bool empty() const { return u.empty(); }
+
+  void set(const float* w, int rows, int channels, int mr, int tile_size) {
+    require(tile_size == 2 || tile_size == 4,
+            "Winograd: tile size " + std::to_string(tile_size) + ", expected 2 or 4");
     m = rows;
     c = channels;
-    std::array<std::vector<float>, 16> plain;
+    tile = tile_size;
+    static constexpr double G2[4][3] = {{1, 0, 0}, {.5, .5, .5}, {.5, -.5, .5}, {0, 0, 1}};
+    static constexpr double G4[6][3] = {{1. / 4, 0, 0},
+                                        {-1. / 6, -1. / 6, -1. / 6},
+                                        {-1. / 6, 1. / 6, -1. / 6},
+                                        {1. / 24, 1. / 12, 1. / 6},
+                                        {1. / 24, -1. / 12, 1. / 6},
+                                        {0, 0, 1}};
+    const int a = tile + 2;
+    const double(*G)[3] = tile == 2 ? G2 : G4;
+    std::vector<std::vector<float>> plain(static_cast<std::size_t>(a * a));
     for (auto& p : plain) p.assign(static_cast<std::size_t>(m) * c, 0.0f);
-    static constexpr double G[4][3] = {{1, 0, 0}, {.5, .5, .5}, {.5, -.5, .5}, {0, 0, 1}};
     for (int o = 0; o < m; ++o)
       for (int i = 0; i < c; ++i) {
         const float* g = w + (static_cast<std::size_t>(o) * c + i) * 9;
-        double gg[4][3]; // G g
-        for (int p = 0; p < 4; ++p)
+        double gg[6][3]; // G g
+        for (int p = 0; p < a; ++p)
           for (int kx = 0; kx < 3; ++kx)
             gg[p][kx] = G[p][0] * g[kx] + G[p][1] * g[3 + kx] + G[p][2] * g[6 + kx];
-        for (int p = 0; p < 4; ++p)
-          for (int q = 0; q < 4; ++q)
-            plain[static_cast<std::size_t>(p * 4 + q)][static_cast<std::size_t>(o) * c + i] =
+        for (int p = 0; p < a; ++p)
+          for (int q = 0; q < a; ++q)
+            plain[static_cast<std::size_t>(p * a + q)][static_cast<std::size_t>(o) * c + i] =
                 static_cast<float>(G[q][0] * gg[p][0] + G[q][1] * gg[p][1] + G[q][2] * gg[p][2]);
       }
-    for (std::size_t xi = 0; xi < 16; ++xi) u[xi].pack(plain[xi].data(), m, c, mr);
+    u.assign(plain.size(), PackedMatrix{});
+    for (std::size_t xi = 0; xi < plain.size(); ++xi) u[xi].pack(plain[xi].data(), m, c, mr);
   }
 };
 
 inline constexpr int winograd_min_outputs = 16; // output channels below which direct wins
+// F(4x4) is taken where its panel cost is at most this share of F(2x2)'s: its transforms cost
+// more per tile and it rounds more. Measured (DenseNet-121/-161 at 3x150x220, docs/densenet.md):
+// on block 2 (19 x 27, 2 panels of 4x4 tiles vs 5 of 2x2 ones, 72 / 80) both take the same time,
+// so F(2x2) keeps it.
+inline constexpr double winograd4_share = 0.85;
 
-inline bool winograd_pays(int h, int w, int m, int nr) {
-  if (m < winograd_min_outputs) return false;
-  const long tiles = long((h + 1) / 2) * ((w + 1) / 2);
-  const long wino = (tiles + nr - 1) / nr * 16;
-  const long direct = (long(h) * (w + 2) + nr - 1) / nr * 9;
-  return 4 * wino <= 3 * direct;
+inline int winograd_tile(int h, int w, int m, int nr) {
+  if (m < winograd_min_outputs) return 0;
+  auto cost = [&](int tile, int per_column) {
+    const long tiles = long((h + tile - 1) / tile) * ((w + tile - 1) / tile);
+    return double((tiles + nr - 1) / nr * per_column);
+  };
+  const double direct = double((long(h) * (w + 2) + nr - 1) / nr * 9);
+  const double f2 = cost(2, 16), f4 = cost(4, 36);
+  if (4 * std::min(f2, f4) > 3 * direct) return 0;
+  return f4 <= winograd4_share * f2 ? 4 : 2;
+}
+
+// F(4x4, 3x3)'s 1-D transforms of six values (a row or column of a patch, or of products):
+// y = B^T x and z = A^T x, in the factored form the vector versions use too.
+inline void winograd4_bt(float x0, float x1, float x2, float x3, float x4, float x5,
+                         float (&y)[6]) {
+  const float a = x4 - 4.0f * x2, b = x3 - 4.0f * x1, c = x4 - x2, e = 2.0f * (x3 - x1);
+  y[0] = 4.0f * x0 - 5.0f * x2 + x4;
+  y[1] = a + b;
+  y[2] = a - b;
+  y[3] = c + e;
+  y[4] = c - e;
+  y[5] = 4.0f * x1 - 5.0f * x3 + x5;
+}
+inline void winograd4_at(float x0, float x1, float x2, float x3, float x4, float x5,
+                         float (&z)[4]) {
+  const float p = x1 + x2, m = x1 - x2, p2 = x3 + x4, m2 = x3 - x4;
+  z[0] = x0 + p + p2;
+  z[1] = m + 2.0f * m2;
+  z[2] = p + 4.0f * p2;
+  z[3] = m + 8.0f * m2 + x5;
 }
 
 // The transforms, written as unit-stride loops over tiles (the input's stride-2 reads become
@@ -161,6 +228,60 @@ inline bool winograd_pays(int h, int w, int m, int nr) {
       d[2 * i + 1] = b[i];                                                                         \
     }                                                                                              \
     if (n % 2) d[n - 1] = a[pairs];                                                                \
+  }                                                                                                \
+  ATTR inline void winograd_input4_one_##SUFFIX(const float* __restrict s, int pw, int run,        \
+                                                float* __restrict d, std::size_t xs) {             \
+    float t[6][6][winograd_max_run]; /* t[row][q][j]: the patch rows times B */                    \
+    for (int k = 0; k < 6; ++k) {                                                                  \
+      const float* __restrict r = s + k * pw;                                                      \
+      for (int j = 0; j < run; ++j) {                                                              \
+        float y[6];                                                                                \
+        winograd4_bt(r[4 * j], r[4 * j + 1], r[4 * j + 2], r[4 * j + 3], r[4 * j + 4],             \
+                     r[4 * j + 5], y);                                                             \
+        for (int q = 0; q < 6; ++q) t[k][q][j] = y[q];                                             \
+      }                                                                                            \
+    }                                                                                              \
+    for (int q = 0; q < 6; ++q)                                                                    \
+      for (int j = 0; j < run; ++j) {                                                              \
+        float y[6];                                                                                \
+        winograd4_bt(t[0][q][j], t[1][q][j], t[2][q][j], t[3][q][j], t[4][q][j], t[5][q][j], y);   \
+        for (int p = 0; p < 6; ++p) d[static_cast<std::size_t>(6 * p + q) * xs + j] = y[p];        \
+      }                                                                                            \
+  }                                                                                                \
+  ATTR inline void winograd_input4_##SUFFIX(const float* __restrict s, std::size_t plane,          \
+                                            int channels, int pw, int run, int /*room*/,           \
+                                            float* __restrict d, std::size_t dc, std::size_t xs) { \
+    for (int ch = 0; ch < channels; ++ch)                                                          \
+      winograd_input4_one_##SUFFIX(s + ch * plane, pw, run, d + ch * dc, xs);                      \
+  }                                                                                                \
+  ATTR inline void winograd_output4_##SUFFIX(const float* __restrict m, std::size_t xs, int n,     \
+                                             float* __restrict y) {                                \
+    float s[4][6][winograd_max_run]; /* A^T M */                                                   \
+    for (int q = 0; q < 6; ++q)                                                                    \
+      for (int j = 0; j < n; ++j) {                                                                \
+        float z[4];                                                                                \
+        winograd4_at(m[static_cast<std::size_t>(q) * xs + j],                                      \
+                     m[static_cast<std::size_t>(6 + q) * xs + j],                                  \
+                     m[static_cast<std::size_t>(12 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(18 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(24 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(30 + q) * xs + j], z);                             \
+        for (int i = 0; i < 4; ++i) s[i][q][j] = z[i];                                             \
+      }                                                                                            \
+    for (int i = 0; i < 4; ++i)                                                                    \
+      for (int j = 0; j < n; ++j) {                                                                \
+        float z[4];                                                                                \
+        winograd4_at(s[i][0][j], s[i][1][j], s[i][2][j], s[i][3][j], s[i][4][j], s[i][5][j], z);   \
+        for (int k = 0; k < 4; ++k)                                                                \
+          y[static_cast<std::size_t>(4 * i + k) * winograd_max_run + j] = z[k];                    \
+      }                                                                                            \
+  }                                                                                                \
+  ATTR inline void winograd_interleave4_##SUFFIX(const float* __restrict y, float* __restrict d,   \
+                                                 int n) {                                          \
+    const int quads = n / 4;                                                                       \
+    for (int i = 0; i < quads; ++i)                                                                \
+      for (int k = 0; k < 4; ++k) d[4 * i + k] = y[k * winograd_max_run + i];                      \
+    for (int k = 0; k < n % 4; ++k) d[4 * quads + k] = y[k * winograd_max_run + quads];            \
   }
 
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, )
@@ -229,24 +350,118 @@ winograd_input_avx512(const float* __restrict s, std::size_t plane, int channels
     }
   }
 }
+
+// F(4x4)'s y = B^T x on six vectors of tiles (the factored form of winograd4_bt).
+__attribute__((target("avx512f"))) inline void winograd4_bt_avx512(const __m512 (&x)[6],
+                                                                   __m512 (&y)[6]) {
+  const __m512 four = _mm512_set1_ps(4.0f), five = _mm512_set1_ps(5.0f);
+  const __m512 a = _mm512_fnmadd_ps(four, x[2], x[4]); // x4 - 4 x2
+  const __m512 b = _mm512_fnmadd_ps(four, x[1], x[3]); // x3 - 4 x1
+  const __m512 c = _mm512_sub_ps(x[4], x[2]);
+  const __m512 e = _mm512_add_ps(_mm512_sub_ps(x[3], x[1]), _mm512_sub_ps(x[3], x[1]));
+  y[0] = _mm512_fmadd_ps(four, x[0], _mm512_fnmadd_ps(five, x[2], x[4]));
+  y[1] = _mm512_add_ps(a, b);
+  y[2] = _mm512_sub_ps(a, b);
+  y[3] = _mm512_add_ps(c, e);
+  y[4] = _mm512_sub_ps(c, e);
+  y[5] = _mm512_fmadd_ps(four, x[1], _mm512_fnmadd_ps(five, x[3], x[5]));
+}
+
+// One step of F(4x4)'s input transform, up to 16 tiles: B^T down the six patch rows first, on
+// whole vectors of consecutive columns (no shuffles), into a stack buffer; then, per transformed
+// row, the columns 4j + k of the tiles by a 16 x 4 transpose of 64 floats (two permutes and two
+// block shuffles per pair of k) and a one-lane shift for k = 4, 5, and B across them. Only the
+// nv <= 5 column vectors the step's tiles read are transformed (a 14-tile row reads 58 floats,
+// 4 vectors); t (64-byte aligned) keeps the caller's values in the vectors beyond nv.
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
+                      std::size_t xs, float (&t)[6][80]) {
+  for (int v = 0; v < nv; ++v) {
+    __m512 x[6], y[6];
+    for (int k = 0; k < 6; ++k)
+      x[k] = _mm512_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 16 * v);
+    winograd4_bt_avx512(x, y);
+    for (int p = 0; p < 6; ++p) _mm512_store_ps(t[p] + 16 * v, y[p]);
+  }
+  const __m512i k01 = _mm512_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13, 17, 21, 25, 29);
+  const __m512i k23 = _mm512_setr_epi32(2, 6, 10, 14, 18, 22, 26, 30, 3, 7, 11, 15, 19, 23, 27, 31);
+  for (int p = 0; p < 6; ++p) {
+    const float* r = t[p];
+    const __m512 a = _mm512_load_ps(r), b = _mm512_load_ps(r + 16);
+    const __m512 c = _mm512_load_ps(r + 32), e = _mm512_load_ps(r + 48);
+    const __m512 ab01 = _mm512_permutex2var_ps(a, k01, b), ab23 = _mm512_permutex2var_ps(a, k23, b);
+    const __m512 ce01 = _mm512_permutex2var_ps(c, k01, e), ce23 = _mm512_permutex2var_ps(c, k23, e);
+    __m512 x[6], y[6];
+    x[0] = _mm512_maskz_shuffle_f32x4(0xFFFF, ab01, ce01, 0x44); // low halves: tiles 0-7, then 8-15
+    x[1] = _mm512_maskz_shuffle_f32x4(0xFFFF, ab01, ce01, 0xEE); // high halves
+    x[2] = _mm512_maskz_shuffle_f32x4(0xFFFF, ab23, ce23, 0x44);
+    x[3] = _mm512_maskz_shuffle_f32x4(0xFFFF, ab23, ce23, 0xEE);
+    // x4, x5: x0, x1 one tile on, r[64] and r[65] entering at the top
+    x[4] = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+        0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[64])), _mm512_castps_si512(x[0]), 1));
+    x[5] = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+        0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[65])), _mm512_castps_si512(x[1]), 1));
+    winograd4_bt_avx512(x, y);
+    for (int q = 0; q < 6; ++q) {
+      float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
+      if constexpr (Masked)
+        _mm512_mask_storeu_ps(dst, out, y[q]);
+      else
+        _mm512_storeu_ps(dst, y[q]);
+    }
+  }
+}
+
+// F(4x4)'s input transform with AVX-512 intrinsics, 16 tiles per step, whole-vector loads and
+// stores as winograd_input_avx512 (a step of fewer tiles computes garbage lanes from the floats
+// beyond its patches, winograd_read_slack).
+__attribute__((target("avx512f"))) inline void
+winograd_input4_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
+                       int room, float* __restrict d, std::size_t dc, std::size_t xs) {
+  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
+  for (int j = 0; j < run; j += 16) {
+    const int nv = (4 * std::min(16, run - j) + 2 + 15) / 16; // column vectors the tiles read
+    if (room - j >= 16)
+      for (int ch = 0; ch < channels; ++ch)
+        winograd4_step_avx512<false>(s + ch * plane + 4 * j, pw, nv, 0, d + ch * dc + j, xs, t);
+    else {
+      const __mmask16 out = tail_mask_avx512(run - j);
+      for (int ch = 0; ch < channels; ++ch)
+        winograd4_step_avx512<true>(s + ch * plane + 4 * j, pw, nv, out, d + ch * dc + j, xs, t);
+    }
+  }
+}
 #endif
 
 struct WinogradOps {
-  void (*input)(const float*, std::size_t, int, int, int, int, float*, std::size_t, std::size_t);
-  void (*output)(const float*, std::size_t, int, float*);
-  void (*interleave)(const float*, const float*, float*, int);
+  using Input = void (*)(const float*, std::size_t, int, int, int, int, float*, std::size_t,
+                         std::size_t);
+  using Output = void (*)(const float*, std::size_t, int, float*);
+  Input input;                                                 // F(2x2)
+  Output output;                                               // F(2x2)
+  void (*interleave)(const float*, const float*, float*, int); // F(2x2)
+  Input input4;                                                // F(4x4)
+  Output output4;                                              // F(4x4)
+  void (*interleave4)(const float*, float*, int);              // F(4x4)
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
 #if SHADOWSENSE_X86_KERNELS
   if (kind == GemmKernelKind::avx512)
-    return {&winograd_input_avx512, &winograd_output_avx512_loops,
-            &winograd_interleave_avx512_loops};
+    return {&winograd_input_avx512,
+            &winograd_output_avx512_loops,
+            &winograd_interleave_avx512_loops,
+            &winograd_input4_avx512,
+            &winograd_output4_avx512_loops,
+            &winograd_interleave4_avx512_loops};
   if (kind == GemmKernelKind::avx2)
-    return {&winograd_input_avx2, &winograd_output_avx2, &winograd_interleave_avx2};
+    return {&winograd_input_avx2,  &winograd_output_avx2,  &winograd_interleave_avx2,
+            &winograd_input4_avx2, &winograd_output4_avx2, &winograd_interleave4_avx2};
 #endif
   (void)kind; // NEON is aarch64's baseline: the portable loops compile to it
-  return {&winograd_input_portable, &winograd_output_portable, &winograd_interleave_portable};
+  return {&winograd_input_portable,  &winograd_output_portable,  &winograd_interleave_portable,
+          &winograd_input4_portable, &winograd_output4_portable, &winograd_interleave4_portable};
 }
 
 // Floats from one V_xi slab to the next: c x nr plus one cache line, so the 16 stores of a
@@ -263,9 +478,9 @@ inline std::size_t winograd_products(int m, const MicroKernel& kernel) {
 }
 
 struct WinogradScratch {
-  std::vector<float> v; // 16 slabs of c x nr transformed patches (winograd_slab apart)
-  std::vector<float> m; // 16 blocks of m x nr products (winograd_products apart)
-  std::vector<float> y; // 4 x winograd_max_run outputs of one channel
+  std::vector<float> v; // up to 36 slabs of c x nr transformed patches (winograd_slab apart)
+  std::vector<float> m; // up to 36 blocks of m x nr products (winograd_products apart)
+  std::vector<float> y; // 16 x winograd_max_run outputs of one channel
 };
 
 inline WinogradScratch make_winograd_scratch(int c, int m, const MicroKernel& kernel) {
@@ -273,22 +488,27 @@ inline WinogradScratch make_winograd_scratch(int c, int m, const MicroKernel& ke
           "Winograd: the micro-kernel's nr is " + std::to_string(kernel.nr) + ", expected 1.." +
               std::to_string(winograd_max_run));
   WinogradScratch s;
-  s.v.assign(16 * winograd_slab(c, kernel.nr), 0.0f);
-  s.m.assign(16 * winograd_products(m, kernel), 0.0f);
-  s.y.assign(4 * static_cast<std::size_t>(winograd_max_run), 0.0f);
+  s.v.assign(winograd_max_products * winograd_slab(c, kernel.nr), 0.0f);
+  s.m.assign(winograd_max_products * winograd_products(m, kernel), 0.0f);
+  s.y.assign(16 * static_cast<std::size_t>(winograd_max_run), 0.0f);
   return s;
 }
 
-inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
-                             const WinogradWeights& u, const float* in, int pw, std::size_t plane,
-                             int h, int w, float* out, ThreadPool& pool,
-                             std::vector<WinogradScratch>& scratch) {
+// winograd_conv3x3 for one tile size T.
+template <int T>
+void winograd_conv3x3_tile(const MicroKernel& kernel, const WinogradOps& ops,
+                           const WinogradWeights& u, const float* in, int pw, std::size_t plane,
+                           int h, int w, float* out, ThreadPool& pool,
+                           std::vector<WinogradScratch>& scratch) {
+  constexpr int products = (T + 2) * (T + 2);
   const int nr = kernel.nr, mr = kernel.mr, c = u.c;
-  const int tiles_x = (w + 1) / 2, tiles = (h + 1) / 2 * tiles_x;
+  const int tiles_x = (w + T - 1) / T, tiles = (h + T - 1) / T * tiles_x;
   const int n_panels = (tiles + nr - 1) / nr, m_panels = (u.m + mr - 1) / mr;
   const std::size_t xs_v = winograd_slab(c, nr);           // V_xi slab: c x nr (+ a line)
   const std::size_t xs_m = winograd_products(u.m, kernel); // M_xi block: m x nr (+ a line)
   const std::size_t image = static_cast<std::size_t>(h) * w;
+  const auto input = T == 2 ? ops.input : ops.input4;
+  const auto output = T == 2 ? ops.output : ops.output4;
   // Work units (tile panel, row panel) in equal shares (run_panel_units); a tile panel shared
   // by two threads is transformed by both.
   run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
@@ -299,36 +519,51 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
     for (int j = 0; j < cols;) { // runs within one tile row
       const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
       const int run = std::min(cols - j, tiles_x - tx);
-      ops.input(in + static_cast<std::size_t>(2 * ty) * pw + 2 * tx, plane, c, pw, run, nr - j,
-                s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
+      input(in + static_cast<std::size_t>(T * ty) * pw + T * tx, plane, c, pw, run, nr - j,
+            s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
       j += run;
     }
     // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
     // (A last panel of at most nr / 2 tiles runs the half-width kernel where there is one.)
     const MicroKernelFn fn = kernel.half && cols <= nr / 2 ? kernel.half : kernel.fn;
-    for (std::size_t xi = 0; xi < 16; ++xi)
+    for (std::size_t xi = 0; xi < products; ++xi)
       for (int mp = mp0; mp < mp1; ++mp)
         fn(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
            s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
     for (int mp = mp0; mp < mp1; ++mp) {
       const int rows = std::min(mr, u.m - mp * mr);
       for (int r = 0; r < rows; ++r) {
-        ops.output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols, s.y.data());
+        output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols, s.y.data());
         float* o = out + static_cast<std::size_t>(mp * mr + r) * image;
         const float* y = s.y.data();
-        for (int j = 0; j < cols;) { // runs within one tile row: 2 output rows each
+        for (int j = 0; j < cols;) { // runs within one tile row: T output rows each
           const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
           const int run = std::min(cols - j, tiles_x - tx);
-          const int n = std::min(2 * run, w - 2 * tx); // output columns (odd w: one less)
-          float* row = o + static_cast<std::size_t>(2 * ty) * w + 2 * tx;
-          ops.interleave(y + j, y + winograd_max_run + j, row, n);
-          if (2 * ty + 1 < h)
-            ops.interleave(y + 2 * winograd_max_run + j, y + 3 * winograd_max_run + j, row + w, n);
+          const int n = std::min(T * run, w - T * tx); // output columns (the last tile: fewer)
+          for (int i = 0; i < T && T * ty + i < h; ++i) {
+            float* row = o + static_cast<std::size_t>(T * ty + i) * w + T * tx;
+            const float* yi = y + static_cast<std::size_t>(T * i) * winograd_max_run + j;
+            if constexpr (T == 2)
+              ops.interleave(yi, yi + winograd_max_run, row, n);
+            else
+              ops.interleave4(yi, row, n);
+          }
           j += run;
         }
       }
     }
   });
+}
+
+inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
+                             const WinogradWeights& u, const float* in, int pw, std::size_t plane,
+                             int h, int w, float* out, ThreadPool& pool,
+                             std::vector<WinogradScratch>& scratch) {
+  require(u.tile == 2 || u.tile == 4, "Winograd: the weights are not set");
+  if (u.tile == 2)
+    winograd_conv3x3_tile<2>(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch);
+  else
+    winograd_conv3x3_tile<4>(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch);
 }
 
 } // namespace detail
