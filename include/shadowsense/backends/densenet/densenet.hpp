@@ -472,11 +472,14 @@ private:
     const int bh = block_h_[0], bw = block_w_[0];
     float* dst = block_buf_[0].data();
     const int tasks = std::min(pool_->size(), arch_.init_features);
-    pool_max_.resize(static_cast<std::size_t>(w0_) * tasks);
-    pool_sum_.resize(static_cast<std::size_t>(w0_) * tasks);
+    // Each thread's row a cache line clear of the next thread's: rows w0_ floats apart shared
+    // a line, and pool0 at 2 threads took as long as at 1 (DenseNet-161: 0.42 / 0.41 ms).
+    const std::size_t stride = (static_cast<std::size_t>(w0_) + 15) / 16 * 16 + 16;
+    pool_max_.resize(stride * tasks);
+    pool_sum_.resize(stride * tasks);
     auto task = [&](int t) {
-      float* vm = pool_max_.data() + static_cast<std::size_t>(w0_) * t;
-      float* vs = pool_sum_.data() + static_cast<std::size_t>(w0_) * t;
+      float* vm = pool_max_.data() + stride * t;
+      float* vs = pool_sum_.data() + stride * t;
       const int c0 = arch_.init_features * t / tasks, c1 = arch_.init_features * (t + 1) / tasks;
       for (int c = c0; c < c1; ++c) {
         const float* s = conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_;
