@@ -548,7 +548,12 @@ TEST_CASE("winograd_tile: F(4x4) on large images, F(2x2) or direct where tiles l
   CHECK(detail::winograd_tile(4, 6, 32, 32) == 0);   // block 4: 6 tiles in one 32-column panel
   CHECK(detail::winograd_tile(1, 1, 32, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 16, 32) == 4); // 16 output channels: still pays
-  CHECK(detail::winograd_tile(38, 55, 8, 32) == 0);  // growth 8 (the shipped model): direct
+  CHECK(detail::winograd_tile(38, 55, 8, 32) == 0);  // growth 8: direct
+  // The shipped model (growth 12, 3x88x160): blocks 40x22, 20x11, 10x5
+  CHECK(detail::winograd_tile(40, 22, 12, 32) == 4);
+  CHECK(detail::winograd_tile(20, 11, 12, 32) == 2);
+  CHECK(detail::winograd_tile(10, 5, 12, 32) == 2);
+  CHECK(detail::winograd_tile(40, 22, 11, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 32, 16) == 4); // AVX2's 16 columns
 }
 

@@ -27,9 +27,10 @@
 //   the multiply-adds per pass (direct 9, F(2x2) 16, F(4x4) 36 per tile column), the last,
 //   partly empty panel counted whole; Winograd is taken where it costs at most 3/4 of the direct
 //   convolution (the transforms are not free) and F(4x4) where it costs at most
-//   winograd4_share of F(2x2). Layers with fewer than 16 output channels stay direct: there the
-//   transforms' additions per tile cost more than the multiply-adds they save (measured: the
-//   shipped model, growth 8, is 6% slower with Winograd).
+//   winograd4_share of F(2x2). Layers with fewer than 12 output channels stay direct: there the
+//   transforms' additions per tile cost as much as the multiply-adds they save (measured on
+//   compact DenseNets, blocks 4-4-4, 3x88x160, docs/densenet.md: growth 8 takes the same time
+//   with F(4x4) and is 10% slower with F(2x2); growth 12, the shipped model, is 17% faster).
 // winograd_padded(n, tile): the padded extent (rows or columns) a tile size reads for an image
 //   extent n: n + 2, or more where the last tile reaches past the image.
 // WinogradOps: the transforms for one instruction set (select_winograd_ops(kind)):
@@ -123,7 +124,7 @@ struct WinogradWeights {
   }
 };
 
-inline constexpr int winograd_min_outputs = 16; // output channels below which direct wins
+inline constexpr int winograd_min_outputs = 12; // output channels below which direct wins
 // F(4x4) is taken where its panel cost is at most this share of F(2x2)'s: its transforms cost
 // more per tile and it rounds more. Measured (DenseNet-121/-161 at 3x150x220, docs/densenet.md):
 // on block 2 (19 x 27, 2 panels of 4x4 tiles vs 5 of 2x2 ones, 72 / 80) both take the same time,
