@@ -13,7 +13,7 @@
 //   buffer so packing needs no bounds checks.
 // - the dense layers' 3x3 convolutions use Winograd F(4x4, 3x3) or F(2x2, 3x3) (winograd.hpp:
 //   4x or 2.25x fewer multiply-adds) where the image has enough tiles to fill the GEMM panels
-//   and the layer has at least 16 output channels; the small late-block images and narrow
+//   and the layer has at least 12 output channels; the small late-block images and narrow
 //   models use the direct padded-grid convolution (Config::conv3x3). The transformed weights
 //   of a tile size are built when a block first uses it (the first input of a new size).
 // - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
@@ -184,7 +184,8 @@ public:
     return n * sizeof(float);
   }
   std::size_t activation_bytes() const {
-    std::size_t n = padded_input_.size() + conv0_out_.size() + features_.size() + logits_.size();
+    std::size_t n = padded_input_.size() + phases_.size() + conv0_out_.size() + features_.size() +
+                    logits_.size();
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
@@ -342,9 +343,27 @@ private:
     if (h == in_h_ && w == in_w_) return;
     in_h_ = h;
     in_w_ = w;
-    padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
     h0_ = (h - 1) / 2 + 1;
     w0_ = (w - 1) / 2 + 1;
+    if (fused_) {
+      // conv0 reads its taps in place from the padded input split into its four stride-2
+      // phases (even/odd rows x even/odd columns): in phase (ky % 2, kx % 2) tap (ky, kx) of
+      // output (y, x) is at row y + ky / 2, column x + kx / 2, so every tap is one offset from
+      // the output's position on a grid of pitch w0 + 3 (+ 64 floats of slack: the last
+      // panel reads a whole 32-wide row from its last tap, 3 columns into the plane's last row).
+      phase_pitch_ = w0_ + 3;
+      phase_plane_ = static_cast<std::size_t>(h0_ + 3) * phase_pitch_;
+      phases_.assign(12 * phase_plane_ + 64, 0.0f);
+      conv0_taps_.resize(147);
+      for (int c = 0; c < 3; ++c)
+        for (int ky = 0; ky < 7; ++ky)
+          for (int kx = 0; kx < 7; ++kx)
+            conv0_taps_[static_cast<std::size_t>((c * 7 + ky) * 7 + kx)] = static_cast<int>(
+                static_cast<std::size_t>(((ky % 2) * 2 + kx % 2) * 3 + c) * phase_plane_ +
+                static_cast<std::size_t>(ky / 2) * phase_pitch_ + static_cast<std::size_t>(kx / 2));
+    } else {
+      padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
+    }
     conv0_out_.assign(static_cast<std::size_t>(arch_.init_features) * h0_ * w0_, 0.0f);
     int H = (h0_ - 1) / 2 + 1, W = (w0_ - 1) / 2 + 1;
     block_h_.clear();
@@ -410,9 +429,26 @@ private:
     head(pooled, out);
   }
 
-  // The image into the zero-padded (pad 3) buffer conv0 reads.
+  // The image into the zero-padded (pad 3) buffer conv0 reads, or into its four stride-2
+  // phases (the fused kernel's conv0; see ensure_buffers). Borders stay 0.
   void load_input(const float* in) {
     const int H = in_h_, W = in_w_, PW = W + 6, PH = H + 6;
+    if (fused_) {
+      for (int py = 0; py < 2; ++py)
+        for (int px = 0; px < 2; ++px)
+          for (int c = 0; c < 3; ++c) {
+            float* d =
+                phases_.data() + static_cast<std::size_t>((py * 2 + px) * 3 + c) * phase_plane_;
+            // padded row 2r + py is image row 2r + py - 3; padded column 2u + px likewise
+            const int u0 = (4 - px) / 2, u1 = (W + 3 - px + 1) / 2; // columns 0 .. W - 1
+            for (int r = (4 - py) / 2; 2 * r + py - 3 < H; ++r) {
+              const float* s = in + (static_cast<std::size_t>(c) * H + 2 * r + py - 3) * W;
+              float* dr = d + static_cast<std::size_t>(r) * phase_pitch_;
+              for (int u = u0; u < u1; ++u) dr[u] = s[2 * u + px - 3];
+            }
+          }
+      return;
+    }
     for (int c = 0; c < 3; ++c)
       for (int y = 0; y < H; ++y)
         std::copy_n(in + (static_cast<std::size_t>(c) * H + y) * W, W,
@@ -447,10 +483,13 @@ private:
     float* out0 = conv0_out_.data();
 #if SHADOWSENSE_X86_KERNELS
     if (fused_) {
+      // B read in place from the phases: output (y, x) is grid column y * pitch + x; the
+      // grid's last 3 columns per row are dropped by the store.
+      const int pitch = phase_pitch_;
       detail::gemm_fused_avx512(
-          conv0_, n, pack, nullptr, nullptr,
+          conv0_, h0_ * pitch, pack, phases_.data(), conv0_taps_.data(),
           [&](int n0, int cols, detail::TileSegments& seg) {
-            detail::image_row_segments(n0, cols, n, n, n, 0, seg);
+            detail::image_row_segments(n0, cols, pitch, w0, w0, 0, seg);
           },
           out0, static_cast<std::size_t>(n), bias0_.data(), true, *pool_, scratch_);
       return;
@@ -736,6 +775,12 @@ private:
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
   std::vector<float> padded_input_, conv0_out_, features_, logits_;
+  // The fused kernel's conv0 input: the padded image's four stride-2 phases, each 3 planes of
+  // (h0 + 3) x phase_pitch_, and the 147 taps' offsets into them (ensure_buffers).
+  std::vector<float> phases_;
+  std::vector<int> conv0_taps_;
+  int phase_pitch_ = 0;
+  std::size_t phase_plane_ = 0;
   std::vector<float> pool_max_, pool_sum_; // pool0's column maxima and NaN probes (a row/thread)
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
