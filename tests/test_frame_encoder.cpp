@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 using namespace shadowsense;
@@ -99,6 +100,18 @@ TEST_CASE("bad frames and parameters are rejected with the field named") {
   CHECK_THROWS_WITH_AS(enc.run(cv::Mat(), t), doctest::Contains("empty"), InvalidArgument);
   cv::Mat f(300, 400, CV_32FC3, cv::Scalar::all(128.0f));
   CHECK_THROWS_WITH_AS(enc.run(f, t), doctest::Contains("expected 0..1"), InvalidArgument);
+}
+
+TEST_CASE("LightingNormaliser's integer sum: every v / 255 is a whole number of its units") {
+  // table() sums the channel values as integers of 2^-unit_exponent; exact only if each float
+  // v / 255 is such a multiple (below 1, so 2^unit_exponent units at most).
+  for (int v = 0; v < 256; ++v) {
+    CAPTURE(v);
+    const double units =
+        std::ldexp(double(static_cast<float>(v) / 255.0f), LightingNormaliser::unit_exponent);
+    CHECK(units == std::floor(units));
+    CHECK(units <= std::ldexp(1.0, LightingNormaliser::unit_exponent));
+  }
 }
 
 TEST_CASE("8-bit frames: the table path (normalise while resizing) equals the float path bit for "

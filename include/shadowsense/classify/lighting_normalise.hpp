@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 
@@ -43,38 +44,33 @@ struct LightingNormaliser {
 
   // Per-channel table of an 8-bit image's normalisation: table[c][v] is what run() writes for
   // value v of channel c (the same float arithmetic, so the same bits). The channel means come
-  // from per-channel histograms: the sum of the float values x / 255 is exact in double for
-  // images up to 2^21 pixels in any order, so it equals run()'s row-by-row sum bit for bit
-  // (larger images are summed row by row, as run() does).
+  // from sums in integer units of 2^-unit_exponent: the sum of the float values x / 255 is
+  // exact in double for images up to 2^21 pixels in any order, so it equals run()'s row-by-row
+  // sum bit for bit (larger images are summed row by row, as run() does).
   // requires: image CV_8UC3 (checked by the callers: run() and FrameEncoder).
   using Table = std::array<std::array<float, 256>, 3>;
+  static constexpr int unit_exponent = 31; // v / 255 (float, v = 1..255) is a multiple of 2^-31
   void table(const cv::Mat& image, Table& out) const {
     double sum[3] = {0, 0, 0};
     if (double(image.rows) * image.cols <= double(1 << 21)) {
-      // Four histograms per channel, pixel x counted in copy x % 4: a shadow frame's flat
-      // regions repeat one value, and one counter incremented pixel after pixel waits on its
-      // own store every time.
-      std::array<std::array<std::array<std::uint32_t, 256>, 3>, 4> hist{};
+      // Each float v / 255 is a multiple of 2^-31 below 1, so the sum is an integer count of
+      // 2^-31 units: summed per pixel from a table in 64 bits, exact (under 2^52), then
+      // converted exactly. (A histogram was slower: a flat region's repeated value makes each
+      // count wait on its own previous store.)
+      std::array<std::uint64_t, 256> units;
+      for (std::size_t v = 0; v < 256; ++v)
+        units[v] = static_cast<std::uint64_t>(
+            std::ldexp(double(static_cast<float>(v) / 255.0f), unit_exponent));
+      std::uint64_t total[3] = {0, 0, 0};
       for (int y = 0; y < image.rows; ++y) {
         const auto* s = image.ptr<unsigned char>(y);
-        int x = 0;
-        for (; x + 4 <= image.cols; x += 4, s += 12)
-          for (std::size_t k = 0; k < 4; ++k) {
-            ++hist[k][0][s[3 * k]];
-            ++hist[k][1][s[3 * k + 1]];
-            ++hist[k][2][s[3 * k + 2]];
-          }
-        for (; x < image.cols; ++x, s += 3) {
-          ++hist[0][0][s[0]];
-          ++hist[0][1][s[1]];
-          ++hist[0][2][s[2]];
+        for (int x = 0; x < image.cols; ++x, s += 3) {
+          total[0] += units[s[0]];
+          total[1] += units[s[1]];
+          total[2] += units[s[2]];
         }
       }
-      for (std::size_t c = 0; c < 3; ++c)
-        for (std::size_t v = 0; v < 256; ++v) {
-          const std::uint32_t n = hist[0][c][v] + hist[1][c][v] + hist[2][c][v] + hist[3][c][v];
-          sum[c] += double(n) * double(static_cast<float>(v) / 255.0f);
-        }
+      for (int c = 0; c < 3; ++c) sum[c] = std::ldexp(double(total[c]), -unit_exponent);
     } else {
       for (int y = 0; y < image.rows; ++y) {
         const auto* s = image.ptr<unsigned char>(y);
