@@ -10,7 +10,9 @@
 // - each dense block keeps its features in one pre-allocated buffer: a layer writes its new
 //   channels behind the existing ones, concatenation copies nothing.
 // - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
-//   buffer so packing needs no bounds checks.
+//   buffer so packing needs no bounds checks. conv0's input is kept as the four stride-2 phases
+//   of the padded image, so each of its 147 taps is one offset from the output's position: a
+//   contiguous copy when packing, or read in place by the AVX-512 kernel.
 // - the dense layers' 3x3 convolutions use Winograd F(4x4, 3x3) or F(2x2, 3x3) (winograd.hpp:
 //   4x or 2.25x fewer multiply-adds) where the image has enough tiles to fill the GEMM panels
 //   and the layer has at least 12 output channels; the small late-block images and narrow
@@ -184,8 +186,7 @@ public:
     return n * sizeof(float);
   }
   std::size_t activation_bytes() const {
-    std::size_t n = padded_input_.size() + phases_.size() + conv0_out_.size() + features_.size() +
-                    logits_.size();
+    std::size_t n = phases_.size() + conv0_out_.size() + features_.size() + logits_.size();
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
@@ -345,12 +346,13 @@ private:
     in_w_ = w;
     h0_ = (h - 1) / 2 + 1;
     w0_ = (w - 1) / 2 + 1;
-    if (fused_) {
-      // conv0 reads its taps in place from the padded input split into its four stride-2
+    {
+      // conv0 reads its taps from the padded input split into its four stride-2
       // phases (even/odd rows x even/odd columns): in phase (ky % 2, kx % 2) tap (ky, kx) of
       // output (y, x) is at row y + ky / 2, column x + kx / 2, so every tap is one offset from
-      // the output's position on a grid of pitch w0 + 3 (+ 64 floats of slack: the last
-      // panel reads a whole 32-wide row from its last tap, 3 columns into the plane's last row).
+      // the output's position on a grid of pitch w0 + 3 (+ 64 floats of slack: the fused
+      // kernel's last panel reads a whole 32-wide row from its last tap, 3 columns into the
+      // plane's last row).
       phase_pitch_ = w0_ + 3;
       phase_plane_ = static_cast<std::size_t>(h0_ + 3) * phase_pitch_;
       phases_.assign(12 * phase_plane_ + 64, 0.0f);
@@ -361,8 +363,6 @@ private:
             conv0_taps_[static_cast<std::size_t>((c * 7 + ky) * 7 + kx)] = static_cast<int>(
                 static_cast<std::size_t>(((ky % 2) * 2 + kx % 2) * 3 + c) * phase_plane_ +
                 static_cast<std::size_t>(ky / 2) * phase_pitch_ + static_cast<std::size_t>(kx / 2));
-    } else {
-      padded_input_.assign(3 * static_cast<std::size_t>(h + 6) * (w + 6), 0.0f);
     }
     conv0_out_.assign(static_cast<std::size_t>(arch_.init_features) * h0_ * w0_, 0.0f);
     int H = (h0_ - 1) / 2 + 1, W = (w0_ - 1) / 2 + 1;
@@ -429,65 +429,45 @@ private:
     head(pooled, out);
   }
 
-  // The image into the zero-padded (pad 3) buffer conv0 reads, or into its four stride-2
-  // phases (the fused kernel's conv0; see ensure_buffers). Borders stay 0.
+  // The image into the four stride-2 phases of its zero-padded (pad 3) copy, which conv0
+  // reads (see ensure_buffers). Borders stay 0.
   void load_input(const float* in) {
-    const int H = in_h_, W = in_w_, PW = W + 6, PH = H + 6;
-    if (fused_) {
-      for (int py = 0; py < 2; ++py)
-        for (int px = 0; px < 2; ++px)
-          for (int c = 0; c < 3; ++c) {
-            float* d =
-                phases_.data() + static_cast<std::size_t>((py * 2 + px) * 3 + c) * phase_plane_;
-            // padded row 2r + py is image row 2r + py - 3; padded column 2u + px likewise
-            const int u0 = (4 - px) / 2, u1 = (W + 3 - px + 1) / 2; // columns 0 .. W - 1
-            for (int r = (4 - py) / 2; 2 * r + py - 3 < H; ++r) {
-              const float* s = in + (static_cast<std::size_t>(c) * H + 2 * r + py - 3) * W;
-              float* dr = d + static_cast<std::size_t>(r) * phase_pitch_;
-              for (int u = u0; u < u1; ++u) dr[u] = s[2 * u + px - 3];
-            }
+    const int H = in_h_, W = in_w_;
+    for (int py = 0; py < 2; ++py)
+      for (int px = 0; px < 2; ++px)
+        for (int c = 0; c < 3; ++c) {
+          float* d =
+              phases_.data() + static_cast<std::size_t>((py * 2 + px) * 3 + c) * phase_plane_;
+          // padded row 2r + py is image row 2r + py - 3; padded column 2u + px likewise
+          const int u0 = (4 - px) / 2, u1 = (W + 4 - px) / 2; // image columns 0 .. W - 1
+          for (int r = (4 - py) / 2; 2 * r + py - 3 < H; ++r) {
+            const float* s = in + (static_cast<std::size_t>(c) * H + 2 * r + py - 3) * W;
+            float* dr = d + static_cast<std::size_t>(r) * phase_pitch_;
+            for (int u = u0; u < u1; ++u) dr[u] = s[2 * u + px - 3];
           }
-      return;
-    }
-    for (int c = 0; c < 3; ++c)
-      for (int y = 0; y < H; ++y)
-        std::copy_n(in + (static_cast<std::size_t>(c) * H + y) * W, W,
-                    padded_input_.data() + (static_cast<std::size_t>(c) * PH + y + 3) * PW + 3);
+        }
   }
 
   // conv0 (7x7, stride 2, pad 3) + folded norm0 + relu0 -> conv0_out_.
   void conv0() {
-    const int nr = kernel_.nr, PW = in_w_ + 6, PH = in_h_ + 6;
-    const int n = h0_ * w0_, w0 = w0_;
-    const float* src = padded_input_.data();
-    // Row ky*7+kx of channel c: input row 2y+ky, columns 2x+kx, for the panel's outputs; split
-    // into runs within one output row, each a stride-2 copy the compiler vectorises.
+    const int nr = kernel_.nr, n = h0_ * w0_, w0 = w0_, pitch = phase_pitch_;
+    const float* src = phases_.data();
+    const int* taps = conv0_taps_.data();
+    // Output (y, x) is grid column y * pitch + x; every tap is one offset from it in the
+    // phases (ensure_buffers), so a panel row is one contiguous copy. The grid's last 3
+    // columns per row are computed and dropped by the store.
     auto pack = [&](float* dst, int n0, int cols, int*) {
-      for (int c = 0; c < 3; ++c)
-        for (int ky = 0; ky < 7; ++ky)
-          for (int kx = 0; kx < 7; ++kx) {
-            const float* s = src + (static_cast<std::size_t>(c) * PH + ky) * PW + kx;
-            float* d = dst + static_cast<std::size_t>((c * 7 + ky) * 7 + kx) * nr;
-            int y = n0 / w0, x = n0 % w0;
-            for (int j = 0; j < cols;) {
-              const int run = std::min(cols - j, w0 - x);
-              const float* r = s + static_cast<std::size_t>(2 * y) * PW + 2 * x;
-              for (int i = 0; i < run; ++i) d[j + i] = r[2 * i];
-              j += run;
-              x = 0;
-              ++y;
-            }
-            for (int j = cols; j < nr; ++j) d[j] = 0.0f;
-          }
+      for (std::size_t k = 0; k < 147; ++k) {
+        float* d = dst + k * static_cast<std::size_t>(nr);
+        std::copy_n(src + taps[k] + n0, cols, d);
+        std::fill(d + cols, d + nr, 0.0f);
+      }
     };
     float* out0 = conv0_out_.data();
 #if SHADOWSENSE_X86_KERNELS
-    if (fused_) {
-      // B read in place from the phases: output (y, x) is grid column y * pitch + x; the
-      // grid's last 3 columns per row are dropped by the store.
-      const int pitch = phase_pitch_;
+    if (fused_) { // B read in place: nothing packed
       detail::gemm_fused_avx512(
-          conv0_, h0_ * pitch, pack, phases_.data(), conv0_taps_.data(),
+          conv0_, h0_ * pitch, pack, src, taps,
           [&](int n0, int cols, detail::TileSegments& seg) {
             detail::image_row_segments(n0, cols, pitch, w0, w0, 0, seg);
           },
@@ -496,10 +476,18 @@ private:
     }
 #endif
     auto store = [&](int m, int n0, int cols, const float* v) {
-      float* d = out0 + static_cast<std::size_t>(m) * n + n0;
-      ops_.bias_relu(v, d, cols, bias0_[static_cast<std::size_t>(m)]);
+      float* d = out0 + static_cast<std::size_t>(m) * n;
+      const float b = bias0_[static_cast<std::size_t>(m)];
+      int y = n0 / pitch, x = n0 % pitch;
+      for (int j = 0; j < cols;) { // runs within one grid row; columns >= w0 dropped
+        const int run = std::min(cols - j, pitch - x);
+        if (x < w0) ops_.bias_relu(v + j, d + y * w0 + x, std::min(run, w0 - x), b);
+        j += run;
+        x = 0;
+        ++y;
+      }
     };
-    detail::gemm(kernel_, conv0_, n, pack, store, *pool_, scratch_);
+    detail::gemm(kernel_, conv0_, h0_ * pitch, pack, store, *pool_, scratch_);
   }
 
   // pool0: max 3x3, stride 2, pad 1 -> the first block's buffer (inputs are >= 0 after ReLU,
@@ -774,8 +762,8 @@ private:
   int max_k_ = 0;
   // Buffers sized for the current input size.
   int in_h_ = 0, in_w_ = 0, h0_ = 0, w0_ = 0;
-  std::vector<float> padded_input_, conv0_out_, features_, logits_;
-  // The fused kernel's conv0 input: the padded image's four stride-2 phases, each 3 planes of
+  std::vector<float> conv0_out_, features_, logits_;
+  // conv0's input: the padded image's four stride-2 phases, each 3 planes of
   // (h0 + 3) x phase_pitch_, and the 147 taps' offsets into them (ensure_buffers).
   std::vector<float> phases_;
   std::vector<int> conv0_taps_;
