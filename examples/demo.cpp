@@ -1,18 +1,25 @@
 // The whole pipeline on a generated sequence, no arguments needed:
 //
-//   ss_demo [--out DIR] [--model models/default.ssm] [--no-lighting-normalise] [--threads N]
+//   ss_demo [--out DIR] [--model FILE] [--no-lighting-normalise] [--threads N] [--save-frames]
+//           [--source NAME]
 //
 // A person approaches the robot, touches it with a palm, slides, lifts, punches and hugs while
 // the light fades from daylight to dusk and towards night. Every frame is rendered by the scene
-// generator on the robot rig; the segmenter (calibrated on a few generated frames) finds shadow
-// and contact; the contact tracker keeps ids; the classifier runs only while a shadow is seen
-// (gating); the touch state machine emits events. Prints an event log (time, state, position in
-// cm, gesture, confidence) and writes DIR/demo_strip.png (annotated frames) and DIR/events.csv.
+// generator on the robot rig; the segmenter is calibrated on a few generated frames (as a robot
+// would calibrate at start-up; the calibration is written to DIR/skin.calib); the library's
+// Runtime (runtime/runtime.hpp: touch pipeline + classifier gated by the shadow) does the rest,
+// exactly as ss_track does on a robot's frames. Prints an event log (time, track, state,
+// position in cm, gesture, confidence) and writes DIR/demo_strip.png (annotated frames) and
+// DIR/events.csv (the project's event schema, docs/output.md). With --save-frames the rendered
+// frames go to DIR/frames/ (frame_000001.png, ...): `ss_track --input DIR/frames --calibration
+// DIR/skin.calib --fps 10` then prints the same event lines.
 #include <shadowsense/eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
-#include <shadowsense/train.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
+#include "common/runner.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -105,19 +112,9 @@ double light_level_at(double t) {
   return t < 3 ? 1.0 : t < 8 ? smooth(1.0, 0.5, (t - 3) / 5) : smooth(0.5, 0.15, (t - 8) / 4);
 }
 
-fs::path find_model(const char* argv0) {
-  const fs::path exe = fs::absolute(argv0).parent_path();
-  for (const fs::path& p :
-       {fs::path("models/default.ssm"), exe / "../../models/default.ssm",
-        exe / "../models/default.ssm", exe / "../share/shadowsense/models/default.ssm"})
-    if (fs::is_regular_file(p)) return p;
-  throw ss::IoError(
-      "cannot find models/default.ssm (run from the repository root or pass --model PATH)");
-}
-
-// The segmenter, calibrated from a few generated frames (empty skin + labelled touches, three
-// light levels), as a robot would calibrate at start-up.
-ss::Segmenter calibrated_segmenter(sim::Renderer& renderer) {
+// The calibration from a few generated frames (empty skin + labelled touches, three light
+// levels, with the empty-skin model), as a robot would calibrate at start-up.
+ss::SegmenterCalibration generated_calibration(sim::Renderer& renderer) {
   std::vector<cv::Mat> empty;
   std::vector<ss::LabelledFrame> labelled;
   sim::Rng rng(99);
@@ -142,66 +139,37 @@ ss::Segmenter calibrated_segmenter(sim::Renderer& renderer) {
     if (b.shadow_darkness > 0.9f) b.shadow_darkness = ss::LightThresholds{}.shadow_darkness;
   ss::Segmenter segmenter(sc);
   segmenter.set_empty_skin(empty);
-  return segmenter;
+  sc.calibration.empty_skin = segmenter.empty_skin_model().clone();
+  return sc.calibration;
 }
 
-// What the pipeline saw in one frame.
-struct FrameResult {
-  double t = 0;           // seconds
-  std::string scene;      // the script's description
-  std::string label{'-'}; // gesture, "-" when gated off
-  float confidence = 0;   // of `label`
-  cv::Point2f centre;     // image centre, px
+// The scene's geometry for the human-readable log (positions in cm from the image centre).
+struct Scale {
+  cv::Point2f centre;
   double px_per_cm = 1;
 };
 
-// One line per touch event on stdout and one row in the events csv.
-void log_event(const ss::TouchEvent& e, const FrameResult& r, std::ostream& csv) {
+// One line per touch event on stdout, with the frame's gesture and what the script is doing.
+void log_event(const ss::TrackEvent& te, const ss::RuntimeFrame& r, const Scale& sc,
+               const std::string& scene) {
+  const ss::TouchEvent& e = te.event;
   char pos[32] = "-";
   if (e.position)
-    std::snprintf(pos, sizeof pos, "(%+5.1f, %+5.1f)", (e.position->x - r.centre.x) / r.px_per_cm,
-                  (e.position->y - r.centre.y) / r.px_per_cm);
+    std::snprintf(pos, sizeof pos, "(%+5.1f, %+5.1f)", (e.position->x - sc.centre.x) / sc.px_per_cm,
+                  (e.position->y - sc.centre.y) / sc.px_per_cm);
   char conf_s[16] = "-";
-  const bool classified = r.label != "-";
-  if (classified) std::snprintf(conf_s, sizeof conf_s, "%.2f", r.confidence);
-  std::printf("%6.1fs  %-7s %-7s %15s  %-6s %-10s %6s  %s\n", r.t, ss::to_string(e.from),
-              ss::to_string(e.to), pos,
+  const bool classified = !r.gesture.label.empty();
+  if (classified) std::snprintf(conf_s, sizeof conf_s, "%.2f", r.gesture.confidence);
+  std::printf("%6.1fs %5d  %-7s %-7s %15s  %-6s %-10s %6s  %s\n", e.timestamp_ms / 1000.0,
+              te.track_id, ss::to_string(e.from), ss::to_string(e.to), pos,
               e.direction == ss::Direction::none ? "-" : ss::to_string(e.direction),
-              r.label.c_str(), conf_s, r.scene.c_str());
-  csv << r.t << ',' << ss::to_string(e.from) << ',' << ss::to_string(e.to) << ',';
-  if (e.position)
-    csv << (e.position->x - r.centre.x) / r.px_per_cm << ','
-        << (e.position->y - r.centre.y) / r.px_per_cm;
-  else
-    csv << ',';
-  csv << ',' << (e.direction == ss::Direction::none ? "" : ss::to_string(e.direction)) << ','
-      << (classified ? r.label : "") << ',' << (classified ? r.confidence : 0.0f) << ',' << r.scene
-      << '\n';
+              classified ? r.gesture.label.c_str() : "-", conf_s, scene.c_str());
 }
 
 struct Shot {
   cv::Mat image;
   std::string caption;
 };
-
-// The frame with the found shadow box (blue), contact box (red) and matched tracks (yellow),
-// captioned with time, scene, touch state and gesture.
-Shot annotated_shot(const sim::Frame& frame, const ss::Segmentation& seg,
-                    const std::vector<ss::Track>& tracks, const FrameResult& r,
-                    ss::TouchState state) {
-  cv::Mat img = frame.image.clone();
-  if (seg.shadow_box) cv::rectangle(img, *seg.shadow_box, {255, 160, 0}, 2);
-  if (seg.contact_box) cv::rectangle(img, *seg.contact_box, {0, 0, 255}, 2);
-  for (const auto& tr : tracks)
-    if (tr.matched) cv::circle(img, tr.position, 6, {0, 255, 255}, cv::FILLED);
-  char cap[160];
-  std::snprintf(
-      cap, sizeof cap, "t=%.1fs %s | %s %s", r.t, r.scene.c_str(), ss::to_string(state),
-      r.label == "-"
-          ? ""
-          : (r.label + " " + std::to_string(static_cast<int>(r.confidence * 100)) + "%").c_str());
-  return {img, cap};
-}
 
 // Frame strip: 4 x 2 tiles at half size, caption under each.
 void write_strip(const std::vector<Shot>& shots, const fs::path& path) {
@@ -215,7 +183,7 @@ void write_strip(const std::vector<Shot>& shots, const fs::path& path) {
     cv::putText(strip, shots[k].caption, {x + 4, y + th + 17}, cv::FONT_HERSHEY_SIMPLEX, 0.4,
                 {0, 0, 0}, 1, cv::LINE_AA);
   }
-  if (!cv::imwrite(path.string(), strip)) throw ss::IoError("cannot write " + path.string());
+  frames::write_png_atomically(path, strip);
 }
 
 } // namespace
@@ -223,80 +191,88 @@ void write_strip(const std::vector<Shot>& shots, const fs::path& path) {
 int main(int argc, char** argv) {
   return cli::run("ss_demo", [&] {
     fs::path out = "shadowsense_demo", model_path;
-    bool normalise = true;
+    std::string source = "ss_demo";
+    bool normalise = true, save_frames = false;
     int threads = 1;
     cli::Parser p("ss_demo",
                   "The whole pipeline on a generated 12.6 s sequence (approach, palm touch, "
                   "slide, punch, hug while the light fades): prints an event log and writes "
-                  "DIR/demo_strip.png and DIR/events.csv.");
+                  "DIR/demo_strip.png, DIR/events.csv and DIR/skin.calib.");
     p.option("--out", "DIR", "output folder", out);
-    p.option("--model", "PATH", "model file", model_path)
-        .default_text("models/default.ssm, searched from here and beside the program");
+    p.option("--model", "FILE", "model file", model_path)
+        .default_text("the installed model: " + runner::default_model_text(argv[0]));
     p.flag("--no-lighting-normalise", "paper preprocessing (no lighting normalisation)", normalise,
            false);
     p.option("--threads", "N", "classifier worker threads", threads).range(1, 256);
+    p.flag("--save-frames", "also write the rendered frames to DIR/frames/", save_frames);
+    p.option("--source", "NAME", "the events' source field in events.csv", source);
     p.parse(argc, argv);
-    if (model_path.empty()) model_path = find_model(argv[0]);
+    if (model_path.empty()) model_path = runner::find_default_model("ss_demo");
     const auto t_start = std::chrono::steady_clock::now();
     auto model = ss::ModelFile::load(model_path);
     // On by default (version-1 files do not record it; the shipped version-2 model does).
     model.preprocess.lighting_normalise = normalise;
-    auto clf = ss::make_densenet_classifier(model, {.threads = threads}); // owns the encoding
 
     sim::Renderer renderer(sim::Rig::robot());
-    ss::Segmenter segmenter = calibrated_segmenter(renderer);
-    ss::ContactTracker tracker;
-    ss::TouchStateMachine fsm;
+    const ss::SegmenterCalibration calibration = generated_calibration(renderer);
+    fs::create_directories(out);
+    ss::save_calibration(calibration, (out / "skin.calib").string());
+    ss::Runtime sense(ss::TouchPipeline{ss::Segmenter({.calibration = calibration})},
+                      ss::make_densenet_classifier(model, {.threads = threads}));
+    if (save_frames) fs::create_directories(out / "frames");
 
     sim::Rng urng(2024);
     const sim::User user = sim::User::random(42, urng);
     const double fps = 10, duration_s = 12.6;
     const int frames = static_cast<int>(duration_s * fps);
     sim::Frame frame;
-    fs::create_directories(out);
     std::ostringstream csv;
-    csv << "time_s,from,to,x_cm,y_cm,direction,gesture,confidence,scene\n";
+    ss::CsvSink events(csv, {.source = source});
     std::printf("shadowsense demo: %d frames at %.0f fps, model %s (%zu classes), lighting "
                 "normalisation %s\n",
                 frames, fps, model_path.string().c_str(), model.class_names.size(),
                 normalise ? "on" : "off");
-    std::printf("%7s  %-7s %-7s %15s  %-6s %-10s %6s  %s\n", "time", "from", "to", "position cm",
-                "dir", "gesture", "conf", "scene");
+    std::printf("%7s %5s  %-7s %-7s %15s  %-6s %-10s %6s  %s\n", "time", "track", "from", "to",
+                "position cm", "dir", "gesture", "conf", "scene");
     std::vector<Shot> shots;
-    std::string last_scene;
+    std::string last_scene, scene;
     int classified = 0, gated = 0;
     std::map<std::string, int> shot_for_scene;
+    Scale scale;
+    double last_t = 0;
     for (int i = 0; i < frames; ++i) {
-      FrameResult r;
-      r.t = i / fps;
-      const double t_ms = 1000.0 * r.t;
-      const sim::Scene scene = scene_at(r.t, user, r.scene);
-      renderer.render(scene, sim::light_from_level(light_level_at(r.t), 30),
+      const double t_ms = runner::frame_time_ms(i, fps); // as ss_track times a folder
+      const double t_s = t_ms / 1000.0;
+      const sim::Scene s = scene_at(t_s, user, scene);
+      renderer.render(s, sim::light_from_level(light_level_at(t_s), 30),
                       5000 + static_cast<std::uint64_t>(i), frame);
-      r.px_per_cm = frame.gt.px_per_cm;
-      r.centre = cv::Point2f(frame.image.cols / 2.0f, frame.image.rows / 2.0f);
-      const ss::Segmentation seg = segmenter.segment(frame.image);
-      std::vector<ss::Detection> dets;
-      for (const auto& b : seg.contacts) dets.push_back({b.centroid, b.box});
-      const auto& tracks = tracker.update(dets, t_ms);
-      // Gate: no inference while nothing is near the skin.
-      if (seg.shadow_box) {
-        const auto c = clf.classify(frame.image); // the model's lighting and dark-frame rules
-        r.label = c.label;
-        r.confidence = c.probabilities[static_cast<std::size_t>(c.index)];
-        ++classified;
-      } else {
-        ++gated;
+      scale = {cv::Point2f(frame.image.cols / 2.0f, frame.image.rows / 2.0f), frame.gt.px_per_cm};
+      if (save_frames) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frame_%06d.png", i + 1);
+        frames::write_png_atomically(out / "frames" / name, frame.image);
       }
-      for (const auto& e : fsm.update(t_ms, {seg.shadow_box.has_value(), seg.contact_point}))
-        log_event(e, r, csv);
+      const ss::RuntimeFrame& r = sense.update(frame.image, t_ms);
+      events.write(sense.output());
+      if (r.classified)
+        ++classified;
+      else if (r.gesture.label.empty())
+        ++gated; // nothing near: no inference
+      for (const ss::TrackEvent& e : r.touch.events) log_event(e, r, scale, scene);
       // One annotated frame per scripted phase, in the middle of it.
-      if (r.scene != last_scene) shot_for_scene[r.scene] = i;
-      last_scene = r.scene;
-      if ((i - shot_for_scene[r.scene]) == 4 && shots.size() < 8 && r.scene != "empty skin" &&
-          r.scene != "nothing near")
-        shots.push_back(annotated_shot(frame, seg, tracks, r, fsm.state()));
+      if (scene != last_scene) shot_for_scene[scene] = i;
+      last_scene = scene;
+      if ((i - shot_for_scene[scene]) == 4 && shots.size() < 8 && scene != "empty skin" &&
+          scene != "nothing near") {
+        char cap[160];
+        std::snprintf(cap, sizeof cap, "t=%.1fs %s", t_s, scene.c_str());
+        shots.push_back({runner::annotate(frame.image, sense.segmentation(), r), cap});
+      }
+      last_t = t_ms;
     }
+    const ss::RuntimeFrame& end = sense.flush(last_t + 1000.0 / fps); // as ss_track ends a file
+    events.write(sense.output());
+    for (const ss::TrackEvent& e : end.touch.events) log_event(e, end, scale, "stream ends");
     ss::write_file_atomically(out / "events.csv", csv.str());
     const fs::path strip_path = out / "demo_strip.png";
     write_strip(shots, strip_path);
@@ -304,8 +280,9 @@ int main(int argc, char** argv) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("classifier ran on %d frames, gated off on %d (nothing near); %.1f s in total\n",
                 classified, gated, secs);
-    std::printf("wrote %s and %s\n", strip_path.string().c_str(),
-                (out / "events.csv").string().c_str());
+    std::printf("wrote %s, %s and %s%s\n", strip_path.string().c_str(),
+                (out / "events.csv").string().c_str(), (out / "skin.calib").string().c_str(),
+                save_frames ? (" and " + (out / "frames").string() + "/").c_str() : "");
     return 0;
   });
 }

@@ -1,23 +1,27 @@
-// ss_track: touch events from a folder of images, a video file or a camera.
+// ss_track: the runner - touch events and the hand-shape gesture from a folder of images, a
+// video file or a camera.
 //
-// Runs TouchPipeline (segmenter + multi-touch tracker + one touch state machine per track) with
-// a calibration file (thresholds and empty-skin model, from ss_calibrate), flushes pending events
-// at the end of the stream, and prints one line per event on stdout (CSV or JSON lines):
-//   frame,timestamp_ms,track_id,from,to,direction,x,y
-// Timestamps: folders use --fps (frame i at i * 1000 / fps ms) or --timestamps CSV
+// Runs the library's Runtime (runtime/runtime.hpp: segmenter + multi-touch tracker + one touch
+// state machine per track + the classifier, gated by the shadow) with a calibration file
+// (ss_calibrate) and a model file (the installed default unless --model is given; --model none
+// for touch events only), flushes pending events at the end of the stream, and writes every
+// event through the library's sinks: CSV or JSON lines on stdout in the project's one event
+// schema (docs/output.md), and TUIO 1.1 over UDP with the gesture as an OSC message in the same
+// bundle (--tuio). Frames are counted from 1.
+// Timestamps: folders use --fps (frame i, from 0, at i * 1000 / fps ms) or --timestamps CSV
 // (file,timestamp_ms); videos use their declared frame rate (or --fps); cameras the clock.
-// Options: --tuio HOST[:PORT] (TUIO 1.1 over UDP as well: /tuio/2Dcur contacts, /tuio/2Dblb
-// shadows; output/tuio_sink.hpp), --annotate DIR (one annotated PNG per frame, atomic writes),
-// --show (a window, when
-// OpenCV highgui is built in), --max-frames N. A progress line goes to stderr for long inputs.
+// --realtime paces a folder or video to its timestamps (the default when sending TUIO from a
+// file, so clients see the recording's speed). Progress on stderr once a second.
 // Exit status: 0 done, 2 bad command line or input (message on stderr).
-#include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/output/csv_sink.hpp>
+#include <shadowsense/output/json_lines_sink.hpp>
 #include <shadowsense/output/tuio_sink.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
-#include <shadowsense/sense/touch_pipeline.hpp>
 
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
+#include "common/runner.hpp"
 
 #include <opencv2/imgproc.hpp>
 #ifdef SHADOWSENSE_HAVE_HIGHGUI
@@ -34,6 +38,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace fs = std::filesystem;
@@ -44,82 +49,89 @@ namespace {
 constexpr const char* kProgram = "ss_track";
 
 struct Options {
-  std::string input, calibration, timestamps, format = "csv";
+  std::string input, calibration, model, timestamps, format = "csv", source;
   std::string tuio_host; // empty: no TUIO output
   std::uint16_t tuio_port = 3333;
   fs::path annotate;
   double fps = 0; // 0 = not given
   long long max_frames = -1;
-  int max_side = 8192;
-  bool show = false, quiet = false;
+  int max_side = 8192, threads = 1, classify_every = 1;
+  bool show = false, quiet = false, realtime = false, no_realtime = false;
 };
 
 const char* kHelp =
     "usage: ss_track --input DIR|VIDEO|CAMERA --calibration FILE [options]\n"
-    "Touch events (appear, touch, move, lift, disappear) from a folder of images (sorted by\n"
-    "name), a video file or a camera index, one line per event on stdout.\n"
+    "Touch events (appear, touch, move, lift, disappear) with the hand-shape gesture from a\n"
+    "folder of images (sorted by name), a video file or a camera index, one line per event on\n"
+    "stdout in the project's event schema (docs/output.md).\n"
     "\n"
     "  --input SPEC         folder of images, video file, or camera index (0, 1, ...)\n"
     "  --calibration FILE   calibration with the empty-skin model (ss_calibrate)\n"
+    "  --model FILE|none    gesture model (default: the installed model, see below); none:\n"
+    "                       touch events only\n"
+    "  --threads N          classifier worker threads (default 1)\n"
+    "  --classify-every N   while a shadow is seen, classify every N-th frame (default 1)\n"
     "  --fps F              frame rate of a folder (default 30) or override for a video\n"
     "  --timestamps CSV     folder timestamps: lines file,timestamp_ms (header optional)\n"
     "  --format csv|json    event lines as CSV (default, with a header) or JSON lines\n"
-    "  --tuio HOST[:PORT]   also send TUIO 1.1 over UDP (default port 3333), e.g. 127.0.0.1\n"
+    "  --source NAME        the events' source field (default: --input as given)\n"
+    "  --tuio HOST[:PORT]   also send TUIO 1.1 over UDP (default port 3333), e.g. 127.0.0.1,\n"
+    "                       with the gesture as /shadowsense/gesture in the same bundle\n"
+    "  --realtime           pace a folder or video to its timestamps (the default with --tuio)\n"
+    "  --no-realtime        as fast as possible, also with --tuio\n"
     "  --annotate DIR       write an annotated PNG per frame into DIR\n"
-    "  --show               show the annotated frames in a window (OpenCV highgui)\n"
+    "  --show               show the annotated frames in a window (needs a display)\n"
     "  --max-frames N       stop after N frames\n"
     "  --max-side N         refuse frames larger than N px per side (default 8192)\n"
     "  --quiet              no progress line on stderr\n"
     "  --help, --version\n"
-    "CSV columns: frame,timestamp_ms,track_id,from,to,direction,x,y (x, y empty when the\n"
-    "event has no contact position). 'to' = none is a disappear.\n";
-
-// --tuio HOST[:PORT]: the host as given (a name or an IPv4 address), the port 1..65535.
-void parse_tuio(const std::string& spec, Options& o) {
-  const auto colon = spec.rfind(':');
-  o.tuio_host = spec.substr(0, colon);
-  if (o.tuio_host.empty())
-    throw cli::UsageError("--tuio: expected HOST[:PORT], got '" + spec + "'");
-  if (colon == std::string::npos) return;
-  const std::string port = spec.substr(colon + 1);
-  unsigned value = 0;
-  const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
-  if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
-    throw cli::UsageError("--tuio: expected a port in [1, 65535] after ':', got '" + port + "'");
-  o.tuio_port = static_cast<std::uint16_t>(value);
-}
+    "CSV columns: schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,\n"
+    "confidence,gesture_frame (frames from 1; x, y in pixels, empty without a contact position;\n"
+    "gesture fields empty while no shadow is seen). 'to' = none is a disappear.\n";
 
 // Returns the options; throws cli::Exit once --help or --version has been answered.
 Options parse(int argc, char** argv) {
   Options o;
   std::string tuio;
-  cli::Parser p(kProgram, "Touch events from a folder of images, a video file or a camera.");
-  p.help_text(kHelp);
+  cli::Parser p(kProgram, "Touch events and gestures from a folder, a video or a camera.");
+  p.help_text(std::string(kHelp) + "Default model: " + runner::default_model_text(argv[0]) + "\n");
   p.style(cli::Style::lenient());
   p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input);
   p.option("--calibration", "FILE", "calibration with the empty-skin model", o.calibration);
+  p.option("--model", "FILE|none", "gesture model", o.model);
+  p.option("--threads", "N", "classifier worker threads", o.threads).range(1, 256);
+  p.option("--classify-every", "N", "classify every N-th frame", o.classify_every)
+      .range(1, 1'000'000);
   p.option("--timestamps", "CSV", "folder timestamps", o.timestamps);
   p.option("--format", "csv|json", "event lines as CSV or JSON lines", o.format)
       .check([](const std::string& f) {
         if (f != "csv" && f != "json")
           throw cli::UsageError("--format: expected csv or json, got '" + f + "'");
       });
+  p.option("--source", "NAME", "the events' source field", o.source);
   p.option("--tuio", "HOST[:PORT]", "also send TUIO 1.1 over UDP", tuio)
-      .check([&o](const std::string& spec) { parse_tuio(spec, o); });
+      .check([&o](const std::string& spec) {
+        const auto [host, port] = runner::parse_tuio_target(spec, "--tuio");
+        o.tuio_host = host;
+        o.tuio_port = port;
+      });
   p.option("--annotate", "DIR", "write an annotated PNG per frame into DIR", o.annotate);
   p.option("--fps", "F", "frame rate of a folder or override for a video", o.fps)
       .range(0.001, 10000.0);
   p.option("--max-frames", "N", "stop after N frames", o.max_frames).range(1, 1'000'000'000);
   p.option("--max-side", "N", "largest frame side", o.max_side).range(16, 65536);
+  p.flag("--realtime", "pace a file to its timestamps", o.realtime);
+  p.flag("--no-realtime", "as fast as possible", o.no_realtime);
   p.flag("--show", "show the annotated frames in a window", o.show);
   p.flag("--quiet", "no progress line on stderr", o.quiet);
   p.parse(argc, argv);
   if (o.input.empty()) throw cli::UsageError("--input is required (a folder, a video or a camera)");
   if (o.calibration.empty())
     throw cli::UsageError("--calibration is required (make one with ss_calibrate)");
-#ifndef SHADOWSENSE_HAVE_HIGHGUI
-  if (o.show) throw cli::UsageError("--show: this build has no OpenCV highgui");
-#endif
+  if (o.realtime && o.no_realtime)
+    throw cli::UsageError("--realtime and --no-realtime contradict each other; give one");
+  if (o.show) runner::require_display("--show");
+  if (o.source.empty()) o.source = o.input;
   return o;
 }
 
@@ -150,63 +162,37 @@ std::map<std::string, double> read_timestamps(const std::string& path) {
   return out;
 }
 
-std::string position_csv(const std::optional<cv::Point2f>& p) {
-  if (!p) return ",";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.2f,%.2f", p->x, p->y);
-  return buf;
-}
-
-void print_event(const Options& o, long long frame, const TrackEvent& e) {
-  char t[32];
-  std::snprintf(t, sizeof t, "%.3f", e.event.timestamp_ms);
-  if (o.format == "csv") {
-    std::cout << frame << ',' << t << ',' << e.track_id << ',' << to_string(e.event.from) << ','
-              << to_string(e.event.to) << ',' << to_string(e.event.direction) << ','
-              << position_csv(e.event.position) << '\n';
-  } else {
-    std::cout << "{\"frame\":" << frame << ",\"timestamp_ms\":" << t
-              << ",\"track_id\":" << e.track_id << ",\"from\":\"" << to_string(e.event.from)
-              << "\",\"to\":\"" << to_string(e.event.to) << "\",\"direction\":\""
-              << to_string(e.event.direction) << "\"";
-    if (e.event.position) {
-      char p[64];
-      std::snprintf(p, sizeof p, ",\"x\":%.2f,\"y\":%.2f", e.event.position->x,
-                    e.event.position->y);
-      std::cout << p;
-    } else {
-      std::cout << ",\"x\":null,\"y\":null";
-    }
-    std::cout << "}\n";
+// The events of one frame (or the flush) through every sink.
+struct Sinks {
+  std::optional<CsvSink> csv;
+  std::optional<JsonLinesSink> json;
+  std::optional<TuioSink> tuio;
+  void write(const OutputFrame& f) {
+    if (csv) csv->write(f);
+    if (json) json->write(f);
+    if (tuio) tuio->write(f);
   }
-}
-
-cv::Mat annotate(const cv::Mat& frame, const TouchPipeline& p, const TouchFrame& r) {
-  cv::Mat out = frames::overlay(frame, p.segmentation());
-  for (const TouchTrack& t : r.tracks) {
-    const std::string label = std::to_string(t.id) + " " + to_string(t.state);
-    cv::putText(out, label, t.shadow_box.tl() + cv::Point(2, 12), cv::FONT_HERSHEY_PLAIN, 0.9,
-                cv::Scalar(255, 255, 255), 1);
-    if (t.contact) cv::circle(out, *t.contact, 3, cv::Scalar(0, 255, 0), cv::FILLED);
-  }
-  return out;
-}
+};
 
 int run(const Options& o) {
   frames::limit_decoder(o.max_side);
   const SegmenterCalibration cal = load_calibration(o.calibration);
-  if (cal.empty_skin.empty())
-    std::cerr << kProgram << ": warning: '" << o.calibration
-              << "' holds no empty-skin model (version 1); the first frames are judged "
-                 "without one - make a new calibration with ss_calibrate\n";
+  if (cal.empty_skin.empty() && cal.mode == SegmentMode::relative)
+    throw IoError("'" + o.calibration +
+                  "' holds no empty-skin model (a version-1 calibration); without one the "
+                  "segmenter reports phantom shadows - make a new calibration with ss_calibrate");
   SegmenterConfig sc;
   sc.calibration = cal;
   sc.max_image_side = o.max_side;
-  TouchPipeline pipeline{Segmenter(sc)};
-  std::optional<TuioSink> tuio;
-  if (!o.tuio_host.empty()) tuio.emplace(o.tuio_host, o.tuio_port);
-  OutputFrameBuilder tuio_frames; // TouchFrame -> the sinks' per-frame value
-  cv::Size frame_size;
+  std::optional<Classifier<DenseNet>> classifier;
+  fs::path model_path;
+  if (o.model != "none") {
+    model_path = o.model.empty() ? runner::find_default_model(kProgram) : fs::path(o.model);
+    classifier.emplace(
+        make_densenet_classifier(ModelFile::load(model_path), {.threads = o.threads}));
+  }
+  Runtime sense(TouchPipeline{Segmenter(sc)}, std::move(classifier),
+                {.classify_every = o.classify_every});
   frames::FrameSource src = frames::FrameSource::open(o.input, o.max_side);
   std::optional<std::map<std::string, double>> stamps;
   if (!o.timestamps.empty()) {
@@ -216,11 +202,25 @@ int run(const Options& o) {
   const double fps = o.fps > 0 ? o.fps : (src.fps() ? *src.fps() : 30.0);
   if (!src.is_folder() && !src.is_camera() && !src.fps() && o.fps <= 0)
     std::cerr << kProgram << ": warning: the video declares no frame rate; using 30 fps\n";
+  const bool realtime =
+      !src.is_camera() && (o.realtime || (!o.tuio_host.empty() && !o.no_realtime));
+  Sinks sinks;
+  if (o.format == "csv")
+    sinks.csv.emplace(std::cout, CsvSink::Config{.source = o.source, .flush = true});
+  else
+    sinks.json.emplace(std::cout, JsonLinesSink::Config{.source = o.source, .flush = true});
+  if (!o.tuio_host.empty()) sinks.tuio.emplace(o.tuio_host, o.tuio_port);
+  if (!o.quiet) {
+    std::cerr << kProgram << ": " << o.input << "; model "
+              << (model_path.empty() ? std::string("none (touch events only)")
+                                     : model_path.string())
+              << (sinks.tuio ? "; TUIO to " + sinks.tuio->destination() : std::string())
+              << (realtime ? "; paced to the timestamps" : "") << '\n';
+  }
   if (!o.annotate.empty()) fs::create_directories(o.annotate);
-  if (o.format == "csv") std::cout << "frame,timestamp_ms,track_id,from,to,direction,x,y\n";
+  runner::Progress progress(kProgram, o.quiet, src.count());
   const auto start = std::chrono::steady_clock::now();
-  auto last_progress = start;
-  const bool show_progress = !o.quiet && (!src.count() || *src.count() > 100);
+  std::optional<double> first_t;
   cv::Mat frame;
   std::string name;
   long long i = 0;
@@ -235,22 +235,26 @@ int run(const Options& o) {
       t = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
               .count();
     } else {
-      t = static_cast<double>(i) * 1000.0 / fps;
+      t = runner::frame_time_ms(i, fps);
     }
-    const TouchFrame* r = nullptr;
+    if (realtime) { // frame i goes out at its time after the first frame's
+      if (!first_t) first_t = t;
+      std::this_thread::sleep_until(start +
+                                    std::chrono::duration<double, std::milli>(t - *first_t));
+    }
+    const RuntimeFrame* r = nullptr;
     try {
-      r = &pipeline.update(frame, t);
+      r = &sense.update(frame, t);
     } catch (const InvalidArgument& e) {
-      throw InvalidArgument("frame " + std::to_string(i) + " ('" + name + "'): " + e.what());
+      throw InvalidArgument("frame " + std::to_string(i + 1) + " ('" + name + "'): " + e.what());
     }
-    for (const TrackEvent& e : r->events) print_event(o, i, e);
-    frame_size = frame.size();
-    if (tuio) tuio->write(tuio_frames.build(*r, frame_size));
+    sinks.write(sense.output());
     if (!o.annotate.empty() || o.show) {
-      const cv::Mat a = annotate(frame, pipeline, *r);
+      const cv::Mat a = runner::annotate(frame, sense.segmentation(), *r);
       if (!o.annotate.empty()) {
         char file[40];
-        std::snprintf(file, sizeof file, "frame_%06lld.png", i);
+        std::snprintf(file, sizeof file, "frame_%06lld.png",
+                      static_cast<long long>(r->frame_index));
         frames::write_png_atomically(o.annotate / file, a);
       }
 #ifdef SHADOWSENSE_HAVE_HIGHGUI
@@ -262,21 +266,14 @@ int run(const Options& o) {
     }
     last_t = t;
     ++i;
-    const auto now = std::chrono::steady_clock::now();
-    if (show_progress && now - last_progress > std::chrono::seconds(1)) {
-      last_progress = now;
-      std::cerr << "\r" << kProgram << ": frame " << i;
-      if (src.count()) std::cerr << " of " << *src.count();
-      std::cerr << std::flush;
-    }
+    progress.tick(i);
   }
   if (i == 0) throw IoError("'" + o.input + "' gave no frame");
   const double step = stamps || src.is_camera() ? 1.0 : 1000.0 / fps;
-  const TouchFrame& last = pipeline.flush(last_t + step);
-  for (const TrackEvent& e : last.events) print_event(o, i, e);
-  if (tuio) tuio->write(tuio_frames.build(last, frame_size)); // the lifts reach the clients
+  sense.flush(last_t + step);
+  sinks.write(sense.output()); // the lifts reach the clients
   std::cout.flush();
-  if (show_progress) std::cerr << "\r" << kProgram << ": " << i << " frames\n";
+  progress.done(i);
   if (!std::cout) throw IoError("writing the events to stdout failed");
   return 0;
 }

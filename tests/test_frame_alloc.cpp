@@ -7,6 +7,7 @@
 // intercepted malloc).
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sim.hpp>
 
@@ -70,4 +71,37 @@ TEST_CASE("the whole frame (touch pipeline + classifier) allocates nothing after
   // The frames did exercise the pipeline: tracks and events every round.
   CHECK(tracks > 3 * frames.size() / 2);
   CHECK(events > 0);
+}
+
+TEST_CASE("the composed Runtime (touch pipeline + gated classifier + sink frame) allocates "
+          "nothing after warm-up") {
+  sim::Renderer renderer(sim::Rig::robot());
+  const SimCalibration calibration = calibrate_on_sim(renderer, 0xA110C, 12);
+  std::vector<cv::Mat> frames;
+  for (int k = 0; k < 20; ++k) // every category, also empty skin (the gate closes and opens)
+    frames.push_back(
+        sim::render_random_tracking_frame(renderer, static_cast<sim::TrackCategory>(k % 5),
+                                          sim::derive_seed(0xA110E, static_cast<std::uint64_t>(k)))
+            .image);
+  const ModelFile model = ModelFile::load(SHADOWSENSE_SOURCE_DIR "/models/default.ssm");
+  Runtime sense(TouchPipeline(segmenter_from(calibration)),
+                make_densenet_classifier(model, {.threads = 1}));
+  double t = 0;
+  std::size_t classified = 0, gated = 0, mismatched = 0;
+  auto run = [&] {
+    for (const cv::Mat& f : frames) {
+      const RuntimeFrame& r = sense.update(f, t += 33.0);
+      (r.classified ? classified : gated) += 1;
+      mismatched += sense.output().frame_index != r.frame_index;
+    }
+  };
+  run(); // warm-up
+  const std::size_t before = counting_new::count();
+  counting_new::measuring = true;
+  run();
+  run();
+  CHECK(counting_new::count() - before == 0);
+  CHECK(mismatched == 0);
+  CHECK(classified > 0);
+  CHECK(gated > 0);
 }

@@ -58,7 +58,7 @@ TEST_CASE("pipeline -> OutputFrameBuilder -> CSV rows and TUIO alive lists follo
   TuioEncoder tuio;
   std::vector<std::vector<std::int32_t>> cursors, blobs;
   std::vector<cv::Point2f> cursor_at;
-  std::string expected_csv = "source,frame,timestamp_ms,track_id,from,to,direction,x,y\n";
+  std::string expected_csv = std::string(event_csv_header) + "\n";
   for (std::size_t i = 0; i < script.size(); ++i) {
     sim::Scene scene;
     sim::User user;
@@ -70,7 +70,7 @@ TEST_CASE("pipeline -> OutputFrameBuilder -> CSV rows and TUIO alive lists follo
     REQUIRE(out.events.size() == r.events.size());
     for (const TrackEvent& e : r.events) {
       for (const std::string& field :
-           {std::string(), std::to_string(i + 1), std::to_string(77 * i),
+           {std::string("2"), std::string(), std::to_string(i + 1), std::to_string(77 * i),
             std::to_string(e.track_id), std::string(to_string(e.event.from)),
             std::string(to_string(e.event.to)), std::string(to_string(e.event.direction))}) {
         expected_csv += field;
@@ -85,7 +85,7 @@ TEST_CASE("pipeline -> OutputFrameBuilder -> CSV rows and TUIO alive lists follo
       } else {
         expected_csv += ",";
       }
-      expected_csv += "\n";
+      expected_csv += ",,,\n"; // no classifier: no gesture
     }
     publish(out, csv);
     int bundle = 0;

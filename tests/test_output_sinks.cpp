@@ -63,9 +63,57 @@ TEST_CASE("CsvSink writes a header and one row per event, exactly") {
   CsvSink sink(out);
   sink.write(sample_frame());
   sink.write(OutputFrame{}); // no events: nothing
-  CHECK(out.str() == "source,frame,timestamp_ms,track_id,from,to,direction,x,y\n"
-                     ",12,396.5,3,none,appear,none,,\n"
-                     ",12,396.5,4,touch,move,left,101.5,0.1\n");
+  CHECK(out.str() == "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
+                     "confidence,gesture_frame\n"
+                     "2,,12,396.5,3,none,appear,none,,,,,\n"
+                     "2,,12,396.5,4,touch,move,left,101.5,0.1,,,\n");
+  CHECK(std::string(event_csv_header) + "\n" == out.str().substr(0, out.str().find('\n') + 1));
+}
+
+// A frame whose classifier reading is "palm" at 0.75, computed on frame 11.
+OutputFrame frame_with_gesture() {
+  OutputFrame f = sample_frame();
+  f.gesture.available = true;
+  f.gesture.label = "palm";
+  f.gesture.confidence = 0.75f;
+  f.gesture.frame_index = 11;
+  f.gesture.class_names = {"nothing", "palm"};
+  f.gesture.probabilities = {0.25f, 0.75f};
+  return f;
+}
+
+TEST_CASE("CsvSink and JsonLinesSink write the frame's gesture, and nothing while gated off") {
+  std::ostringstream csv_out, json_out;
+  CsvSink csv(csv_out, {.source = "cam", .header = false});
+  JsonLinesSink json(json_out, {.source = "cam"});
+  OutputFrame f = frame_with_gesture();
+  f.events.resize(1);
+  csv.write(f);
+  json.write(f);
+  f.gesture.label.clear(); // gated off: available, no reading
+  csv.write(f);
+  json.write(f);
+  CHECK(csv_out.str() == "2,cam,12,396.5,3,none,appear,none,,,palm,0.75,11\n"
+                         "2,cam,12,396.5,3,none,appear,none,,,,,\n");
+  CHECK(json_out.str() ==
+        "{\"schema\":2,\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
+        "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
+        "\"gesture\":\"palm\",\"confidence\":0.75,\"gesture_frame\":11}\n"
+        "{\"schema\":2,\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
+        "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
+        "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null}\n");
+}
+
+TEST_CASE("the one JSON escaper: invalid UTF-8 becomes U+FFFD, valid UTF-8 and DEL as expected") {
+  std::string out;
+  detail::append_json_string(out, "caf\xc3\xa9 \xff \xed\xa0\x80 \xc0\xaf \x7f \xf0\x9f\x91\x8b");
+  // \xed\xa0\x80 is a surrogate, \xc0\xaf an overlong '/': each byte is one U+FFFD.
+  CHECK(out == "\"caf\xc3\xa9 \\ufffd \\ufffd\\ufffd\\ufffd \\ufffd\\ufffd \\u007f "
+               "\xf0\x9f\x91\x8b\"");
+  std::ostringstream json_out;
+  JsonLinesSink json(json_out, {.source = "bad\xfe"});
+  json.write(sample_frame());
+  CHECK(json_out.str().rfind("{\"schema\":2,\"source\":\"bad\\ufffd\",", 0) == 0);
 }
 
 TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") {
@@ -77,7 +125,7 @@ TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") 
   OutputFrame f = sample_frame();
   f.events.resize(1);
   sink.write(f);
-  CHECK(out.str() == "\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,\n");
+  CHECK(out.str() == "2,\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,,,,\n");
   std::string field;
   detail::append_csv_field(field, " lead");
   CHECK(field == "\" lead\"");
@@ -95,19 +143,25 @@ TEST_CASE("JsonLinesSink writes one object per event per line, strings escaped")
   config.source = "a\"b\\c\n\x01";
   JsonLinesSink sink(out, config);
   sink.write(sample_frame());
-  CHECK(out.str() ==
-        "{\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
-        "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null}\n"
-        "{\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":4,"
-        "\"from\":\"touch\",\"to\":\"move\",\"direction\":\"left\",\"x\":101.5,\"y\":0.1}\n");
+  const std::string no_gesture = ",\"gesture\":null,\"confidence\":null,\"gesture_frame\":null}\n";
+  CHECK(out.str() == "{\"schema\":2,\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+                     "\"timestamp_ms\":396.5,\"track_id\":3,\"from\":\"none\",\"to\":\"appear\","
+                     "\"direction\":\"none\",\"x\":null,\"y\":null" +
+                         no_gesture +
+                         "{\"schema\":2,\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+                         "\"timestamp_ms\":396.5,\"track_id\":4,\"from\":\"touch\",\"to\":\"move\","
+                         "\"direction\":\"left\",\"x\":101.5,\"y\":0.1" +
+                         no_gesture);
   std::ostringstream plain;
   JsonLinesSink no_source(plain);
   OutputFrame f = sample_frame();
   f.events.resize(1);
   f.events[0].event.timestamp_ms = std::numeric_limits<double>::quiet_NaN();
   no_source.write(f);
-  CHECK(plain.str() == "{\"frame\":12,\"timestamp_ms\":null,\"track_id\":3,\"from\":\"none\","
-                       "\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null}\n");
+  CHECK(plain.str() == "{\"schema\":2,\"source\":\"\",\"frame\":12,\"timestamp_ms\":null,"
+                       "\"track_id\":3,\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\","
+                       "\"x\":null,\"y\":null" +
+                           no_gesture);
 }
 
 TEST_CASE("a failed stream is an IoError, at construction and on write") {
@@ -136,7 +190,7 @@ TEST_CASE("publish() writes one frame to a user-defined sink and the library's s
   CHECK(counter.events_per_frame == std::vector<std::size_t>{2, 0});
   const std::string text = out.str();
   CHECK(std::count(text.begin(), text.end(), '\n') == 2);
-  CHECK(text.rfind(",12,396.5,4,touch,move,left,101.5,0.1\n") == text.find('\n') + 1);
+  CHECK(text.rfind("2,,12,396.5,4,touch,move,left,101.5,0.1,,,\n") == text.find('\n') + 1);
 }
 
 TEST_CASE("OutputFrameBuilder: contacts while touching (last point during the hysteresis), "

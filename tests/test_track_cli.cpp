@@ -1,8 +1,10 @@
 // ss_track on a folder of PNGs and on a video file gives exactly the events TouchPipeline gives
 // on the same frames in memory (for the video: the frames decoded back from it); its command
 // line follows the programs' convention.
+#include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/output/osc.hpp>
+#include <shadowsense/output/text_format.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
 #include <doctest/doctest.h>
@@ -15,9 +17,13 @@
 #include "common/local_udp.hpp"
 #include "common/run_program.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -77,33 +83,50 @@ const std::string& calibration_path() {
   return path;
 }
 
-// The CSV ss_track prints, made here from TouchPipeline on `frames` at i * 1000 / fps ms.
+const std::string kModel = std::string(SHADOWSENSE_SOURCE_DIR) + "/models/default.ssm";
+
+// The CSV ss_track prints (the event schema, docs/output.md), made here from TouchPipeline and,
+// with a model, the classifier run on every frame where a shadow blob is seen, on `frames` at
+// i * 1000 / fps ms; frames counted from 1, the flush as one more frame.
 std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
-                         const std::string& calibration_file) {
+                         const std::string& calibration_file, const std::string& source,
+                         const std::string& model = "") {
   TouchPipeline p{Segmenter({.calibration = load_calibration(calibration_file)})};
-  std::ostringstream o;
-  o << "frame,timestamp_ms,track_id,from,to,direction,x,y\n";
+  std::optional<Classifier<DenseNet>> clf;
+  if (!model.empty()) clf.emplace(make_densenet_classifier(ModelFile::load(model)));
+  std::string o = "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
+                  "confidence,gesture_frame\n";
+  std::string gesture = ",,"; // label,confidence,frame of the current frame
   auto print = [&](std::size_t frame, const TrackEvent& e) {
-    char line[200];
-    std::snprintf(line, sizeof line, "%zu,%.3f,%d,%s,%s,%s,", frame, e.event.timestamp_ms,
-                  e.track_id, to_string(e.event.from), to_string(e.event.to),
-                  std::string(to_string(e.event.direction)).c_str());
-    o << line;
+    o += "2," + source + "," + std::to_string(frame) + ",";
+    detail::append_number(o, e.event.timestamp_ms);
+    o += "," + std::to_string(e.track_id) + "," + to_string(e.event.from) + "," +
+         to_string(e.event.to) + "," + to_string(e.event.direction) + ",";
     if (e.event.position) {
-      std::snprintf(line, sizeof line, "%.2f,%.2f", e.event.position->x, e.event.position->y);
-      o << line;
+      detail::append_number(o, e.event.position->x);
+      o += ',';
+      detail::append_number(o, e.event.position->y);
     } else {
-      o << ',';
+      o += ',';
     }
-    o << '\n';
+    o += "," + gesture + "\n";
   };
   double t = 0;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     t = static_cast<double>(i) * 1000.0 / fps;
-    for (const TrackEvent& e : p.update(frames[i], t).events) print(i, e);
+    const TouchFrame& r = p.update(frames[i], t);
+    gesture = ",,";
+    if (clf && !r.shadow_boxes.empty()) {
+      const Classification c = clf->classify(frames[i]);
+      gesture = c.label + ",";
+      detail::append_number(gesture, c.probabilities[static_cast<std::size_t>(c.index)]);
+      gesture += "," + std::to_string(i + 1);
+    }
+    for (const TrackEvent& e : r.events) print(i + 1, e);
   }
-  for (const TrackEvent& e : p.flush(t + 1000.0 / fps).events) print(frames.size(), e);
-  return o.str();
+  gesture = ",,";
+  for (const TrackEvent& e : p.flush(t + 1000.0 / fps).events) print(frames.size() + 1, e);
+  return o;
 }
 
 using Run = tests::ProgramRun;
@@ -129,17 +152,76 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
   const std::vector<cv::Mat> frames = render_sequence();
   const fs::path folder = kDir / "frames";
   write_pngs(frames, folder);
-  const std::string expected = expected_csv(frames, 13.0, calibration_path());
+  const std::string expected = expected_csv(frames, 13.0, calibration_path(), "cam0", kModel);
   // The script's touch: appear, touch, move right, lift and disappear are all there.
   CHECK(expected.find(",none,appear,") != std::string::npos);
   CHECK(expected.find(",appear,touch,") != std::string::npos);
   CHECK(expected.find(",touch,move,right,") != std::string::npos);
   CHECK(expected.find(",lift,none,") != std::string::npos);
+  // The gesture is there on events while the finger's shadow is seen (the appear, the touch).
+  int with_gesture = 0;
+  std::istringstream lines(expected);
+  for (std::string line; std::getline(lines, line);)
+    with_gesture += line.size() > 2 && line.compare(line.size() - 2, 2, ",,") != 0;
+  CHECK(with_gesture >= 3); // the header, the appear and the touch at least
   const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
-                    "' --fps 13 --quiet");
+                    "' --fps 13 --quiet --source cam0 --model '" + kModel + "'");
   INFO(r.err);
   CHECK(r.status == 0);
   CHECK(r.out == expected);
+  // --model none: touch events only, the same events without the gesture; --opt=value.
+  const Run t = run("--input='" + folder.string() + "' --calibration='" + calibration_path() +
+                    "' --fps=13 --quiet --source=cam0 --model=none");
+  CHECK(t.status == 0);
+  CHECK(t.out == expected_csv(frames, 13.0, calibration_path(), "cam0"));
+}
+
+TEST_CASE("ss_track --format json: the same events as JSON lines, one valid object per line") {
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames_json";
+  write_pngs(frames, folder);
+  const Run csv = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
+                      "' --fps 13 --quiet --model '" + kModel + "'");
+  const Run json = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
+                       "' --fps 13 --quiet --format json --model '" + kModel + "'");
+  REQUIRE(csv.status == 0);
+  REQUIRE(json.status == 0);
+  // Line k of the JSON output holds the values of row k + 1 of the CSV, field by field.
+  std::istringstream c(csv.out), j(json.out);
+  std::string cl, jl;
+  std::getline(c, cl);
+  std::vector<std::string> names;
+  for (std::size_t a = 0, b; a <= cl.size(); a = b + 1) {
+    b = cl.find(',', a);
+    if (b == std::string::npos) b = cl.size();
+    names.push_back(cl.substr(a, b - a));
+  }
+  int lines = 0;
+  while (std::getline(c, cl)) {
+    REQUIRE(std::getline(j, jl));
+    std::vector<std::string> v;
+    for (std::size_t a = 0, b; a <= cl.size(); a = b + 1) {
+      b = cl.find(',', a);
+      if (b == std::string::npos) b = cl.size();
+      v.push_back(cl.substr(a, b - a));
+    }
+    REQUIRE(v.size() == names.size());
+    std::string expected = "{";
+    for (std::size_t k = 0; k < v.size(); ++k) {
+      const bool text = names[k] == "source" || names[k] == "from" || names[k] == "to" ||
+                        names[k] == "direction" || names[k] == "gesture";
+      if (k) expected += ',';
+      expected += "\"" + names[k] + "\":";
+      if (v[k].empty() && names[k] != "source")
+        expected += "null";
+      else
+        expected += text ? "\"" + v[k] + "\"" : v[k];
+    }
+    CHECK(jl == expected + "}");
+    ++lines;
+  }
+  CHECK(lines >= 5);
+  CHECK(!std::getline(j, jl));
 }
 
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
@@ -178,10 +260,11 @@ TEST_CASE("ss_track on a video file: the events of TouchPipeline on the decoded 
   cv::Mat f;
   while (cap.read(f)) decoded.push_back(f.clone());
   REQUIRE(decoded.size() == frames.size());
-  const Run r = run("--input '" + video.string() + "' --calibration '" + cal_path + "' --quiet");
+  const Run r =
+      run("--input '" + video.string() + "' --calibration '" + cal_path + "' --quiet --model none");
   INFO(used << ": " << r.err);
   CHECK(r.status == 0);
-  CHECK(r.out == expected_csv(decoded, fps, cal_path));
+  CHECK(r.out == expected_csv(decoded, fps, cal_path, video.string()));
   CHECK(r.out.find(",touch,move,right,") != std::string::npos);
 }
 #endif
@@ -219,11 +302,18 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
   const fs::path folder = kDir / "frames_tuio";
   write_pngs(frames, folder);
   const tests::LocalUdp udp(std::chrono::seconds(1));
+  // TUIO from a folder is paced to the frames' timestamps by default: 17 frames at 13 fps take
+  // at least 16 / 13 s.
+  const auto start = std::chrono::steady_clock::now();
   const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
-                    "' --fps 13 --quiet --tuio 127.0.0.1:" + std::to_string(udp.port));
+                    "' --fps 13 --quiet --model '" + kModel +
+                    "' --tuio 127.0.0.1:" + std::to_string(udp.port));
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   INFO(r.err);
   REQUIRE(r.status == 0);
-  int cur_frames = 0, blb_frames = 0, cursor_sets = 0;
+  CHECK(seconds >= 16.0 / 13.0);
+  int cur_frames = 0, blb_frames = 0, cursor_sets = 0, gestures = 0, classified = 0;
   std::vector<std::int32_t> last_alive{-1};
   while (const auto packet = udp.receive()) {
     std::vector<OscMessage> messages;
@@ -234,6 +324,23 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
       if (m.address == "/tuio/2Dcur" && command == "fseq") ++cur_frames;
       if (m.address == "/tuio/2Dblb" && command == "fseq") ++blb_frames;
       if (m.address == "/tuio/2Dcur" && command == "set") ++cursor_sets;
+      if (m.address == "/shadowsense/gesture") { // label confidence frame [class p]...
+        ++gestures;
+        if (command.empty()) continue; // gated off: no shadow
+        ++classified;
+        REQUIRE(m.arguments.size() == 3 + 2 * 6); // the shipped model's six classes
+        const float confidence = std::get<float>(m.arguments[1]);
+        float sum = 0, best = -1;
+        std::string best_class;
+        for (std::size_t k = 3; k < m.arguments.size(); k += 2) {
+          const float p = std::get<float>(m.arguments[k + 1]);
+          sum += p;
+          if (p > best) best = p, best_class = std::get<std::string>(m.arguments[k]);
+        }
+        CHECK(sum == doctest::Approx(1.0).epsilon(1e-5));
+        CHECK(confidence == best); // the label is the most probable class
+        CHECK(command == best_class);
+      }
       if (m.address == "/tuio/2Dcur" && command == "alive") {
         last_alive.clear();
         for (std::size_t k = 1; k < m.arguments.size(); ++k)
@@ -246,10 +353,74 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
   CHECK(blb_frames == static_cast<int>(frames.size()) + 1);
   CHECK(cursor_sets >= 6);   // the finger touches and slides for at least 6 frames
   CHECK(last_alive.empty()); // the lift removed the cursor by the end
+  CHECK(gestures == static_cast<int>(frames.size()) + 1); // one per bundle set, in the last
+  // Classified exactly on the frames where the pipeline sees a shadow (the gate).
+  TouchPipeline p{Segmenter({.calibration = load_calibration(calibration_path())})};
+  int with_shadow = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    with_shadow += !p.update(frames[i], static_cast<double>(i) * 1000.0 / 13).shadow_boxes.empty();
+  CHECK(with_shadow >= 9); // hover, touch, six slide frames, hover
+  CHECK(classified == with_shadow);
   CHECK(run("--input x --calibration y --tuio :3333").status == 2);
   CHECK(run("--input x --calibration y --tuio 127.0.0.1:0").status == 2);
   CHECK(run("--input x --calibration y --tuio 127.0.0.1:65536").status == 2);
 }
+
+TEST_CASE("ss_track --tuio takes [IPv6]:PORT, [IPv6], HOST and HOST:PORT") {
+  const tests::LocalUdp udp(std::chrono::seconds(1));
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames_v6";
+  write_pngs({frames.begin(), frames.begin() + 3}, folder);
+  const std::string base = "--input '" + folder.string() + "' --calibration '" +
+                           calibration_path() + "' --quiet --model none --no-realtime --tuio ";
+  Run r = run(base + "'[::1]:" + std::to_string(udp.port) + "'");
+  // A machine without IPv6 on loopback refuses the socket with a clear error, never a crash.
+  CHECK((r.status == 0 || r.err.find("::1") != std::string::npos));
+  for (const char* bad : {"'[::1'", "'[::1]:0'", "host:port", "''"}) {
+    r = run(base + bad);
+    INFO(bad << ": " << r.err);
+    CHECK(r.status == 2);
+    CHECK(r.err.find("--tuio: ") != std::string::npos);
+  }
+}
+
+TEST_CASE("ss_track refuses --show without a display, in one line with exit status 2") {
+  const Run r = tests::run_program(
+      "/usr/bin/env",
+      "-u DISPLAY -u WAYLAND_DISPLAY " + tests::shell_quote(SHADOWSENSE_SS_TRACK) +
+          " --input . --calibration '" + calibration_path() + "' --show",
+      kDir);
+  CHECK(r.status == 2);
+  CHECK(r.err.find("--show") != std::string::npos);
+  CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);
+}
+
+#ifdef SHADOWSENSE_SS_DEMO
+TEST_CASE("ss_demo's events and ss_track's on the demo's frames and calibration are the same "
+          "lines") {
+  const fs::path out = kDir / "demo";
+  fs::remove_all(out);
+  const Run demo = tests::run_program(
+      SHADOWSENSE_SS_DEMO,
+      "--out '" + out.string() + "' --save-frames --source demo --model '" + kModel + "'", kDir);
+  INFO(demo.err);
+  REQUIRE(demo.status == 0);
+  const Run track = run("--input '" + (out / "frames").string() + "' --calibration '" +
+                        (out / "skin.calib").string() +
+                        "' --fps 10 --source demo --quiet --model '" + kModel + "'");
+  INFO(track.err);
+  REQUIRE(track.status == 0);
+  std::ifstream f(out / "events.csv");
+  const std::string events((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  CHECK(track.out == events);
+  // The scripted palm touch, slide and punch are all in it, with their gestures.
+  CHECK(events.find(",appear,touch,none,") != std::string::npos);
+  CHECK(events.find(",touch,move,right,") != std::string::npos);
+  CHECK(events.find(",palm,") != std::string::npos);
+  CHECK(events.find(",punch,") != std::string::npos);
+  CHECK(events.find(",hug,") != std::string::npos);
+}
+#endif
 
 #else
 TEST_CASE("ss_track tests need the examples (SHADOWSENSE_BUILD_EXAMPLES)") {

@@ -20,6 +20,7 @@
 #include <shadowsense/core/atomic_file.hpp>
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/output/text_format.hpp>
 
 #include <charconv>
 #include <cmath>
@@ -157,56 +158,9 @@ private:
     if (stack_.empty()) done_ = true;
     return *this;
   }
-  // A JSON string: quotes, backslashes and control characters escaped; valid UTF-8 kept as it
-  // is; every byte of an invalid UTF-8 sequence becomes U+FFFD.
-  void string(std::string_view s) {
-    out_ += '"';
-    for (std::size_t i = 0; i < s.size();) {
-      const auto c = static_cast<unsigned char>(s[i]);
-      if (c == '"' || c == '\\') {
-        (out_ += '\\') += static_cast<char>(c);
-      } else if (c == '\n') {
-        out_ += "\\n";
-      } else if (c == '\t') {
-        out_ += "\\t";
-      } else if (c == '\r') {
-        out_ += "\\r";
-      } else if (c < 0x20 || c == 0x7f) {
-        static const char hex[] = "0123456789abcdef";
-        out_ += "\\u00";
-        out_ += hex[c >> 4];
-        out_ += hex[c & 15];
-      } else if (c < 0x80) {
-        out_ += static_cast<char>(c);
-      } else {
-        const std::size_t n = utf8_length(s.substr(i));
-        if (n == 0) {
-          out_ += "\\ufffd";
-          ++i;
-          continue;
-        }
-        out_.append(s.substr(i, n));
-        i += n;
-        continue;
-      }
-      ++i;
-    }
-    out_ += '"';
-  }
-  // Length of the valid UTF-8 sequence at the start of s (first byte >= 0x80), 0 if invalid
-  // (overlong forms, surrogates and code points above U+10FFFF are invalid).
-  static std::size_t utf8_length(std::string_view s) {
-    const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[k]); };
-    const unsigned char c = b(0);
-    const std::size_t n = c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 0;
-    if (n == 0 || c > 0xf4 || c == 0xc0 || c == 0xc1 || s.size() < n) return 0;
-    for (std::size_t k = 1; k < n; ++k)
-      if ((b(k) & 0xc0) != 0x80) return 0;
-    if ((c == 0xe0 && b(1) < 0xa0) || (c == 0xed && b(1) > 0x9f) || (c == 0xf0 && b(1) < 0x90) ||
-        (c == 0xf4 && b(1) > 0x8f))
-      return 0;
-    return n;
-  }
+  // A JSON string, escaped by the library's one escaper (output/text_format.hpp: valid UTF-8
+  // kept, every byte of an invalid sequence becomes U+FFFD).
+  void string(std::string_view s) { shadowsense::detail::append_json_string(out_, s); }
 
   std::string out_, key_;
   std::vector<Level> stack_;

@@ -5,6 +5,7 @@
 //   classify/  preprocessing, the backend concept, Classifier<Backend>
 //   backends/densenet/  the reference backend: model file + hand-written forward pass
 //   output/    event sinks: EventSink concept, CSV, JSON lines, TUIO 1.1 over UDP (OSC encoder)
+//   runtime/   Runtime: the touch pipeline and the gated classifier composed, one result per frame
 // Other targets, each with its own umbrella: <shadowsense/io.hpp> (dataset files, imgcodecs),
 // <shadowsense/train.hpp> (on-device head training, Eigen), <shadowsense/sim.hpp> (scene
 // generator), <shadowsense/eval.hpp> (evaluation helpers).
@@ -25,6 +26,8 @@
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/output/output.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
+#include <shadowsense/runtime/runtime.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>

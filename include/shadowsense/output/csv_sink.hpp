@@ -1,7 +1,9 @@
 // CsvSink: touch events as CSV (RFC 4180) on any std::ostream, one row per event.
 //
-// Columns (header row first unless Config::header is false):
-//   source,frame,timestamp_ms,track_id,from,to,direction,x,y
+// Columns (header row first unless Config::header is false): the project's event schema,
+// version 2 (docs/output.md; JsonLinesSink writes the same fields):
+//   schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,gesture_frame
+//   schema        2 (event_schema_version)
 //   source        Config::source (e.g. the input file or camera name), quoted when it holds a
 //                 comma, quote, CR/LF or leading/trailing space
 //   frame         OutputFrame::frame_index
@@ -10,6 +12,10 @@
 //   from, to      none|appear|touch|move|lift (to=none is the paper's "disappear")
 //   direction     none|left|right|front|back (move events), else none
 //   x, y          the event's contact position in image pixels, empty when it has none
+//   gesture       the frame's hand shape (OutputFrame::gesture.label), empty when the run has no
+//                 classifier or it was gated off (no shadow)
+//   confidence    its probability, empty with it
+//   gesture_frame the frame it was computed on, empty with it
 // Lines end with "\n". The header is written by the constructor.
 //
 // CsvSink(out, config = {})
@@ -43,11 +49,12 @@ public:
   explicit CsvSink(std::ostream& out) : CsvSink(out, Config{}) {}
   CsvSink(std::ostream& out, Config config) : out_(out), config_(std::move(config)) {
     detail::require<IoError>(out_.good(), "CsvSink: the output stream is not writable");
-    source_field_.clear();
-    detail::append_csv_field(source_field_, config_.source);
+    prefix_ = std::to_string(event_schema_version) + ','; // schema,source, of every row
+    detail::append_csv_field(prefix_, config_.source);
+    prefix_ += ',';
     line_.reserve(256);
     if (config_.header) {
-      out_ << "source,frame,timestamp_ms,track_id,from,to,direction,x,y\n";
+      out_ << event_csv_header << '\n';
       check();
     }
   }
@@ -55,9 +62,7 @@ public:
   void write(const OutputFrame& frame) {
     if (frame.events.empty()) return;
     for (const OutputEvent& e : frame.events) {
-      line_.clear();
-      line_ += source_field_;
-      line_ += ',';
+      line_.assign(prefix_);
       detail::append_integer(line_, frame.frame_index);
       line_ += ',';
       detail::append_number(line_, e.event.timestamp_ms);
@@ -78,6 +83,17 @@ public:
       } else {
         line_ += ',';
       }
+      line_ += ',';
+      const OutputGesture& g = frame.gesture;
+      if (g.available && !g.label.empty()) {
+        detail::append_csv_field(line_, g.label);
+        line_ += ',';
+        detail::append_number(line_, g.confidence);
+        line_ += ',';
+        detail::append_integer(line_, g.frame_index);
+      } else {
+        line_ += ",,";
+      }
       line_ += '\n';
       out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
     }
@@ -93,7 +109,7 @@ private:
 
   std::ostream& out_;
   Config config_;
-  std::string source_field_;
+  std::string prefix_;
   std::string line_;
 };
 static_assert(EventSink<CsvSink>);

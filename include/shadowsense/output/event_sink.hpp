@@ -10,7 +10,12 @@
 //                   state machine is in touch or move, at its contact point (pixels),
 //   * shadows       the shadows alive in this frame (TUIO blobs): one per live track, with its
 //                   shadow box (pixels),
-//   * events        the frame's touch events, each with the track it belongs to.
+//   * events        the frame's touch events, each with the track it belongs to,
+//   * gesture       the hand-shape classifier's reading of the frame (OutputGesture):
+//                   `available` is false when the run has no classifier (sinks then write no
+//                   gesture); otherwise `label` is the class with the highest probability, or ""
+//                   while the classifier is gated off (no shadow), with its confidence, the
+//                   frame it was computed on, and every class's probability.
 // Ids are the tracker's track ids (positive, never reused), so a contact and the shadow of the
 // same hand share an id.
 //
@@ -35,6 +40,8 @@
 //               shadows: every track with its shadow box; events copied. The reference stays
 //               valid until the next build.
 //     throws:   InvalidArgument for an empty frame_size.
+//   build(touch_frame, frame_size, gesture)
+//     the same, with frame.gesture = gesture (copied into reused storage).
 //   Threading: one instance per thread. No allocation after warm-up (buffers are reused).
 #pragma once
 
@@ -50,6 +57,15 @@
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
+
+// The version of the event schema the CSV and JSON-lines sinks write (docs/output.md): the
+// `schema` field of every row / object. 2: one schema for every program, frames counted from 1,
+// the gesture fields.
+inline constexpr int event_schema_version = 2;
+// The CSV header of that schema (CsvSink writes it; JsonLinesSink uses the same names).
+inline constexpr const char* event_csv_header =
+    "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,"
+    "gesture_frame";
 
 // A contact alive in this frame (a TUIO cursor).
 struct OutputContact {
@@ -70,6 +86,16 @@ struct OutputEvent {
   TouchEvent event{};
 };
 
+// The hand-shape classifier's reading of a frame.
+struct OutputGesture {
+  bool available = false;               // the run has a classifier (else no gesture is written)
+  std::string label;                    // class with the highest probability; "" = gated off
+  float confidence = 0;                 // its probability (0 when gated off)
+  std::int64_t frame_index = 0;         // the frame it was computed on (0 when gated off)
+  std::vector<std::string> class_names; // the model's classes, in its order
+  std::vector<float> probabilities;     // one per class (empty when gated off)
+};
+
 struct OutputFrame {
   std::int64_t frame_index = 0;
   double timestamp_ms = 0;
@@ -77,6 +103,7 @@ struct OutputFrame {
   std::vector<OutputContact> contacts;
   std::vector<OutputShadow> shadows;
   std::vector<OutputEvent> events;
+  OutputGesture gesture{};
 };
 
 template <class S>
@@ -118,6 +145,22 @@ public:
   }
 
   template <TouchFrameLike F>
+  const OutputFrame& build(const F& touch_frame, cv::Size frame_size,
+                           const OutputGesture& gesture) {
+    build(touch_frame, frame_size);
+    OutputGesture& g = frame_.gesture;
+    g.available = gesture.available;
+    g.label = gesture.label; // assignments reuse the strings' and vectors' storage
+    g.confidence = gesture.confidence;
+    g.frame_index = gesture.frame_index;
+    g.class_names.resize(gesture.class_names.size());
+    for (std::size_t i = 0; i < gesture.class_names.size(); ++i)
+      if (g.class_names[i] != gesture.class_names[i]) g.class_names[i] = gesture.class_names[i];
+    g.probabilities.assign(gesture.probabilities.begin(), gesture.probabilities.end());
+    return frame_;
+  }
+
+  template <TouchFrameLike F>
   const OutputFrame& build(const F& touch_frame, cv::Size frame_size) {
     if (frame_size.width <= 0 || frame_size.height <= 0)
       SHADOWSENSE_THROW(InvalidArgument(
@@ -129,6 +172,11 @@ public:
     frame_.contacts.clear();
     frame_.shadows.clear();
     frame_.events.clear();
+    frame_.gesture.available = false;
+    frame_.gesture.label.clear();
+    frame_.gesture.confidence = 0;
+    frame_.gesture.frame_index = 0;
+    frame_.gesture.probabilities.clear();
     next_contacts_.clear();
     for (const auto& t : touch_frame.tracks) {
       frame_.shadows.push_back({t.id, t.shadow_box, 0.0});

@@ -1,12 +1,16 @@
 // JsonLinesSink: touch events as JSON Lines (one JSON object per event per line) on any
 // std::ostream.
 //
-// Each line:
-//   {"source":"cam0","frame":12,"timestamp_ms":396,"track_id":1,"from":"touch","to":"move",
-//    "direction":"left","x":101.5,"y":80.25}
-//   "source" is Config::source (omitted when empty), escaped as a JSON string (RFC 8259);
-//   x and y are null when the event has no contact position. Numbers are the shortest
-//   round-trip decimal, '.' whatever the locale; a non-finite number is written as null.
+// Each line: the fields of CsvSink's columns (the event schema, version 2, docs/output.md), in
+// the same order and with the same names:
+//   {"schema":2,"source":"cam0","frame":12,"timestamp_ms":396,"track_id":1,"from":"touch",
+//    "to":"move","direction":"left","x":101.5,"y":80.25,"gesture":"palm","confidence":0.97,
+//    "gesture_frame":12}
+//   "source" is Config::source ("" when not set), escaped as a JSON string (RFC 8259, invalid
+//   UTF-8 as U+FFFD); x and y are null when the event has no contact position; gesture,
+//   confidence and gesture_frame are null when the run has no classifier or it was gated off.
+//   Numbers are the shortest round-trip decimal, '.' whatever the locale; a non-finite number
+//   is written as null.
 //
 // JsonLinesSink(out, config = {})
 //   requires: `out` outlives the sink.
@@ -30,18 +34,18 @@ SHADOWSENSE_NAMESPACE_BEGIN
 class JsonLinesSink {
 public:
   struct Config {
-    std::string source; // "source" member of every object (omitted when empty)
+    std::string source; // "source" member of every object
     bool flush = false; // flush the stream after every frame with events (for pipes)
   };
 
   explicit JsonLinesSink(std::ostream& out) : JsonLinesSink(out, Config{}) {}
   JsonLinesSink(std::ostream& out, Config config) : out_(out), config_(std::move(config)) {
     detail::require<IoError>(out_.good(), "JsonLinesSink: the output stream is not writable");
-    if (!config_.source.empty()) {
-      prefix_ = "\"source\":";
-      detail::append_json_string(prefix_, config_.source);
-      prefix_ += ',';
-    }
+    prefix_ = "\"schema\":";
+    detail::append_integer(prefix_, event_schema_version);
+    prefix_ += ",\"source\":";
+    detail::append_json_string(prefix_, config_.source);
+    prefix_ += ',';
     line_.reserve(256);
   }
 
@@ -69,6 +73,17 @@ public:
         number(e.event.position->y);
       } else {
         line_ += "null,\"y\":null";
+      }
+      const OutputGesture& g = frame.gesture;
+      if (g.available && !g.label.empty()) {
+        line_ += ",\"gesture\":";
+        detail::append_json_string(line_, g.label);
+        line_ += ",\"confidence\":";
+        number(g.confidence);
+        line_ += ",\"gesture_frame\":";
+        detail::append_integer(line_, g.frame_index);
+      } else {
+        line_ += ",\"gesture\":null,\"confidence\":null,\"gesture_frame\":null";
       }
       line_ += "}\n";
       out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));

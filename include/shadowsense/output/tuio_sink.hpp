@@ -10,6 +10,14 @@
 //   /tuio/2Dblb alive   s_id ...
 //   /tuio/2Dblb set     s x y a w h f X Y A m r   (one per shadow)
 //   /tuio/2Dblb fseq    f
+// When the frame carries a classifier's reading (OutputFrame::gesture.available), the last
+// bundle of the frame also holds, before its fseq, one message of the project's own (TUIO
+// clients ignore addresses they do not know):
+//   /shadowsense/gesture  label confidence frame [class probability]...
+//   label: string, the hand shape ("" while the classifier is gated off: no shadow);
+//   confidence: float32, its probability; frame: int32, the fseq it was computed on (0 when
+//   gated off); then one (string, float32) pair per class in the model's order (none when gated
+//   off, or when the pairs would not fit in max_packet_bytes).
 // s: session id = track id (int32); so the cursor of a hand's contact and the blob of its
 //    shadow share the session id. Every other argument is float32:
 // x, y: position normalised to 0..1 by the frame size (cursor: the contact point; blob: the
@@ -85,13 +93,14 @@ public:
     const double t = frame.timestamp_ms;
     const double w = frame.frame_size.width;
     const double h = frame.frame_size.height;
+    const bool gesture_last = frame.gesture.available; // the gesture ends the last bundle
     if (config_.cursors) {
       ids_.clear();
       for (const OutputContact& c : frame.contacts) ids_.push_back(c.id);
       cur_next_.clear();
       for (const OutputContact& c : frame.contacts)
         cur_next_.push_back(motion(cur_prev_, c.id, c.position.x / w, c.position.y / h, t));
-      emit(cursor_profile, frame, send, [&](std::size_t i) {
+      emit(cursor_profile, frame, send, gesture_last && !config_.blobs, [&](std::size_t i) {
         const Motion& m = cur_next_[i];
         writer_.begin_message(cursor_profile);
         writer_.add_string("set");
@@ -110,7 +119,7 @@ public:
         const double cy = (s.box.y + 0.5 * s.box.height) / h;
         blb_next_.push_back(motion(blb_prev_, s.id, cx, cy, t));
       }
-      emit(blob_profile, frame, send, [&](std::size_t i) {
+      emit(blob_profile, frame, send, gesture_last, [&](std::size_t i) {
         const Motion& m = blb_next_[i];
         const OutputShadow& s = frame.shadows[i];
         const double area = s.area > 0 ? s.area : static_cast<double>(s.box.area());
@@ -128,6 +137,7 @@ public:
   }
 
   static constexpr std::string_view cursor_profile = "/tuio/2Dcur";
+  static constexpr std::string_view gesture_address = "/shadowsense/gesture";
   static constexpr std::string_view blob_profile = "/tuio/2Dblb";
 
 private:
@@ -191,8 +201,56 @@ private:
           fail("shadow id " + std::to_string(s.id) +
                " appears twice in one frame; expected unique session ids");
     }
-    if (config_.cursors) check_fits(cursor_profile, f.contacts.size(), 5);
-    if (config_.blobs) check_fits(blob_profile, f.shadows.size(), 11);
+    if (f.gesture.available) {
+      const OutputGesture& g = f.gesture;
+      if (g.label.find('\0') != std::string::npos) fail("gesture label holds a NUL byte");
+      if (!std::isfinite(g.confidence)) fail("gesture confidence is not finite");
+      if (g.frame_index < 0 || g.frame_index > std::numeric_limits<std::int32_t>::max())
+        fail("gesture frame_index " + std::to_string(g.frame_index) +
+             " does not fit an int32; expected 0..2147483647");
+      if (!g.label.empty() && g.probabilities.size() != g.class_names.size())
+        fail("gesture has " + std::to_string(g.probabilities.size()) + " probabilities for " +
+             std::to_string(g.class_names.size()) + " classes; expected one per class");
+      for (std::size_t i = 0; i < g.probabilities.size(); ++i) {
+        if (!std::isfinite(g.probabilities[i])) fail("gesture probability is not finite");
+        if (g.class_names[i].find('\0') != std::string::npos)
+          fail("gesture class name holds a NUL byte");
+      }
+    }
+    const bool cursor_last = f.gesture.available && !config_.blobs;
+    if (config_.cursors)
+      check_fits(cursor_profile, f.contacts.size(), 5, cursor_last ? &f : nullptr);
+    if (config_.blobs)
+      check_fits(blob_profile, f.shadows.size(), 11, f.gesture.available ? &f : nullptr);
+  }
+
+  // Bytes of the gesture message; with_pairs: with the (class, probability) pairs.
+  static std::size_t gesture_bytes(const OutputGesture& g, bool with_pairs) {
+    std::size_t tags = 3, args = padded(g.label.size() + 1) + 4 + 4;
+    if (with_pairs && !g.label.empty())
+      for (const std::string& c : g.class_names) tags += 2, args += padded(c.size() + 1) + 4;
+    return element_bytes(gesture_address, tags, args);
+  }
+  // The gesture message's bytes as sent: with the pairs when a bundle of `profile` with no set
+  // message has room for them.
+  std::size_t gesture_bytes_sent(std::string_view profile, std::size_t alive,
+                                 const OutputGesture& g) const {
+    const std::size_t with = gesture_bytes(g, true);
+    return bundle_overhead(profile, alive) + with <= config_.max_packet_bytes
+               ? with
+               : gesture_bytes(g, false);
+  }
+  void add_gesture(const OutputGesture& g, bool with_pairs) {
+    writer_.begin_message(gesture_address);
+    writer_.add_string(g.label);
+    writer_.add_float(g.label.empty() ? 0.f : g.confidence);
+    writer_.add_int(static_cast<std::int32_t>(g.label.empty() ? 0 : g.frame_index));
+    if (with_pairs && !g.label.empty())
+      for (std::size_t i = 0; i < g.class_names.size(); ++i) {
+        writer_.add_string(g.class_names[i]);
+        writer_.add_float(g.probabilities[i]);
+      }
+    writer_.end_message();
   }
 
   std::size_t bundle_overhead(std::string_view profile, std::size_t alive) const {
@@ -206,21 +264,28 @@ private:
   static std::size_t set_bytes(std::string_view profile, std::size_t floats) {
     return element_bytes(profile, 2 + floats, padded(4) + 4 + 4 * floats);
   }
-  void check_fits(std::string_view profile, std::size_t alive, std::size_t floats) const {
+  void check_fits(std::string_view profile, std::size_t alive, std::size_t floats,
+                  const OutputFrame* with_gesture) const {
     const std::size_t need =
-        bundle_overhead(profile, alive) + (alive ? set_bytes(profile, floats) : 0);
+        bundle_overhead(profile, alive) + (alive ? set_bytes(profile, floats) : 0) +
+        (with_gesture ? gesture_bytes_sent(profile, alive, with_gesture->gesture) : 0);
     if (need > config_.max_packet_bytes)
       fail(std::to_string(alive) + " alive ids in " + std::string(profile) + " need a " +
            std::to_string(need) + "-byte bundle, more than max_packet_bytes (" +
            std::to_string(config_.max_packet_bytes) + ")");
   }
 
+  // One or more bundles of `profile`; with_gesture: the last one ends with the gesture message.
   template <class Send, class AddSet>
-  void emit(std::string_view profile, const OutputFrame& frame, Send& send, AddSet&& add_set) {
+  void emit(std::string_view profile, const OutputFrame& frame, Send& send, bool with_gesture,
+            AddSet&& add_set) {
     const std::size_t n = ids_.size();
     const std::size_t floats = profile == cursor_profile ? 5 : 11;
     const std::size_t per_set = set_bytes(profile, floats);
-    const std::size_t fseq_bytes = element_bytes(profile, 2, padded(5) + 4);
+    const std::size_t g_bytes = with_gesture ? gesture_bytes_sent(profile, n, frame.gesture) : 0;
+    const bool g_pairs = with_gesture && g_bytes == gesture_bytes(frame.gesture, true);
+    // Room kept in every bundle for the gesture message, so the last one always has it.
+    const std::size_t fseq_bytes = element_bytes(profile, 2, padded(5) + 4) + g_bytes;
     std::size_t i = 0;
     do {
       writer_.clear();
@@ -237,6 +302,7 @@ private:
       writer_.end_message();
       while (i < n && writer_.size() + per_set + fseq_bytes <= config_.max_packet_bytes)
         add_set(i++);
+      if (with_gesture && i >= n) add_gesture(frame.gesture, g_pairs);
       writer_.begin_message(profile);
       writer_.add_string("fseq");
       writer_.add_int(static_cast<std::int32_t>(frame.frame_index));

@@ -14,7 +14,14 @@
 // simultaneous tracks) update() makes no heap allocation.
 //
 // BasicTouchPipeline<Rule>(segmenter, tracker_config, touch_config)
-//   requires: valid configs (see ContactTracker, TouchStateMachine).
+//   requires: valid configs (see ContactTracker, TouchStateMachine). With the calibrated rule
+//             (TouchPipeline): a calibrated segmenter - an empty-skin model (a calibration file
+//             from ss_calibrate, or set_empty_skin), Config::adaptive (the first frame is taken
+//             as the empty skin), or the paper's fixed colour ranges (SegmentMode::fixed_ranges,
+//             chosen by name). A relative-mode segmenter with none of these judges every frame
+//             against itself and reports phantom shadows on an empty skin: refused with
+//             InvalidArgument, unless the caller opts in by name with
+//             BasicTouchPipeline(uncalibrated, segmenter, ...).
 //   ensures:  the pipeline owns a copy of `segmenter` (with its empty-skin model).
 // update(frame, timestamp_ms) -> const TouchFrame&
 //   requires: a frame the segmenter accepts; a finite timestamp greater than the previous one.
@@ -45,6 +52,7 @@
 #include <cmath>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -76,12 +84,35 @@ struct TouchFrame {
   std::size_t dropped_contact_blobs = 0;
 };
 
+// The opt-in, by name, to a TouchPipeline whose segmenter has no calibration.
+struct Uncalibrated {
+  explicit Uncalibrated() = default;
+};
+inline constexpr Uncalibrated uncalibrated{};
+
 template <PixelRule Rule>
 class BasicTouchPipeline {
 public:
   explicit BasicTouchPipeline(BasicSegmenter<Rule> segmenter,
                               const ContactTracker::Config& tracker = {},
                               const TouchStateMachine::Config& touch = {})
+      : BasicTouchPipeline(uncalibrated, std::move(segmenter), tracker, touch) {
+    if constexpr (std::is_same_v<Rule, CalibratedRule>) {
+      const SegmenterConfig& c = segmenter_.config();
+      if (c.calibration.mode == SegmentMode::relative && !segmenter_.has_empty_skin() &&
+          !c.adaptive)
+        SHADOWSENSE_THROW(InvalidArgument(
+            "TouchPipeline: the segmenter is not calibrated (no empty-skin model); an "
+            "uncalibrated segmenter reports phantom shadows on an empty skin. Load a calibration "
+            "(load_calibration of a file made by ss_calibrate), call set_empty_skin, set "
+            "SegmenterConfig::adaptive, or choose the paper's fixed colour ranges "
+            "(SegmentMode::fixed_ranges); to run uncalibrated anyway, construct it as "
+            "TouchPipeline(uncalibrated, segmenter)"));
+    }
+  }
+  BasicTouchPipeline(Uncalibrated, BasicSegmenter<Rule> segmenter,
+                     const ContactTracker::Config& tracker = {},
+                     const TouchStateMachine::Config& touch = {})
       : segmenter_(std::move(segmenter)), tracker_(tracker), touch_config_(touch) {
     TouchStateMachine check(touch); // validates the config now
     (void)check;

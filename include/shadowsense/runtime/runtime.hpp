@@ -1,0 +1,172 @@
+// Runtime: the whole system of the paper in one type - touch events (segmenter, multi-touch
+// tracker, one state machine per track) and the hand-shape gesture (the classifier, run only
+// while a shadow is seen) - returning one result per camera frame.
+//
+// Each update(frame, t): the TouchPipeline runs on the frame; when it found at least one shadow
+// blob (the gate is open) and the runtime has a classifier, the classifier runs on the whole
+// frame (its model's own encoding: lighting normalisation, dark-frame rule, preprocessing) every
+// Config::classify_every-th frame of the shadow's presence, starting with the first; between,
+// the last reading is carried with the frame it was computed on. While no shadow is seen the
+// reading is empty (label ""): no inference, as in the paper's gating. Frames are numbered from
+// 1 (the first update) and the number is the sinks' frame_index, so every program and sink
+// counts frames one way.
+//
+// BasicRuntime<Rule, Backend>(pipeline, classifier, config = {})
+//   requires: config.classify_every >= 1 (InvalidArgument). classifier may be std::nullopt:
+//             touch events only (RuntimeFrame::gesture.available is false).
+//   ensures:  the runtime owns both (moved in).
+// update(frame, timestamp_ms) -> const RuntimeFrame&
+//   requires: as TouchPipeline::update (a frame the segmenter accepts, strictly increasing
+//             finite timestamps).
+//   ensures:  frame_index = previous + 1; touch = the pipeline's TouchFrame of this frame;
+//             gesture as above; classified = the classifier ran on this frame. output() is the
+//             same frame as sinks take it (OutputFrameBuilder, with the gesture). After warm-up
+//             no heap allocation (the pipeline's, the classifier's and the result's buffers are
+//             reused). The reference stays valid until the next update/flush.
+//   throws:   what the pipeline or the classifier throws (InvalidArgument for a bad frame or
+//             timestamp, Error for a broken backend); the runtime is then still usable.
+// flush(timestamp_ms) -> const RuntimeFrame&
+//   requires: as TouchPipeline::flush.
+//   ensures:  the stream ends: the pipeline's pending lifts and disappears, as one more frame
+//             (frame_index = previous + 1, the last frame's size, no gesture).
+// output() -> const OutputFrame&: the last update/flush as the event sinks take it.
+// Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
+// ConcurrentUseError when one instance is used from two threads at once. The classifier's own
+// thread pool (DenseNet::Config::threads) works inside update().
+#pragma once
+
+#include <shadowsense/classify/backend.hpp>
+#include <shadowsense/classify/classifier.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/thread_owner.hpp>
+#include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+struct RuntimeConfig {
+  // While a shadow is seen, classify every n-th frame of its presence (1 = every frame); the
+  // reading is carried in between.
+  int classify_every = 1;
+};
+
+// Everything one frame produced.
+struct RuntimeFrame {
+  std::int64_t frame_index = 0; // 1 for the first update
+  double timestamp_ms = 0;
+  cv::Size frame_size{};
+  TouchFrame touch;        // tracks, shadow boxes, contact points, touch events
+  OutputGesture gesture{}; // the hand shape (available: the runtime has a classifier)
+  bool classified = false; // the classifier ran on this frame
+};
+
+template <PixelRule Rule, ClassifierBackend Backend>
+class BasicRuntime {
+public:
+  using Config = RuntimeConfig;
+
+  BasicRuntime(BasicTouchPipeline<Rule> pipeline, std::optional<Classifier<Backend>> classifier,
+               const Config& config = {})
+      : pipeline_(std::move(pipeline)), classifier_(std::move(classifier)), config_(config) {
+    if (!(config.classify_every >= 1))
+      SHADOWSENSE_THROW(InvalidArgument("Runtime: classify_every is " +
+                                        std::to_string(config.classify_every) +
+                                        "; expected 1 or more (1 = every frame)"));
+    OutputGesture& g = result_.gesture;
+    g.available = classifier_.has_value();
+    if (classifier_) {
+      for (const std::string& c : classifier_->class_names()) g.class_names.push_back(c);
+      g.probabilities.reserve(g.class_names.size());
+      reading_.probabilities.reserve(g.class_names.size());
+      reading_.label.reserve(32);
+      g.label.reserve(32);
+    }
+  }
+
+  const RuntimeFrame& update(const cv::Mat& frame, double timestamp_ms) {
+    const auto guard = owner_.enter("Runtime");
+    const TouchFrame& touch = pipeline_.update(frame, timestamp_ms);
+    const std::int64_t index = frame_index_ + 1;
+    result_.touch = touch; // vector assignments: storage reused
+    result_.frame_index = index;
+    result_.timestamp_ms = timestamp_ms;
+    result_.frame_size = frame.size();
+    result_.classified = false;
+    OutputGesture& g = result_.gesture;
+    const bool gate_open = !touch.shadow_boxes.empty();
+    if (classifier_ && gate_open) {
+      if (g.label.empty() || index - g.frame_index >= config_.classify_every) {
+        frame_index_ = index; // a failing classifier still consumes the frame number
+        classifier_->classify(frame, reading_);
+        g.label = reading_.label;
+        g.probabilities.assign(reading_.probabilities.begin(), reading_.probabilities.end());
+        g.confidence = reading_.probabilities[static_cast<std::size_t>(reading_.index)];
+        g.frame_index = index;
+        result_.classified = true;
+      }
+    } else {
+      clear_reading();
+    }
+    frame_index_ = index;
+    output_ = &builder_.build(result_.touch, result_.frame_size, g);
+    return result_;
+  }
+
+  const RuntimeFrame& flush(double timestamp_ms) {
+    const auto guard = owner_.enter("Runtime");
+    const TouchFrame& touch = pipeline_.flush(timestamp_ms);
+    result_.touch = touch;
+    result_.frame_index = ++frame_index_;
+    result_.timestamp_ms = timestamp_ms;
+    result_.classified = false;
+    clear_reading();
+    if (result_.frame_size.empty()) result_.frame_size = cv::Size(1, 1); // flushed before a frame
+    output_ = &builder_.build(result_.touch, result_.frame_size, result_.gesture);
+    return result_;
+  }
+
+  // The last update/flush as the event sinks take it (requires: one update or flush before).
+  const OutputFrame& output() const {
+    if (!output_)
+      SHADOWSENSE_THROW(InvalidArgument("Runtime::output: no frame yet; call update() first"));
+    return *output_;
+  }
+  const RuntimeFrame& last() const { return result_; }
+
+  BasicTouchPipeline<Rule>& pipeline() { return pipeline_; }
+  const BasicTouchPipeline<Rule>& pipeline() const { return pipeline_; }
+  // The last frame's segmentation (masks, blobs).
+  const Segmentation& segmentation() const { return pipeline_.segmentation(); }
+  bool has_classifier() const { return classifier_.has_value(); }
+  // The classifier, or nullptr when the runtime has none.
+  Classifier<Backend>* classifier() { return classifier_ ? &*classifier_ : nullptr; }
+  const Config& config() const { return config_; }
+
+private:
+  void clear_reading() {
+    OutputGesture& g = result_.gesture;
+    g.label.clear();
+    g.confidence = 0;
+    g.frame_index = 0;
+    g.probabilities.clear();
+  }
+
+  BasicTouchPipeline<Rule> pipeline_;
+  std::optional<Classifier<Backend>> classifier_;
+  Config config_;
+  RuntimeFrame result_;
+  Classification reading_;
+  OutputFrameBuilder builder_;
+  const OutputFrame* output_ = nullptr;
+  std::int64_t frame_index_ = 0;
+  ThreadOwner owner_;
+};
+
+SHADOWSENSE_NAMESPACE_END

@@ -1,0 +1,239 @@
+// Runtime (runtime/runtime.hpp) on sequences rendered by the scene generator: the touch events
+// are the TouchPipeline's, the classifier runs exactly on the frames where a shadow is seen and
+// its probabilities are the Classifier's on those frames bit for bit; classify_every carries a
+// reading with the frame it was computed on; a user-defined backend plugs in through the
+// ClassifierBackend concept; and TouchPipeline refuses an uncalibrated segmenter unless the
+// caller opts in by name.
+#include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/output/csv_sink.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
+#include <shadowsense/sim.hpp>
+
+#include <doctest/doctest.h>
+
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+using namespace shadowsense;
+
+namespace {
+
+sim::Renderer& renderer() {
+  static sim::Renderer r(sim::Rig::robot());
+  return r;
+}
+
+const SimCalibration& calibration() {
+  static const SimCalibration c = calibrate_on_sim(renderer(), 0xC0FFEE, 12);
+  return c;
+}
+
+// 24 frames: empty skin, a palm coming down, touching and sliding, lifted, empty again, a fist.
+std::vector<cv::Mat> sequence() {
+  std::vector<cv::Mat> out;
+  sim::User user;
+  auto hand = [&](sim::HandShape shape, double x, double height) {
+    sim::Scene s;
+    sim::HandPose h;
+    h.shape = shape;
+    h.position_cm = {x, 0};
+    h.height_cm = height;
+    h.rotation_deg = -90;
+    h.arm_elevation_deg = shape == sim::HandShape::fist ? 55 : 35;
+    sim::add_hand(s.parts, user, h);
+    return s;
+  };
+  std::vector<sim::Scene> script(3);
+  for (double h : {8.0, 3.0, 0.0, 0.0}) script.push_back(hand(sim::HandShape::open, -10, h));
+  for (int k = 1; k <= 6; ++k) script.push_back(hand(sim::HandShape::open, -10 + 3 * k, 0));
+  for (double h : {3.0, 12.0}) script.push_back(hand(sim::HandShape::open, 8, h));
+  for (int k = 0; k < 3; ++k) script.emplace_back();
+  for (double h : {4.0, 0.0, 0.0, 0.0, 6.0}) script.push_back(hand(sim::HandShape::fist, 5, h));
+  script.emplace_back();
+  for (std::size_t i = 0; i < script.size(); ++i)
+    out.push_back(
+        renderer().render(script[i], sim::preset(sim::Lighting::daylight), 300 + i).image);
+  return out;
+}
+
+const ModelFile& model() {
+  static const ModelFile m = ModelFile::load(SHADOWSENSE_SOURCE_DIR "/models/default.ssm");
+  return m;
+}
+
+// A backend of the user's own: two classes, logits from the frame's mean brightness, and a
+// count of the calls.
+struct BrightnessBackend {
+  std::vector<std::string> names{"dark", "bright"};
+  std::vector<float> out = std::vector<float>(2);
+  int calls = 0;
+  std::span<const std::string> class_names() const { return names; }
+  std::span<const float> logits(const Tensor& x) {
+    ++calls;
+    double sum = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) sum += x.data()[i];
+    const double mean = sum / static_cast<double>(x.size());
+    out = {static_cast<float>(-mean), static_cast<float>(mean)};
+    return out;
+  }
+};
+static_assert(ClassifierBackend<BrightnessBackend>);
+
+} // namespace
+
+TEST_CASE("Runtime: the TouchPipeline's events, the classifier on exactly the shadow frames") {
+  const std::vector<cv::Mat> frames = sequence();
+  TouchPipeline reference(segmenter_from(calibration()));
+  auto classifier = make_densenet_classifier(model());
+  Runtime sense(TouchPipeline(segmenter_from(calibration())), make_densenet_classifier(model()));
+  CHECK(sense.has_classifier());
+  int classified = 0, gated = 0, events = 0;
+  double t = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    t = 40.0 * static_cast<double>(i);
+    const TouchFrame& want = reference.update(frames[i], t);
+    const RuntimeFrame& got = sense.update(frames[i], t);
+    INFO("frame " << i + 1);
+    CHECK(got.frame_index == static_cast<std::int64_t>(i) + 1);
+    CHECK(got.timestamp_ms == t);
+    CHECK(got.frame_size == frames[i].size());
+    REQUIRE(got.touch.events.size() == want.events.size());
+    for (std::size_t k = 0; k < want.events.size(); ++k) {
+      CHECK(got.touch.events[k].track_id == want.events[k].track_id);
+      CHECK(got.touch.events[k].event.to == want.events[k].event.to);
+      CHECK(got.touch.events[k].event.timestamp_ms == want.events[k].event.timestamp_ms);
+    }
+    events += static_cast<int>(want.events.size());
+    CHECK(got.gesture.available);
+    if (!want.shadow_boxes.empty()) {
+      ++classified;
+      const Classification c = classifier.classify(frames[i]);
+      CHECK(got.classified);
+      CHECK(got.gesture.label == c.label);
+      CHECK(got.gesture.frame_index == got.frame_index);
+      CHECK(got.gesture.probabilities == c.probabilities); // bit for bit
+      CHECK(got.gesture.confidence == c.probabilities[static_cast<std::size_t>(c.index)]);
+    } else {
+      ++gated;
+      CHECK_FALSE(got.classified);
+      CHECK(got.gesture.label.empty());
+      CHECK(got.gesture.probabilities.empty());
+    }
+    // The sinks' frame is this frame, with its gesture.
+    const OutputFrame& out = sense.output();
+    CHECK(out.frame_index == got.frame_index);
+    CHECK(out.events.size() == got.touch.events.size());
+    CHECK(out.gesture.label == got.gesture.label);
+    CHECK(out.gesture.class_names.size() == 6);
+  }
+  CHECK(classified >= 12); // the palm and the fist
+  CHECK(gated >= 4);       // the empty skin before, between and after
+  CHECK(events >= 6);
+  // The end of the stream: one more frame with the pending lifts and no gesture.
+  const TouchFrame& want_end = reference.flush(t + 40);
+  const RuntimeFrame& end = sense.flush(t + 40);
+  CHECK(end.frame_index == static_cast<std::int64_t>(frames.size()) + 1);
+  CHECK(end.touch.events.size() == want_end.events.size());
+  CHECK(end.gesture.label.empty());
+  CHECK_FALSE(end.classified);
+}
+
+TEST_CASE("Runtime: classify_every carries the reading with the frame it was computed on") {
+  const std::vector<cv::Mat> frames = sequence();
+  Runtime every3(TouchPipeline(segmenter_from(calibration())), make_densenet_classifier(model()),
+                 {.classify_every = 3});
+  Runtime every1(TouchPipeline(segmenter_from(calibration())), make_densenet_classifier(model()));
+  std::int64_t reading_from = 0;
+  int runs = 0, shadow_frames = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const double t = 40.0 * static_cast<double>(i);
+    const RuntimeFrame& a = every3.update(frames[i], t);
+    const RuntimeFrame& b = every1.update(frames[i], t);
+    INFO("frame " << i + 1);
+    if (b.gesture.label.empty()) { // no shadow: both gated off, the count starts again
+      CHECK(a.gesture.label.empty());
+      reading_from = 0;
+      continue;
+    }
+    ++shadow_frames;
+    const bool due = reading_from == 0 || a.frame_index - reading_from >= 3;
+    CHECK(a.classified == due);
+    if (due) {
+      reading_from = a.frame_index;
+      ++runs;
+      CHECK(a.gesture.probabilities == b.gesture.probabilities);
+    }
+    CHECK(a.gesture.frame_index == reading_from);
+  }
+  CHECK(runs < shadow_frames);
+  CHECK(runs >= shadow_frames / 3);
+  CHECK_THROWS_WITH_AS(
+      Runtime(TouchPipeline(segmenter_from(calibration())), std::nullopt, {.classify_every = 0}),
+      doctest::Contains("classify_every is 0"), InvalidArgument);
+}
+
+TEST_CASE("Runtime with a user-defined backend and without a classifier") {
+  const std::vector<cv::Mat> frames = sequence();
+  BasicRuntime<CalibratedRule, BrightnessBackend> user(
+      TouchPipeline(segmenter_from(calibration())),
+      Classifier<BrightnessBackend>(BrightnessBackend{}, {model().preprocess}));
+  BasicRuntime<CalibratedRule, BrightnessBackend> none(TouchPipeline(segmenter_from(calibration())),
+                                                       std::nullopt);
+  CHECK_FALSE(none.has_classifier());
+  CHECK(none.classifier() == nullptr);
+  int shadow_frames = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const RuntimeFrame& r = user.update(frames[i], 40.0 * static_cast<double>(i));
+    const RuntimeFrame& n = none.update(frames[i], 40.0 * static_cast<double>(i));
+    shadow_frames += !r.touch.shadow_boxes.empty();
+    if (!r.touch.shadow_boxes.empty())
+      CHECK((r.gesture.label == "dark" || r.gesture.label == "bright"));
+    CHECK_FALSE(n.gesture.available);
+    CHECK(n.touch.events.size() == r.touch.events.size());
+  }
+  CHECK(user.classifier()->backend().calls == shadow_frames); // the gate, for any backend
+  // Without a classifier the sinks write no gesture.
+  std::ostringstream csv;
+  CsvSink sink(csv, {.source = "", .header = false});
+  const RuntimeFrame& end = none.flush(40.0 * static_cast<double>(frames.size()));
+  sink.write(none.output());
+  CHECK(end.touch.events.size() >= 1);
+  CHECK(csv.str().find(",,,\n") != std::string::npos);
+}
+
+TEST_CASE("TouchPipeline refuses an uncalibrated segmenter unless the caller opts in by name") {
+  CHECK_THROWS_WITH_AS(TouchPipeline{Segmenter(SegmenterConfig{})},
+                       doctest::Contains("not calibrated (no empty-skin model)"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(TouchPipeline{Segmenter(SegmenterConfig{})},
+                       doctest::Contains("TouchPipeline(uncalibrated, segmenter)"),
+                       InvalidArgument);
+  // Opting in: by name, the paper's fixed colour ranges, the adaptive model, or a calibration.
+  CHECK_NOTHROW(TouchPipeline(uncalibrated, Segmenter(SegmenterConfig{})));
+  SegmenterConfig fixed;
+  fixed.calibration.mode = SegmentMode::fixed_ranges;
+  CHECK_NOTHROW(TouchPipeline{Segmenter(fixed)});
+  SegmenterConfig adaptive;
+  adaptive.adaptive = true;
+  CHECK_NOTHROW(TouchPipeline{Segmenter(adaptive)});
+  CHECK_NOTHROW(TouchPipeline{segmenter_from(calibration())});
+  // Why it matters: on the empty skin an uncalibrated pipeline reports phantom shadows the
+  // calibrated one does not.
+  std::vector<cv::Mat> empty;
+  for (int k = 0; k < 6; ++k)
+    empty.push_back(renderer()
+                        .render(sim::Scene{}, sim::light_from_level(0.2 * k, 30),
+                                700 + static_cast<std::uint64_t>(k))
+                        .image);
+  TouchPipeline raw(uncalibrated, Segmenter(SegmenterConfig{}));
+  TouchPipeline calibrated(segmenter_from(calibration()));
+  std::size_t raw_shadows = 0, calibrated_shadows = 0;
+  for (std::size_t i = 0; i < empty.size(); ++i) {
+    raw_shadows += raw.update(empty[i], 40.0 * static_cast<double>(i)).shadow_boxes.size();
+    calibrated_shadows +=
+        calibrated.update(empty[i], 40.0 * static_cast<double>(i)).shadow_boxes.size();
+  }
+  CHECK(calibrated_shadows == 0);
+  CHECK(raw_shadows > 0);
+}
