@@ -1,4 +1,5 @@
 # Helpers shared by the tests/install/*.cmake scripts (cmake -P).
+cmake_minimum_required(VERSION 3.20) # policies of this CMake (lists keep empty elements)
 
 # run(<command...>): runs it, fails the test with its output unless it exits 0; leaves its
 # stdout/stderr in run_out/run_err.
