@@ -1,7 +1,7 @@
 # The installed programs run from <PREFIX>/bin alone: PATH is <PREFIX>/bin plus /usr/bin (for
 # the shell), nothing from the build or source tree.
 #   - every program (one per examples/*.cpp) answers --version by its bare name;
-#   - ss_classify --help and ss_train_head --help name the installed model
+#   - the --help of ss_classify, ss_train_head and ss_eval_classify names the installed model
 #     (<PREFIX>/<DATADIR>/shadowsense/models/default.ssm) as their default;
 #   - a copy of ss_classify outside the prefix finds no model and says where it looked: beside
 #     itself only, never the source tree;
@@ -29,7 +29,7 @@ foreach(program IN LISTS programs)
   endif()
 endforeach()
 
-foreach(program IN ITEMS ss_classify ss_train_head)
+foreach(program IN ITEMS ss_classify ss_train_head ss_eval_classify)
   installed("${program} --help")
   string(REGEX REPLACE "\n +" " " help "${run_out}") # undo the help text's line wrapping
   must_contain("${help}" "${program} --help" "the installed model (${installed_model})")
