@@ -7,7 +7,8 @@
 //
 // INPUT: a folder (images found recursively: .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm,
 // sorted by path, names starting with '.' skipped) or a video file (when built with OpenCV
-// videoio). --model defaults to the shipped models/default.ssm.
+// videoio). --model defaults to the shipped model, found by common/model_path.hpp (installed,
+// $SHADOWSENSE_MODEL, or the source tree's when run from the build folder).
 // stdout: one line per frame.
 //   csv (default): header "frame,source,dark,label,<class 1>,...,<class n>", then the frame
 //                  number (from 0), the image path or "VIDEO#k", whether the dark-frame rule
@@ -27,6 +28,7 @@
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/model_path.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
@@ -41,10 +43,6 @@
 #include <string_view>
 #include <vector>
 
-#ifndef SHADOWSENSE_DEFAULT_MODEL
-#define SHADOWSENSE_DEFAULT_MODEL "models/default.ssm"
-#endif
-
 namespace ss = shadowsense;
 namespace fs = std::filesystem;
 
@@ -57,7 +55,7 @@ constexpr const char* usage =
     "Classifies every frame of INPUT (a folder of images, searched recursively and sorted by\n"
     "path, or a video file) with a shadowsense model file and prints one line per frame.\n"
     "\n"
-    "  --model FILE          model file (default: " SHADOWSENSE_DEFAULT_MODEL ")\n"
+    "  --model FILE          model file (default: @DEFAULT_MODEL@)\n"
     "  --format csv|json     csv (default): frame,source,dark,label,<one column per class>;\n"
     "                        json: one object per line with frame, source, dark, label,\n"
     "                        index and probabilities {class: p}\n"
@@ -72,7 +70,7 @@ constexpr const char* usage =
     "Exit status 0 on success, 2 on an error (message on stderr).\n";
 
 struct Options {
-  std::string model = SHADOWSENSE_DEFAULT_MODEL;
+  std::string model; // empty: cli::find_default_model
   std::string input;
   bool json = false, truth = false, force_normalise = false;
   int threads = 1;
@@ -83,7 +81,10 @@ Options parse(int argc, char** argv) {
   Options o;
   std::string format = "csv";
   cli::Parser p("ss_classify", "Classifies every frame of INPUT with a shadowsense model file.");
-  p.help_text(usage);
+  std::string help = usage;
+  const std::string marker = "@DEFAULT_MODEL@";
+  help.replace(help.find(marker), marker.size(), cli::default_model_help(argv[0]));
+  p.help_text(help);
   cli::Style style;
   style.equals = cli::Style::Equals::none;
   style.repeat_replaces = true;
@@ -109,6 +110,11 @@ Options parse(int argc, char** argv) {
   o.json = format == "json";
   if (o.input.empty())
     throw cli::UsageError("INPUT is required: a folder of images or a video file");
+  if (o.model.empty()) { // say which file the default is, as --help does
+    std::string what;
+    o.model = cli::find_default_model(argv[0], &what).string();
+    std::cerr << "ss_classify: model " << o.model << " (" << what << ")\n";
+  }
   return o;
 }
 

@@ -6,11 +6,12 @@
 // (tools/train.py, models/make_eval_backbones.sh), so no model scoring a split has seen its test
 // users or lighting (docs/classification_eval.md).
 //
-//   ss_eval_classify --data DIR --backbone ALL.ssm [--backbone-dir DIR] [--lighting-normalise]
+//   ss_eval_classify --data DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--lighting-normalise]
 //                    [--tables 1,2,3,4] [--json OUT.json] [--confusion-dir DIR] [--threads N]
 //   ss_eval_classify --speed MODEL.ssm[@WxH] ... [--data DIR --subsample K]   (speed vs error)
 //
-// --backbone: Tables 1 and 2 (must not have seen the evaluation users).
+// --backbone: Tables 1 and 2 (must not have seen the evaluation users); default: the shipped
+// model (common/model_path.hpp), trained on generated users 100-135.
 // --backbone-dir: no_<lighting>.ssm (Table 3: never saw that lighting) and only_<lighting>.ssm
 // (Table 4: saw only that lighting), for daylight, dusk and night.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
@@ -20,6 +21,7 @@
 
 #include "common/cli.hpp"
 #include "common/json.hpp"
+#include "common/model_path.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -374,13 +376,14 @@ Options parse_options(int argc, char** argv) {
                 "folder: every split trains a linear classifier on frozen backbone features and "
                 "scores the split's test frames (docs/classification_eval.md). --score scores a "
                 "model as it is; --speed times models (speed vs error).");
-  p.usage("ss_eval_classify --data DIR --backbone ALL.ssm [--backbone-dir DIR] [--tables LIST] "
+  p.usage("ss_eval_classify --data DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--tables LIST] "
           "[options]");
   p.usage("ss_eval_classify --score MODEL --data DIR [options]");
   p.usage("ss_eval_classify --speed MODEL[@WxH] ... [--data DIR --subsample K] [options]");
   p.option("--data", "DIR", "gesture folder (dataset format)", o.data);
   p.option("--backbone", "ALL.ssm", "backbone of Tables 1 and 2 (never saw the evaluated users)",
-           o.backbone);
+           o.backbone)
+      .default_text(cli::default_model_help(argv[0]) + ", trained on generated users 100-135");
   p.option("--backbone-dir", "DIR",
            "no_<lighting>.ssm (Table 3) and only_<lighting>.ssm (Table 4) backbones",
            o.backbone_dir);
@@ -407,12 +410,16 @@ Options parse_options(int argc, char** argv) {
   p.parse(argc, argv);
   o.tables = std::set<int>(tables.begin(), tables.end());
   if (o.speed_models.empty() && o.score_model.empty()) {
-    if (o.data.empty() || o.backbone.empty())
-      throw cli::UsageError(
-          "--data and --backbone are required (or --score / --speed; see --help)");
+    if (o.data.empty())
+      throw cli::UsageError("--data is required (or --score / --speed; see --help)");
     if ((o.tables.count(3) || o.tables.count(4)) && o.backbone_dir.empty())
       throw cli::UsageError(
           "--backbone-dir: Tables 3 and 4 need it (no_<lighting>.ssm, only_<lighting>.ssm)");
+    if (o.backbone.empty()) { // say which file the default is, as --help does
+      std::string what;
+      o.backbone = cli::find_default_model(argv[0], &what).string();
+      std::cerr << "ss_eval_classify: backbone " << o.backbone << " (" << what << ")\n";
+    }
   }
   return o;
 }

@@ -2,7 +2,7 @@
 // linear classifier is trained on a labelled image folder with the paper's recipe (Adam 1e-3,
 // batch 16, 20 epochs, best epoch by validation accuracy), and a new model file is written.
 //
-//   ss_train_head --model BASE.ssm --data DIR --out NEW.ssm [--val-fraction 0.3]
+//   ss_train_head [--model BASE.ssm] --data DIR --out NEW.ssm [--val-fraction 0.3]
 //                 [--users 0,1] [--lightings night] [--epochs 20] [--lighting-normalise]
 //                 [--fine-tune] [--seed S] [--threads N]
 //                 [--anchor L] [--balanced] [--standardise] [--augment K]
@@ -20,10 +20,13 @@
 // trains on standardised features (folded back into the written classifier), --augment K adds
 // K randomly shifted/scaled/rotated/mirrored/re-exposed copies of every training frame
 // (FrameAugmenter, through the real preprocessing and backbone).
+// --model defaults to the shipped model, found by common/model_path.hpp (installed,
+// $SHADOWSENSE_MODEL, or the source tree's when run from the build folder).
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/model_path.hpp"
 
 #include <cstdio>
 #include <iostream>
@@ -45,7 +48,8 @@ int main(int argc, char** argv) {
                   "Trains a new linear classifier on the frozen DenseNet features of a model "
                   "(Adam 1e-3, batch 16, best epoch by validation accuracy) and writes a new model "
                   "file.");
-    p.option("--model", "BASE.ssm", "model file whose features are used", model_path).required();
+    p.option("--model", "BASE.ssm", "model file whose features are used", model_path)
+        .default_text(cli::default_model_help(argv[0]));
     p.option("--data", "DIR", "labelled gesture folder (dataset format)", data).required();
     p.option("--out", "NEW.ssm", "model file to write", out).required();
     p.option("--val-fraction", "F",
@@ -78,6 +82,11 @@ int main(int argc, char** argv) {
                             "last epoch is kept), got " +
                             std::to_string(val_fraction));
 
+    if (model_path.empty()) { // say which file the default is, as --help does
+      std::string what;
+      model_path = cli::find_default_model(argv[0], &what).string();
+      std::cerr << "ss_train_head: model " << model_path << " (" << what << ")\n";
+    }
     const auto model = ss::ModelFile::load(model_path);
     // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
     auto set = [&] {
