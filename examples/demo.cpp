@@ -207,7 +207,7 @@ int main(int argc, char** argv) {
     p.flag("--save-frames", "also write the rendered frames to DIR/frames/", save_frames);
     p.option("--source", "NAME", "the events' source field in events.csv", source);
     p.parse(argc, argv);
-    if (model_path.empty()) model_path = runner::find_default_model("ss_demo");
+    if (model_path.empty()) model_path = runner::find_default_model(argv[0]);
     const auto t_start = std::chrono::steady_clock::now();
     auto model = ss::ModelFile::load(model_path);
     // On by default (version-1 files do not record it; the shipped version-2 model does).

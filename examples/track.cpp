@@ -57,6 +57,7 @@ struct Options {
   long long max_frames = -1;
   int max_side = 8192, threads = 1, classify_every = 1;
   bool show = false, quiet = false, realtime = false, no_realtime = false;
+  const char* argv0 = "ss_track"; // finds the installed model beside the program
 };
 
 const char* kHelp =
@@ -92,6 +93,7 @@ const char* kHelp =
 // Returns the options; throws cli::Exit once --help or --version has been answered.
 Options parse(int argc, char** argv) {
   Options o;
+  o.argv0 = argv[0];
   std::string tuio;
   cli::Parser p(kProgram, "Touch events and gestures from a folder, a video or a camera.");
   p.help_text(std::string(kHelp) + "Default model: " + runner::default_model_text(argv[0]) + "\n");
@@ -187,7 +189,7 @@ int run(const Options& o) {
   std::optional<Classifier<DenseNet>> classifier;
   fs::path model_path;
   if (o.model != "none") {
-    model_path = o.model.empty() ? runner::find_default_model(kProgram) : fs::path(o.model);
+    model_path = o.model.empty() ? runner::find_default_model(o.argv0) : fs::path(o.model);
     classifier.emplace(
         make_densenet_classifier(ModelFile::load(model_path), {.threads = o.threads}));
   }

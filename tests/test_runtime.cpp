@@ -11,6 +11,9 @@
 
 #include <doctest/doctest.h>
 
+#include <filesystem>
+#include <fstream>
+#include <iostream>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -236,4 +239,75 @@ TEST_CASE("TouchPipeline refuses an uncalibrated segmenter unless the caller opt
   }
   CHECK(calibrated_shadows == 0);
   CHECK(raw_shadows > 0);
+}
+
+namespace {
+
+namespace ss = shadowsense;
+
+// The README's Runtime loop, verbatim between the markers (the test below compares the text).
+template <class Camera>
+void readme_runtime_loop(const Camera& camera) {
+  // clang-format off
+  // README-BEGIN
+  ss::Runtime sense{ss::TouchPipeline{ss::Segmenter({.calibration = ss::load_calibration("skin.calib")})},
+                    ss::make_densenet_classifier(ss::ModelFile::load("default.ssm"))};
+  ss::CsvSink csv(std::cout); // the event schema (docs/output.md); add a TuioSink or your own sink
+  double t_end = 0;
+  for (const auto& [frame, t_ms] : camera) {
+    const ss::RuntimeFrame& r = sense.update(frame, t_ms); // r.touch.events, r.gesture.label
+    ss::publish(sense.output(), csv);
+    t_end = t_ms;
+  }
+  sense.flush(t_end + 33); // the stream ended: pending lifts and disappears
+  ss::publish(sense.output(), csv); // the lifts reach the sinks
+  // README-END
+  // clang-format on
+}
+
+std::vector<std::string> readme_lines(const std::string& path, const std::string& from,
+                                      const std::string& to) {
+  std::vector<std::string> out;
+  std::ifstream in(path);
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    const auto first = line.find_first_not_of(' ');
+    const std::string t = first == std::string::npos ? "" : line.substr(first);
+    if (t.rfind(from, 0) == 0) inside = true;
+    if (inside) out.push_back(t);
+    if (inside && t.find(to) != std::string::npos) break;
+  }
+  return out;
+}
+
+} // namespace
+
+TEST_CASE("the README's Runtime loop is this compiled code, and it prints events with gestures") {
+  const std::string first = "ss::Runtime sense{", last = "the lifts reach the sinks";
+  const auto readme = readme_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
+  const auto here = readme_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
+  REQUIRE(readme.size() == 12);
+  CHECK(readme == here);
+  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_runtime";
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(SHADOWSENSE_SOURCE_DIR "/models/default.ssm", dir / "default.ssm",
+                             std::filesystem::copy_options::overwrite_existing);
+  const auto old = std::filesystem::current_path();
+  std::filesystem::current_path(dir);
+  save_calibration(calibration().config.calibration, "skin.calib");
+  const std::vector<cv::Mat> frames = sequence();
+  std::vector<std::pair<cv::Mat, double>> camera;
+  for (std::size_t i = 0; i < frames.size(); ++i)
+    camera.emplace_back(frames[i], 40.0 * static_cast<double>(i));
+  std::ostringstream printed;
+  std::streambuf* const cout_buf = std::cout.rdbuf(printed.rdbuf());
+  readme_runtime_loop(camera);
+  std::cout.rdbuf(cout_buf);
+  std::filesystem::current_path(old);
+  const std::string text = printed.str();
+  CHECK(text.rfind(std::string(event_csv_header) + "\n", 0) == 0);
+  CHECK(text.find(",appear,touch,") != std::string::npos);
+  CHECK(text.find(",lift,none,") != std::string::npos);
+  CHECK(text.find(",palm,") != std::string::npos); // the palm's touch, with its hand shape
 }

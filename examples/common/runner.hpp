@@ -4,10 +4,7 @@
 //
 // frame_time_ms(i, fps)        the time of frame i (from 0) of a file at fps: i * 1000 / fps, one
 //                              formula for every program (so their events are the same lines).
-// find_default_model(program)  the shipped model: $SHADOWSENSE_MODEL, else the installed
-//                              <prefix>/share/shadowsense/models/default.ssm beside the program's
-//                              bin/, else the source tree's models/default.ssm (build tree only);
-//                              throws IoError naming every place looked at.
+// find_default_model(argv0)    the shipped model (common/model_path.hpp).
 // default_model_text(argv0)    the model find_default_model would take, for --help.
 // parse_tuio_target(spec, option) HOST, HOST:PORT, [IPV6] or [IPV6]:PORT (port
 //                              3333 when not given; a bare IPv6 address without port too); throws
@@ -26,6 +23,7 @@
 
 #include "cli.hpp"
 #include "frame_source.hpp"
+#include "model_path.hpp"
 
 #include <opencv2/imgproc.hpp>
 
@@ -48,36 +46,13 @@ inline double frame_time_ms(long long i, double fps) {
   return static_cast<double>(i) * 1000.0 / fps;
 }
 
-// Where the default model may be, in order.
-inline std::vector<fs::path> default_model_candidates() {
-  std::vector<fs::path> out;
-  if (const char* env = std::getenv("SHADOWSENSE_MODEL"); env && *env) out.emplace_back(env);
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) out.push_back(exe.parent_path().parent_path() / "share/shadowsense/models/default.ssm");
-#ifdef SHADOWSENSE_SOURCE_MODEL
-  out.emplace_back(SHADOWSENSE_SOURCE_MODEL);
-#endif
-  return out;
+// The shipped model (common/model_path.hpp: $SHADOWSENSE_MODEL, the installed one, the source
+// tree's from the build folder); throws IoError naming every place looked at.
+inline fs::path find_default_model(const char* argv0) {
+  return cli::find_default_model(argv0);
 }
-
-inline fs::path find_default_model(const std::string& program) {
-  std::string looked;
-  for (const fs::path& p : default_model_candidates()) {
-    std::error_code ec;
-    if (fs::is_regular_file(p, ec)) return p;
-    looked += "\n  " + p.string();
-  }
-  throw shadowsense::IoError(program + ": no default model found; looked at:" + looked +
-                             "\npass --model FILE (or set SHADOWSENSE_MODEL)");
-}
-
-inline std::string default_model_text(const char* /*argv0*/) {
-  for (const fs::path& p : default_model_candidates()) {
-    std::error_code ec;
-    if (fs::is_regular_file(p, ec)) return p.string();
-  }
-  return "(none found: pass --model FILE)";
+inline std::string default_model_text(const char* argv0) {
+  return cli::default_model_help(argv0);
 }
 
 inline std::pair<std::string, std::uint16_t> parse_tuio_target(const std::string& spec,
