@@ -16,7 +16,7 @@ Usage:
   /usr/bin/python3 tools/realhand/render.py --out DIR [--seed N] [--users 5]
       [--frames-per-user 4] [--tracking-contact 60] [--tracking-empty 120]
       [--tracking-hover 120] [--slides 40] [--hands data/realhand] [--split NAME]
-      [--scale S] [--only WHAT] [--workers N]
+      [--scale S] [--hover-range LO,HI] [--only WHAT] [--workers N]
   --hands (alias --silhouettes): any folder of 1-bit silhouettes with a manifest.csv
   (tools/handsets writes them); --split keeps the rows of one split (e.g. heldout); --scale
   makes every body S times larger on the same rig (a robot whose camera sits closer).
@@ -129,6 +129,7 @@ NEEDS = {"nothing": None, "hug": "palm", "palm": "palm", "point": "point", "punc
 # many times larger on the same rig, as if the camera sat closer to a proportionally larger
 # skin. Heights above the skin (hover) are not scaled. Set once in main() before any worker.
 SCALE = 1.0
+HOVER_CM = (2.5, 15.0)  # height range of hovering hands in tracking frames (--hover-range)
 
 
 POSE_LEN_CM = {"palm": 18.5, "point": 15.0, "punch": 10.5}  # silhouette height for a 1.0 user
@@ -544,7 +545,7 @@ def track_parts(rig, user, cat, rng, centre=None, angle=None):
         centre = (centre[0], centre[1] + 2)
     wrist = (centre[0] - math.sin(a) * L / 2, centre[1] + math.cos(a) * L / 2)
     if cat == "hover":
-        return hand_parts(rig, user, pose, rng, wrist, ang, rng.uniform(2.5, 15), "none")
+        return hand_parts(rig, user, pose, rng, wrist, ang, rng.uniform(*HOVER_CM), "none")
     return hand_parts(rig, user, pose, rng, wrist, ang, 0.0, "tip" if cat == "finger" else "all")
 
 
@@ -665,6 +666,9 @@ def main(argv):
                     help="use only manifest rows whose split column equals this (e.g. heldout)")
     ap.add_argument("--scale", type=float, default=1.0,
                     help="body size multiplier: hands, arms, torso S times larger (default 1)")
+    ap.add_argument("--hover-range", default="2.5,15", metavar="LO,HI",
+                    help="height of hovering hands above the skin in tracking frames, cm "
+                         "(default 2.5,15)")
     ap.add_argument("--only", choices=["gestures", "tracking", "slides"])
     ap.add_argument("--workers", type=int, default=1,
                     help="worker processes; the files are identical for any value")
@@ -678,8 +682,15 @@ def main(argv):
             ap.error(f"--{k.replace('_', '-')} must be >= 0")
     if not (math.isfinite(a.scale) and 0.25 <= a.scale <= 4.0):
         ap.error("--scale must be a number in [0.25, 4]")
-    global SCALE
+    try:
+        lo, hi = (float(v) for v in a.hover_range.split(","))
+    except ValueError:
+        ap.error(f"--hover-range '{a.hover_range}' is not LO,HI (two numbers in cm)")
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= 50):
+        ap.error("--hover-range needs 0 < LO <= HI <= 50 (cm)")
+    global SCALE, HOVER_CM
     SCALE = a.scale
+    HOVER_CM = (lo, hi)
     try:
         sils = load_silhouettes(a.silhouettes, a.split)
         missing = [p for p in ("palm", "point", "punch") if p not in sils]
