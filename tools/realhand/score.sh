@@ -6,7 +6,8 @@
 #
 # usage: tools/realhand/score.sh --model M.ssm --source NAME --scale S [--valsets DIR]
 #                                [--bin DIR] [--json OUT.json] [--render-only]
-#   NAME: realhand | epsrc | rps_heldout      S: 0.6 | 1 | 1.5 | 2 (any number in [0.25, 4])
+#   NAME: realhand | epsrc | rps_heldout      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
+#   name is <source>_s<S>; any number in [0.25, 4] works)
 #   --valsets DIR  rendered folders (default /work/valsets, or $VALSETS)
 #   --bin DIR      folder of ss_eval_classify (default build/examples, or $TRACK_EVAL_BIN_DIR)
 # Exit 0 on success, 2 on bad arguments or a failing step (message on stderr).
@@ -18,7 +19,7 @@ bin=${TRACK_EVAL_BIN_DIR:-$root/build/examples}
 die() { echo "score.sh: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   case $1 in
-    -h|--help) sed -n '2,12p' "$0" | sed 's/^# \{0,1\}//'; exit 0;;
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0;;
     --version) echo "score.sh 1"; exit 0;;
     --model) [ $# -ge 2 ] || die "--model needs a value"; model=$2; shift 2;;
     --source) [ $# -ge 2 ] || die "--source needs a value"; source=$2; shift 2;;
