@@ -255,7 +255,7 @@ void readme_runtime_loop(const Camera& camera) {
   ss::CsvSink csv(std::cout); // the event schema (docs/output.md); add a TuioSink or your own sink
   double t_end = 0;
   for (const auto& [frame, t_ms] : camera) {
-    const ss::RuntimeFrame& r = sense.update(frame, t_ms); // r.touch.events, r.gesture.label
+    sense.update(frame, t_ms); // returns a RuntimeFrame: touch.events, gesture.label, ...
     ss::publish(sense.output(), csv);
     t_end = t_ms;
   }
