@@ -2,7 +2,7 @@
 // Figure 14 (slide direction accuracy against the observed ratio) on datasets written by
 // ss_synth. Keys of the --json output are documented in docs/tracking_eval.md.
 //
-//   ss_track_eval --data DIR [--tracking DIR] [--slides DIR] [--json PATH] [--annotate DIR]
+//   ss_track_eval --input DIR [--tracking DIR] [--slides DIR] [--json PATH] [--annotate DIR]
 //                 [--annotate-limit N] [--calib-seed N] [--calib-frames N]
 //                 [--calibration FILE] [--save-calibration FILE] [--mode relative|fixed_ranges]
 //                 [--differential-window MS] [--roc CSV] [--roc-gate PX] [--roc-pick-frames N]
@@ -63,9 +63,10 @@ Options parse(int argc, char** argv) {
                 "Figure 14 (slide direction accuracy against the observed ratio) on datasets "
                 "written by ss_synth; the segmenter is calibrated on generator frames, never on "
                 "the evaluated ones.");
-  p.usage("ss_track_eval --data DIR [options]");
+  p.usage("ss_track_eval --input DIR [options]");
   p.usage("ss_track_eval --tracking DIR --slides DIR [options]");
-  p.option("--data", "DIR", "folder holding tracking/ and slides/", data);
+  p.option("--input", "DIR", "folder holding tracking/ and slides/", data);
+  p.alias("--data", "--input");
   p.option("--tracking", "DIR", "tracking dataset (instead of DIR/tracking)", o.tracking);
   p.option("--slides", "DIR", "slides dataset (instead of DIR/slides)", o.slides);
   p.option("--json", "PATH", "write the results as JSON (docs/tracking_eval.md)", o.json);
@@ -98,7 +99,7 @@ Options parse(int argc, char** argv) {
     if (!p.given("--slides")) o.slides = data / "slides";
   }
   if (o.tracking.empty() && o.slides.empty())
-    throw cli::UsageError("give --data DIR, --tracking DIR or --slides DIR");
+    throw cli::UsageError("give --input DIR, --tracking DIR or --slides DIR");
   o.mode = mode == "relative" ? SegmentMode::relative : SegmentMode::fixed_ranges;
   return o;
 }
