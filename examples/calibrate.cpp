@@ -13,7 +13,8 @@
 //   * a video with an optional --labels CSV of the same header whose `file` is the frame index
 //     (0 = the first frame);
 //   * a dataset folder with a metadata.csv (docs/dataset_format.md): the boxes come from the
-//     metadata; no --labels. Rows without a shadow box are labelled "no shadow".
+//     metadata; no --labels. Rows without a shadow box are labelled "no shadow"; rows whose
+//     image is also in the --empty folder (--empty DATASET/nothing) are left out.
 // Empty contact fields = no contact (a hover); empty shadow fields = no shadow. Frames not in
 // the labels are fitted unlabelled (clustering); from a video at most --max-touch of them,
 // evenly spaced. The fit is calibrate_from_frames (docs/calibration.md); its warnings go to
@@ -68,7 +69,8 @@ const char* kHelp =
     "  --empty SPEC              frames of the untouched skin: folder of images or video file\n"
     "  --touch SPEC              frames with a hand on or over the skin: a folder of images, a\n"
     "                            video file, or a dataset folder with metadata.csv (its boxes\n"
-    "                            are the labels; docs/dataset_format.md)\n"
+    "                            are the labels; docs/dataset_format.md; frames that are also\n"
+    "                            in --empty, e.g. --empty DATASET/nothing, are left out)\n"
     "  --labels CSV              boxes for a touch folder or video, header:\n"
     "      file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
     "                            file: the image's path relative to --touch, or for a video\n"
@@ -204,14 +206,21 @@ std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path, boo
   return out;
 }
 
-// Touch frames of a dataset folder: every metadata.csv row, its boxes as labels.
+// Touch frames of a dataset folder: every metadata.csv row, its boxes as labels, except the
+// rows whose image is one of the --empty folder's (e.g. --empty DATASET/nothing): those are
+// empty frames already.
 std::vector<BoxLabelledFrame> read_dataset_touch(const Options& o) {
   const Metadata md = read_metadata(fs::path(o.touch) / "metadata.csv");
   if (md.rows.empty()) throw DatasetError(md.csv_path.string() + ": no frames");
   ImageLimits limits;
   limits.max_width = limits.max_height = o.max_side;
+  std::set<fs::path> empty_files;
+  std::error_code ec;
+  if (fs::is_directory(o.empty, ec))
+    for (const fs::path& p : find_images(o.empty)) empty_files.insert(fs::weakly_canonical(p, ec));
   std::vector<BoxLabelledFrame> out;
   for (const MetadataRow& row : md.rows) {
+    if (empty_files.count(fs::weakly_canonical(md.image_path(row), ec))) continue;
     BoxLabelledFrame b;
     b.image = read_image(md, row, limits);
     b.shadow_box = row.shadow_box;
@@ -219,6 +228,8 @@ std::vector<BoxLabelledFrame> read_dataset_touch(const Options& o) {
     b.name = row.file_name;
     out.push_back(std::move(b));
   }
+  if (out.empty())
+    throw DatasetError(md.csv_path.string() + ": every frame is one of --empty's; no touch frame");
   return out;
 }
 

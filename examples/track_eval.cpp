@@ -530,6 +530,16 @@ int main(int argc, char** argv) {
           rig = sim::Rig::robot();
       }
     }
+    // Refuse a missing input before the calibration's minute of rendering.
+    const bool has_tracking = !o.tracking.empty() && fs::exists(o.tracking / "metadata.csv");
+    const bool has_slides = !o.slides.empty() && fs::exists(o.slides / "sequences.csv");
+    if (!has_tracking && !has_slides)
+      throw DatasetError(
+          "nothing to evaluate: no " +
+          (o.tracking.empty() ? std::string("--tracking")
+                              : (o.tracking / "metadata.csv").string()) +
+          " and no " +
+          (o.slides.empty() ? std::string("--slides") : (o.slides / "sequences.csv").string()));
     sim::Renderer renderer(rig);
     Segmenter::Config base;
     base.calibration.mode = o.mode;
@@ -554,21 +564,19 @@ int main(int argc, char** argv) {
 
     std::optional<std::map<std::string, CategoryResult>> t5;
     std::optional<SlideResults> f14;
-    if (!o.tracking.empty() && fs::exists(o.tracking / "metadata.csv")) {
+    if (has_tracking) {
       t5 = evaluate_tracking(o, seg);
       print_table5(*t5);
     } else if (!o.tracking.empty()) {
       std::cout << "no tracking dataset at " << o.tracking << "\n";
     }
-    if (!o.slides.empty() && fs::exists(o.slides / "sequences.csv")) {
+    if (has_slides) {
       Segmenter slide_seg = segmenter_from(cal);
       f14 = evaluate_slides(o, slide_seg);
       print_figure14(*f14);
     } else if (!o.slides.empty()) {
       std::cout << "no slides dataset at " << o.slides << "\n";
     }
-    if (!t5 && !f14)
-      throw DatasetError("nothing to evaluate: no tracking/metadata.csv or slides/sequences.csv");
     std::optional<RocResult> roc;
     if (!o.roc.empty()) {
       detail::require<DatasetError>(t5.has_value(), "--roc needs a tracking dataset");

@@ -371,21 +371,33 @@ public:
       if (o && !o->takes_value && eq != std::string_view::npos && style_.equals == Equals::cut)
         o = nullptr; // "--flag=x": no option of that spelling
       if (!o) throw UsageError("unknown option '" + name + "' (see --help)");
+      const detail::Option* spelled = o;
       if (o->target) o = o->target;
       if (o->seen && !o->many && !style_.repeat_replaces)
         throw UsageError(name + ": given more than once");
+      // A value's error names the option as the user spelled it (an alias, not its target).
+      const auto assign = [&](std::string_view value) {
+        if (spelled == o) return o->assign(value);
+        try {
+          o->assign(value);
+        } catch (const UsageError& e) {
+          const std::string what = e.what();
+          if (!what.starts_with(o->name + ":")) throw;
+          throw UsageError(name + what.substr(o->name.size()));
+        }
+      };
       if (!o->takes_value) {
         if (eq != std::string_view::npos) throw UsageError(name + ": takes no value");
-        o->assign({});
+        assign({});
       } else if (eq != std::string_view::npos) {
-        o->assign(arg.substr(eq + 1));
+        assign(arg.substr(eq + 1));
       } else {
         if (i + 1 >= argc)
           throw UsageError(style_.missing_value
                                ? style_.missing_value(name)
                                : name + ": missing value (expected " + o->value_name +
                                      (o->expected().empty() ? "" : ", " + o->expected()) + ")");
-        o->assign(argv[++i]);
+        assign(argv[++i]);
       }
       o->seen = true;
     }
@@ -418,12 +430,12 @@ public:
     for (const auto& o : options_) {
       if (o->target) continue; // listed with the option it spells
       std::string text = o->description;
-      if (!o->aliases.empty()) {
-        text += " (also";
-        for (const auto& a : o->aliases) text += " " + a;
-        text += ")";
-      }
       std::vector<std::string> notes;
+      if (!o->aliases.empty()) {
+        std::string also = "also";
+        for (const auto& a : o->aliases) also += " " + a;
+        notes.push_back(also);
+      }
       if (o->takes_value && !o->expected().empty())
         notes.push_back(o->split ? "a comma-separated list, each " + o->expected() : o->expected());
       if (o->many && !o->split) notes.push_back("may be repeated");
