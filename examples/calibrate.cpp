@@ -122,6 +122,9 @@ std::set<std::size_t> evenly_spaced(std::size_t count, long long max) {
 // a video (every frame when the video does not tell its length, then evenly spaced).
 std::vector<cv::Mat> read_empty(const Options& o) {
   frames::FrameSource src = frames::FrameSource::open(o.empty, o.max_side);
+  if (src.is_camera())
+    throw cli::UsageError("--empty: '" + o.empty +
+                          "' is a camera; record a video or a folder of frames first");
   std::optional<std::set<std::size_t>> keep;
   if (!src.is_folder() && src.count()) keep = evenly_spaced(*src.count(), o.max_empty);
   std::vector<cv::Mat> all;
@@ -240,6 +243,9 @@ std::vector<BoxLabelledFrame> read_touch(const Options& o) {
   std::map<std::string, BoxLabelledFrame> labels;
   if (!o.labels.empty()) labels = read_labels(o.labels, !folder);
   frames::FrameSource src = frames::FrameSource::open(o.touch, o.max_side);
+  if (src.is_camera())
+    throw cli::UsageError("--touch: '" + o.touch +
+                          "' is a camera; record a video or a folder of frames first");
   // Video: keep the labelled frames and at most max_touch unlabelled ones, evenly spaced.
   std::optional<std::set<std::size_t>> keep_unlabelled;
   if (!folder && src.count()) {
