@@ -74,13 +74,17 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
   cv::imwrite((dir / "a.png").string(), frame(0));
   const std::string d = shell_quote(dir.string());
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"", "INPUT is required"},
-      {"--threads 0 " + d, "--threads: expected a whole number in 1..64, got '0'"},
-      {"--threads 2x " + d, "--threads: expected a whole number in 1..64, got '2x'"},
-      {"--threads", "--threads needs a value"},
-      {"--format xml " + d, "--format 'xml': expected csv or json"},
+      {"", "--input is required"},
+      {"--threads 0 " + d, "--threads: expected an integer in [1, 256], got '0'"},
+      {"--threads=257 " + d, "--threads: expected an integer in [1, 256], got '257'"},
+      {"--threads 2x " + d, "--threads: expected an integer in [1, 256], got '2x'"},
+      {"--threads", "--threads: missing value (expected N, an integer in [1, 256])"},
+      {"--format xml " + d, "--format: expected one of csv, json, got 'xml'"},
       {"--bogus " + d, "unknown option '--bogus'"},
       {d + " " + d, "more than one INPUT"},
+      {"--input " + d + " " + d, "more than one INPUT"},
+      {d + " --input=" + d, "more than one INPUT"},
+      {"--input=" + shell_quote((dir / "missing").string()), "no such folder or file"},
       {"--model /nonexistent.ssm " + d, "/nonexistent.ssm"},
       {"--model " + d + " " + d, "is a directory"},
       {"--model /dev/zero " + d, "not a regular file"},
@@ -169,6 +173,21 @@ TEST_CASE("awkward paths stay valid JSON and CSV") {
   const auto csv = run(shell_quote(dir.string()));
   REQUIRE(csv.status == 0);
   CHECK(csv.out.find("0,\"" + dir.string() + "/we\"\"ird,dir/f.png\",0,") != std::string::npos);
+}
+
+TEST_CASE("--input and the last word are one input; options take '=' too; progress on stderr") {
+  // 101 frames: above the 100 of the progress rule, so the closing line is printed.
+  const fs::path dir = fresh("classify_forms");
+  for (int i = 0; i < 101; ++i) cv::imwrite((dir / numbered("f", i)).string(), frame(i % 3));
+  const auto positional = run("--format json " + shell_quote(dir.string()));
+  const auto named = run("--format=json --input=" + shell_quote(dir.string()));
+  REQUIRE(positional.status == 0);
+  REQUIRE(named.status == 0);
+  CHECK(lines(named.out).size() == 101);
+  CHECK(named.out == positional.out);
+  // Progress: at most one line a second while classifying, and the closing count.
+  CHECK(named.err.ends_with("\rss_classify: 101 frames\n"));
+  CHECK(named.err.find("error") == std::string::npos);
 }
 
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
