@@ -20,6 +20,7 @@
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
 #include "common/json.hpp"
 #include "common/model_path.hpp"
 
@@ -197,7 +198,7 @@ void write_confusion_png(const fs::path& path, const Confusion& c,
     }
   }
   fs::create_directories(path.parent_path());
-  if (!cv::imwrite(path.string(), img)) throw ss::IoError("cannot write " + path.string());
+  frames::write_png_atomically(path, img); // temp + rename: never a truncated PNG
 }
 
 std::string lname(ss::sim::Lighting l) {

@@ -163,15 +163,27 @@ std::map<std::string, double> read_timestamps(const std::string& path) {
   return out;
 }
 
-// The events of one frame (or the flush) through every sink.
+// The events of one frame (or the flush) through every sink. stdout is the run's result: a
+// failure there ends the run. TUIO is a live view for other programs: a frame it cannot send (a
+// lost route, a frame with more blobs than one packet holds) is counted, the first reason said
+// once, and tracking goes on.
 struct Sinks {
   std::optional<CsvSink> csv;
   std::optional<JsonLinesSink> json;
   std::optional<TuioSink> tuio;
+  long long tuio_frames = 0, tuio_failed = 0;
   void write(const OutputFrame& f) {
     if (csv) csv->write(f);
     if (json) json->write(f);
-    if (tuio) tuio->write(f);
+    if (!tuio) return;
+    ++tuio_frames;
+    try {
+      tuio->write(f);
+    } catch (const Error& e) { // IoError (socket), InvalidArgument (too many blobs)
+      if (tuio_failed++ == 0)
+        std::cerr << kProgram << ": warning: TUIO frame " << f.frame_index
+                  << " not sent, tracking goes on: " << e.what() << '\n';
+    }
   }
 };
 
@@ -275,6 +287,9 @@ int run(const Options& o) {
   sinks.write(sense.output()); // the lifts reach the clients
   std::cout.flush();
   progress.finish(static_cast<std::size_t>(i));
+  if (sinks.tuio_failed)
+    std::cerr << kProgram << ": warning: " << sinks.tuio_failed << " of " << sinks.tuio_frames
+              << " TUIO frames could not be sent to " << sinks.tuio->destination() << '\n';
   if (!std::cout) throw IoError("writing the events to stdout failed");
   return 0;
 }

@@ -22,6 +22,7 @@
 #include <shadowsense/sense/touch_state_machine.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
 #include "common/json.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -176,7 +177,7 @@ std::map<std::string, CategoryResult> evaluate_tracking(const Options& o, Segmen
       annotate(a, s, row.shadow_box, row.contact_box, state_label(s));
       const fs::path p = o.annotate / "tracking" / row.file_name;
       fs::create_directories(p.parent_path());
-      if (!cv::imwrite(p.string(), a)) throw IoError("cannot write '" + p.string() + "'");
+      frames::write_png_atomically(p, a); // temp + rename, checked
     }
   }
   return out;
@@ -232,7 +233,7 @@ SlideResults evaluate_slides(const Options& o, Segmenter& seg) {
         annotate(a, s, row.shadow_box, row.contact_box, label);
         const fs::path p = o.annotate / "slides" / q.sequence / row.file_name;
         fs::create_directories(p.parent_path());
-        if (!cv::imwrite(p.string(), a)) throw IoError("cannot write '" + p.string() + "'");
+        frames::write_png_atomically(p, a); // temp + rename, checked
       }
     }
     if (!any_contact) ++r.no_touch;

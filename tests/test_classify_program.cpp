@@ -14,6 +14,7 @@
 #include <opencv2/videoio.hpp>
 #endif
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -227,6 +228,44 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
   CHECK(truth.err.find("--truth needs a folder of images") != std::string::npos);
 }
 #endif
+
+namespace {
+// CRC-32 (ISO-HDLC, as PNG chunks use) of bytes.
+std::uint32_t crc32(const unsigned char* p, std::size_t n) {
+  std::uint32_t c = 0xffffffffu;
+  for (std::size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+} // namespace
+
+TEST_CASE("a small PNG claiming 30000x30000 pixels is refused from its header, never decoded") {
+  std::vector<unsigned char> png;
+  REQUIRE(cv::imencode(".png", cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(90)), png));
+  // IHDR: length (4) "IHDR" (4) width (4) height (4) ... at byte 8; patch the size, fix the CRC.
+  REQUIRE(png.size() > 33);
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 4; ++b)
+      png[16 + 4 * k + b] = static_cast<unsigned char>((30000u >> (24 - 8 * b)) & 0xff);
+  const std::uint32_t crc = crc32(png.data() + 12, 17);
+  for (int b = 0; b < 4; ++b)
+    png[29 + b] = static_cast<unsigned char>((crc >> (24 - 8 * b)) & 0xff);
+  const fs::path dir = fresh("classify_huge");
+  {
+    std::FILE* f = std::fopen((dir / "huge.png").string().c_str(), "wb");
+    REQUIRE(f);
+    REQUIRE(std::fwrite(png.data(), 1, png.size(), f) == png.size());
+    std::fclose(f);
+  }
+  const tests::ProgramRun r = run("--input " + shell_quote(dir.string()) + " --quiet");
+  CHECK(r.status == 2);
+  CHECK(r.err.find("huge.png") != std::string::npos);
+  CHECK(r.err.find("30000") != std::string::npos);
+  CHECK(r.err.find("8192") != std::string::npos);
+  CHECK(r.out.find("huge.png") == std::string::npos);
+}
 
 #else
 TEST_CASE("ss_classify is not built (SHADOWSENSE_BUILD_EXAMPLES=OFF): nothing to test") {}

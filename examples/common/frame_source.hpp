@@ -21,6 +21,7 @@
 
 #include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/io/image_file.hpp>
 #include <shadowsense/io/image_folder.hpp>
 
 #include <opencv2/core.hpp>
@@ -45,20 +46,31 @@ namespace frames {
 
 namespace fs = std::filesystem;
 
-// Caps OpenCV's image decoders at max_side x max_side pixels (checked from the file header).
-// Call before the first cv::imread.
+// Kept for the programs' start-up: OpenCV reads OPENCV_IO_MAX_IMAGE_PIXELS once, when its
+// image codecs are loaded (before main), so setting it here bounds nothing by itself; the bound
+// that takes effect is read_image's check of the file header before decoding.
 inline void limit_decoder(int max_side) {
   const std::string v = std::to_string(static_cast<long long>(max_side) * max_side);
   ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", v.c_str(), 1);
 }
 
-// Reads one image as CV_8UC3, or throws IoError naming the file.
+// Reads one image as CV_8UC3, or throws IoError naming the file. PNG, JPEG and BMP (the formats
+// io/image_file.hpp parses) are refused from their header, before any pixel is decoded, when
+// larger than max_side per side; the other formats the image finder accepts (WebP, TIFF, PPM)
+// are decoded by OpenCV and then checked.
 inline cv::Mat read_image(const fs::path& p, int max_side) {
+  std::string e = p.extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp") {
+    shadowsense::ImageLimits limits;
+    limits.max_width = limits.max_height = max_side;
+    return shadowsense::read_image_file(p, cv::IMREAD_COLOR, limits);
+  }
   cv::Mat m;
   try {
     m = cv::imread(p.string(), cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    throw shadowsense::IoError("cannot read image '" + p.string() + "': " + e.what());
+  } catch (const cv::Exception& ex) {
+    throw shadowsense::IoError("cannot read image '" + p.string() + "': " + ex.what());
   }
   if (m.empty())
     throw shadowsense::IoError("cannot read image '" + p.string() +

@@ -9,6 +9,7 @@
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/image_file.hpp>
 #include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/train/head_trainer.hpp>
 
@@ -161,8 +162,14 @@ time_split(const GestureSamples& set, std::span<const std::size_t> indices, doub
   return out;
 }
 
-// Reads a colour image; a missing or corrupt file is an IoError naming it.
+// Reads a colour image; a missing or corrupt file is an IoError naming it. PNG, JPEG and BMP
+// are checked from their header (io/image_file.hpp: at most 8192 px per side) before any pixel
+// is decoded, so a small file claiming a huge image is refused cheaply.
 inline cv::Mat read_colour_image(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp")
+    return read_image_file(path, cv::IMREAD_COLOR);
   cv::Mat img = cv::imread(path.string(), cv::IMREAD_COLOR);
   detail::require<IoError>(!img.empty(), path.string() +
                                              ": cannot read the image (missing, corrupt or not "
