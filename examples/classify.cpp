@@ -83,7 +83,8 @@ constexpr const char* usage =
     "Exit status 0 on success, 2 on an error (message on stderr).\n";
 
 struct Options {
-  std::string model; // empty: cli::find_default_model
+  std::string model;      // empty: cli::find_default_model
+  std::string model_note; // where the default model was found (said once the input opened)
   std::string input;
   bool json = false, truth = false, force_normalise = false, quiet = false;
   int threads = 1;
@@ -123,7 +124,7 @@ Options parse(int argc, char** argv) {
   if (o.model.empty()) { // say which file the default is, as --help does
     std::string what;
     o.model = cli::find_default_model(argv[0], &what).string();
-    std::cerr << "ss_classify: model " << o.model << " (" << what << ")\n";
+    o.model_note = "ss_classify: model " + o.model + " (" + what + ")\n";
   }
   return o;
 }
@@ -308,6 +309,7 @@ int run(const Options& o) {
   const auto& classes = model.class_names;
 
   FrameSource src(o.input);
+  if (!o.model_note.empty()) std::cerr << o.model_note; // after the input's errors, if any
   std::vector<int> truth;
   if (o.truth) truth = truth_labels(src, o.input, classes);
   std::vector<std::vector<int>> confusion(classes.size(), std::vector<int>(classes.size(), 0));
