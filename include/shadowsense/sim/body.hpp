@@ -66,6 +66,12 @@ struct Scene {
   std::vector<Distractor> distractors;
   std::array<float, 4> wrinkle{}; // weights of the fabric's wrinkle fields (about +-0.06)
   double skin_tone = 0.5;         // 0 light .. 1 dark: colour of contact areas
+  // Pixel scale of the body: the renderer draws every body part, its shadow's shift along the
+  // light and its penumbra `zoom` times larger about `zoom_centre_cm` (plane cm), as a camera
+  // nearer the skin or with more pixels per cm would see them; heights, and so opacities, are
+  // physical and unchanged. Distractors are not scaled. 1 = the rig as it is.
+  double zoom = 1.0;
+  cv::Point2d zoom_centre_cm{0, 0};
 
   void validate() const {
     for (const auto& p : parts) p.validate();
@@ -79,6 +85,10 @@ struct Scene {
       detail::require(std::isfinite(w) && std::abs(w) <= 0.5f,
                       "Scene: wrinkle weights must be in [-0.5, 0.5]");
     detail::require(skin_tone >= 0 && skin_tone <= 1, "Scene: skin_tone must be in [0, 1]");
+    detail::require(std::isfinite(zoom) && zoom >= 0.25 && zoom <= 4,
+                    "Scene: zoom must be in [0.25, 4], got " + std::to_string(zoom));
+    detail::require(std::isfinite(zoom_centre_cm.x) && std::isfinite(zoom_centre_cm.y),
+                    "Scene: zoom_centre_cm must be finite");
   }
 };
 

@@ -4,6 +4,8 @@
 // GestureSessionConfig::randomise a session also draws a DomainSample (randomise.hpp) and renders
 // its fabric, light, camera, body and occluders from it; the renderer's shading is set for the
 // frame and restored afterwards (the Renderer is used, not shared: one per thread as always).
+// With GestureSessionConfig::pixel_scale each gesture block draws a pixel scale of the body
+// (Scene::zoom), so one generator covers cameras that see hands smaller or larger.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -338,9 +340,18 @@ struct GestureSessionConfig {
   // byte for byte. On: one DomainSample per session, drawn from the session seed.
   bool randomise = false;
   DomainRanges ranges{};
+  // Pixel scale of the body (Scene::zoom), drawn log-uniformly in [lo, hi] for every gesture
+  // block from the session seed (its own stream: the other draws are unchanged), about the
+  // block's anchor (the hand's touch point, the hands' centre, the chest, the standing body).
+  // {1, 1}: no draw, the frames of before this existed, byte for byte.
+  Range pixel_scale{1.0, 1.0};
 
   void validate() const {
     if (randomise) ranges.validate();
+    detail::require(std::isfinite(pixel_scale.lo) && std::isfinite(pixel_scale.hi) &&
+                        pixel_scale.lo >= 0.25 && pixel_scale.lo <= pixel_scale.hi &&
+                        pixel_scale.hi <= 4,
+                    "GestureSessionConfig: pixel_scale must be a range 0.25 <= lo <= hi <= 4");
     detail::require(frames_per_gesture >= 1 && frames_per_gesture <= 100000,
                     "GestureSessionConfig: frames_per_gesture must be in [1, 100000], got " +
                         std::to_string(frames_per_gesture));
@@ -381,6 +392,12 @@ public:
       poses_[g] = random_gesture_pose(all_gestures[g], block);
       drifts_[g] = PoseDrift::random(block);
     }
+    if (config.pixel_scale.lo != 1.0 || config.pixel_scale.hi != 1.0)
+      for (std::size_t g = 0; g < all_gestures.size(); ++g) {
+        Rng z(derive_seed(seed, 0x5CA1E000ull + g));
+        zoom_[g] = std::exp(
+            Range{std::log(config.pixel_scale.lo), std::log(config.pixel_scale.hi)}.draw(z));
+      }
     if (config.randomise) {
       domain_ = DomainSample::draw(seed, config.ranges);
       user_ = randomise_user(user_, domain_);
@@ -398,6 +415,8 @@ public:
   const User& user() const { return user_; }
   // The session's domain sample (meaningful only with config.randomise).
   const DomainSample& domain() const { return domain_; }
+  // The pixel scale (Scene::zoom) of a gesture's block; 1 unless config.pixel_scale is set.
+  double zoom(Gesture g) const { return zoom_[static_cast<std::size_t>(g)]; }
 
   GestureFrameInfo info(int index) const {
     check(index);
@@ -421,6 +440,13 @@ public:
     GesturePose pose = drifts_[b].apply(poses_[b], t_s);
     if (config_.randomise) pose = randomise_pose(pose, domain_);
     Scene s = gesture_scene(all_gestures[b], user_, pose);
+    if (zoom_[b] != 1.0) {
+      s.zoom = zoom_[b];
+      // The anchor: where the gesture is performed (add_hug's chest for a hug).
+      s.zoom_centre_cm = all_gestures[b] == Gesture::hug
+                             ? pose.position_cm * (1.0 - pose.hug_centre_pull)
+                             : pose.position_cm;
+    }
     s.wrinkle = wrinkle_;
     s.distractors = distractors_;
     Rng rng(derive_seed(seed_, 0xD15A0000ull + static_cast<std::uint64_t>(index)));
@@ -459,6 +485,7 @@ private:
   std::vector<Distractor> distractors_;
   std::array<GesturePose, 6> poses_{};
   std::array<PoseDrift, 6> drifts_{};
+  std::array<double, 6> zoom_{1, 1, 1, 1, 1, 1};
   DomainSample domain_{};
   std::string name_;
 
