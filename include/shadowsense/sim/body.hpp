@@ -207,6 +207,29 @@ inline BodyPart blob(PartKind kind, cv::Point2d c, cv::Point2d u, double half_u,
   }
   return p;
 }
+// The wrist, forearm and upper arm behind a hand whose wrist is at `wrist` (plane cm), at
+// height h_wrist, the forearm rising at elevation_deg; ww: the width at the wrist.
+inline void add_arm(std::vector<BodyPart>& out, const User& user, const HandPose& pose,
+                    cv::Point2d wrist, double h_wrist, double elevation_deg, double ww) {
+  const double L = user.hand_length_cm;
+  const double side = pose.left ? -1.0 : 1.0;
+  const double a = (pose.rotation_deg + 180.0 + pose.wrist_bend_deg * side) * deg;
+  const cv::Point2d back{std::cos(a), std::sin(a)};
+  const double e = elevation_deg * deg;
+  const double forearm = 26.0 * L / 18.0, upper = 30.0 * L / 18.0;
+  const double we = ww * 1.35;
+  auto along = [&](double s) { return wrist + back * (s * std::cos(e)); };
+  const double s1 = 0.3 * forearm;
+  out.push_back(segment(PartKind::wrist, along(-0.02 * L), along(s1), ww, ww * 1.1, h_wrist,
+                        h_wrist + s1 * std::sin(e)));
+  const double h_elbow = h_wrist + forearm * std::sin(e);
+  out.push_back(segment(PartKind::forearm, along(s1), along(forearm), ww * 1.1, we,
+                        h_wrist + s1 * std::sin(e), h_elbow));
+  const double e2 = std::min(e + 25 * deg, 80 * deg);
+  const cv::Point2d elbow = along(forearm);
+  out.push_back(segment(PartKind::upper_arm, elbow, elbow + back * (upper * std::cos(e2)), we,
+                        we * 1.2, h_elbow, h_elbow + upper * std::sin(e2)));
+}
 } // namespace internal
 
 // Appends the parts of one hand with its wrist, forearm and upper arm to `out`.
@@ -255,24 +278,8 @@ inline void add_hand(std::vector<BodyPart>& out, const User& user, const HandPos
                                     (h_base + h_tip) / 2, h_tip));
   };
   auto arm = [&](cv::Point2d wrist_local, double h_wrist, double elevation_deg) {
-    const cv::Point2d wrist = at(wrist_local.x, wrist_local.y);
-    const double a = (pose.rotation_deg + 180.0 + pose.wrist_bend_deg * side) * deg;
-    const cv::Point2d back{std::cos(a), std::sin(a)};
-    const double e = elevation_deg * deg;
-    const double forearm = 26.0 * L / 18.0, upper = 30.0 * L / 18.0;
-    const double ww = user.arm_width_cm, we = user.arm_width_cm * 1.35;
-    auto along = [&](double s) { return wrist + back * (s * std::cos(e)); };
-    const double s1 = 0.3 * forearm;
-    out.push_back(internal::segment(PartKind::wrist, along(-0.02 * L), along(s1), ww, ww * 1.1,
-                                    h_wrist, h_wrist + s1 * std::sin(e)));
-    const double h_elbow = h_wrist + forearm * std::sin(e);
-    out.push_back(internal::segment(PartKind::forearm, along(s1), along(forearm), ww * 1.1, we,
-                                    h_wrist + s1 * std::sin(e), h_elbow));
-    const double e2 = std::min(e + 25 * deg, 80 * deg);
-    const cv::Point2d elbow = along(forearm);
-    out.push_back(internal::segment(PartKind::upper_arm, elbow,
-                                    elbow + back * (upper * std::cos(e2)), we, we * 1.2, h_elbow,
-                                    h_elbow + upper * std::sin(e2)));
+    internal::add_arm(out, user, pose, at(wrist_local.x, wrist_local.y), h_wrist, elevation_deg,
+                      user.arm_width_cm);
   };
 
   switch (pose.shape) {
