@@ -18,11 +18,14 @@ os.makedirs(CACHE, exist_ok=True)
 for arg in sys.argv[1:]:
     name, model = arg.split("=", 1)
     pooled = [[0] * 6 for _ in range(6)]
+    missing = 0
     print(f"== {name} ({model})")
     for s in SETS:
         data = f"{SETS_DIR}/{s}"
         if not os.path.exists(f"{data}/metadata.csv"):
-            print(f"  {s}: missing"); continue
+            print(f"  {s}: missing")
+            missing += 1
+            continue
         out = f"{CACHE}/{name}_{s}.json"
         if not os.path.exists(out):
             subprocess.run([BIN, "--score", model, "--data", data, "--lighting-normalise",
@@ -36,5 +39,7 @@ for arg in sys.argv[1:]:
         print(f"  {s:9s} acc {100 * j['accuracy']['all']:6.2f}%  recall " +
               " ".join(f"{100 * r:5.1f}" for r in rec))
     rec = [pooled[i][i] / max(1, sum(pooled[i])) for i in range(6)]
+    if missing:
+        print(f"  INCOMPLETE: {missing} of {len(SETS)} sets missing from the pool")
     print(f"  pooled    min recall {100 * min(rec):.2f}% ({CLASSES[rec.index(min(rec))]}), mean "
           f"recall {100 * sum(rec) / 6:.2f}%  per class " + " ".join(f"{100 * r:5.1f}" for r in rec))
