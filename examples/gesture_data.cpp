@@ -5,9 +5,16 @@
 //
 //   ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F]
 //                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--randomise]
+//                   [--scale-range LO,HI] [--hands DIR [--hands-split NAME]
+//                   [--real-hand-probability P]]
 //
 // --randomise: domain randomisation (include/shadowsense/sim/randomise.hpp, ranges in
 // docs/scene_generator.md): fabric, light, camera, lens, noise, compression, body, occluders.
+// --scale-range LO,HI: every gesture block's body drawn at a pixel scale log-uniform in
+// [LO, HI] (Scene::zoom about the gesture's anchor: a camera seeing hands smaller or larger).
+// --hands DIR: real hand silhouettes (DIR/manifest.csv, rows of split NAME, default train; see
+// include/shadowsense/sim/hand_silhouette_file.hpp) replace each hand of palm, point, punch,
+// two_hands and hug frames with probability P (default 0.5), rendered by the same renderer.
 //
 // Users get ids K..K+N-1 and their body from the id and the seed, so disjoint id ranges give
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
@@ -22,6 +29,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -53,6 +61,9 @@ int main(int argc, char** argv) {
     int users = 4, first_user = 0, frames = 20;
     std::uint64_t seed = 1;
     bool randomise = false, overwrite = false;
+    std::vector<double> scale_range{1.0, 1.0};
+    std::string hands_dir, hands_split = "train";
+    double real_probability = 0.5;
     cli::Parser p("ss_gesture_data",
                   "Writes a gesture-classification dataset (six classes on the robot rig): "
                   "DIR/<class>/<session>_<frame>.png and DIR/metadata.csv.");
@@ -64,10 +75,35 @@ int main(int argc, char** argv) {
     p.option("--seed", "S", "random seed", seed).range(0, std::uint64_t{1} << 30);
     p.flag("--randomise", "domain randomisation (fabric, light, camera, lens, noise, body)",
            randomise);
+    p.list("--scale-range", "LO,HI",
+           "pixel scale of the body per gesture block, log-uniform in [LO, HI] (1,1: none)",
+           scale_range)
+        .range(0.25, 4.0)
+        .default_text("1,1");
+    p.option("--hands", "DIR",
+             "real hand silhouettes: DIR/manifest.csv (file,pose[,split][,length_cm])", hands_dir);
+    p.option("--hands-split", "NAME", "use the manifest rows of this split (empty: all)",
+             hands_split);
+    p.option("--real-hand-probability", "P", "chance that a hand is a real silhouette (--hands)",
+             real_probability)
+        .range(0.0, 1.0);
     p.flag("--overwrite", "write into a non-empty folder (its old metadata.csv goes first)",
            overwrite);
     p.parse(argc, argv);
+    if (scale_range.size() != 2 || scale_range[0] > scale_range[1])
+      throw cli::UsageError("--scale-range: expected two values LO,HI with LO <= HI, got " +
+                            std::to_string(scale_range.size()) + " value(s)" +
+                            (scale_range.size() == 2 ? " with LO > HI" : ""));
     for (const auto& l : levels) level_of(l); // check every lighting before writing anything
+    std::shared_ptr<const std::vector<ss::sim::HandSilhouette>> real_hands;
+    if (!hands_dir.empty()) {
+      real_hands = std::make_shared<const std::vector<ss::sim::HandSilhouette>>(
+          ss::sim::load_hand_silhouettes(hands_dir, hands_split));
+      int n[3] = {0, 0, 0};
+      for (const auto& h : *real_hands) ++n[static_cast<int>(h.shape)];
+      std::cout << "real hands: " << n[0] << " open, " << n[2] << " point, " << n[1]
+                << " fist from " << hands_dir << "\n";
+    }
     // A new or empty folder, or --overwrite: then the old metadata.csv is removed before any
     // frame is written, so the folder never pairs an old csv with new frames.
     ss::sim::internal::prepare_output(out, overwrite, {"metadata.csv"});
@@ -85,6 +121,9 @@ int main(int argc, char** argv) {
     ss::sim::GestureSessionConfig cfg;
     cfg.frames_per_gesture = frames;
     cfg.randomise = randomise;
+    cfg.pixel_scale = {scale_range[0], scale_range[1]};
+    cfg.real_hands = real_hands;
+    cfg.real_hand_probability = real_probability;
     int written = 0;
     for (int u = first_user; u < first_user + users; ++u) {
       ss::sim::Rng urng(ss::sim::derive_seed(seed, 0x05E40000ull + static_cast<std::uint64_t>(u)));

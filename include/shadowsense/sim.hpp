@@ -4,4 +4,5 @@
 
 #include <shadowsense/io.hpp>
 #include <shadowsense/sim/dataset_writer.hpp>
+#include <shadowsense/sim/hand_silhouette_file.hpp>
 #include <shadowsense/sim/sim.hpp>

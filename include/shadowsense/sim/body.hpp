@@ -66,6 +66,12 @@ struct Scene {
   std::vector<Distractor> distractors;
   std::array<float, 4> wrinkle{}; // weights of the fabric's wrinkle fields (about +-0.06)
   double skin_tone = 0.5;         // 0 light .. 1 dark: colour of contact areas
+  // Pixel scale of the body: the renderer draws every body part, its shadow's shift along the
+  // light and its penumbra `zoom` times larger about `zoom_centre_cm` (plane cm), as a camera
+  // nearer the skin or with more pixels per cm would see them; heights, and so opacities, are
+  // physical and unchanged. Distractors are not scaled. 1 = the rig as it is.
+  double zoom = 1.0;
+  cv::Point2d zoom_centre_cm{0, 0};
 
   void validate() const {
     for (const auto& p : parts) p.validate();
@@ -79,6 +85,10 @@ struct Scene {
       detail::require(std::isfinite(w) && std::abs(w) <= 0.5f,
                       "Scene: wrinkle weights must be in [-0.5, 0.5]");
     detail::require(skin_tone >= 0 && skin_tone <= 1, "Scene: skin_tone must be in [0, 1]");
+    detail::require(std::isfinite(zoom) && zoom >= 0.25 && zoom <= 4,
+                    "Scene: zoom must be in [0.25, 4], got " + std::to_string(zoom));
+    detail::require(std::isfinite(zoom_centre_cm.x) && std::isfinite(zoom_centre_cm.y),
+                    "Scene: zoom_centre_cm must be finite");
   }
 };
 
@@ -197,6 +207,29 @@ inline BodyPart blob(PartKind kind, cv::Point2d c, cv::Point2d u, double half_u,
   }
   return p;
 }
+// The wrist, forearm and upper arm behind a hand whose wrist is at `wrist` (plane cm), at
+// height h_wrist, the forearm rising at elevation_deg; ww: the width at the wrist.
+inline void add_arm(std::vector<BodyPart>& out, const User& user, const HandPose& pose,
+                    cv::Point2d wrist, double h_wrist, double elevation_deg, double ww) {
+  const double L = user.hand_length_cm;
+  const double side = pose.left ? -1.0 : 1.0;
+  const double a = (pose.rotation_deg + 180.0 + pose.wrist_bend_deg * side) * deg;
+  const cv::Point2d back{std::cos(a), std::sin(a)};
+  const double e = elevation_deg * deg;
+  const double forearm = 26.0 * L / 18.0, upper = 30.0 * L / 18.0;
+  const double we = ww * 1.35;
+  auto along = [&](double s) { return wrist + back * (s * std::cos(e)); };
+  const double s1 = 0.3 * forearm;
+  out.push_back(segment(PartKind::wrist, along(-0.02 * L), along(s1), ww, ww * 1.1, h_wrist,
+                        h_wrist + s1 * std::sin(e)));
+  const double h_elbow = h_wrist + forearm * std::sin(e);
+  out.push_back(segment(PartKind::forearm, along(s1), along(forearm), ww * 1.1, we,
+                        h_wrist + s1 * std::sin(e), h_elbow));
+  const double e2 = std::min(e + 25 * deg, 80 * deg);
+  const cv::Point2d elbow = along(forearm);
+  out.push_back(segment(PartKind::upper_arm, elbow, elbow + back * (upper * std::cos(e2)), we,
+                        we * 1.2, h_elbow, h_elbow + upper * std::sin(e2)));
+}
 } // namespace internal
 
 // Appends the parts of one hand with its wrist, forearm and upper arm to `out`.
@@ -245,24 +278,8 @@ inline void add_hand(std::vector<BodyPart>& out, const User& user, const HandPos
                                     (h_base + h_tip) / 2, h_tip));
   };
   auto arm = [&](cv::Point2d wrist_local, double h_wrist, double elevation_deg) {
-    const cv::Point2d wrist = at(wrist_local.x, wrist_local.y);
-    const double a = (pose.rotation_deg + 180.0 + pose.wrist_bend_deg * side) * deg;
-    const cv::Point2d back{std::cos(a), std::sin(a)};
-    const double e = elevation_deg * deg;
-    const double forearm = 26.0 * L / 18.0, upper = 30.0 * L / 18.0;
-    const double ww = user.arm_width_cm, we = user.arm_width_cm * 1.35;
-    auto along = [&](double s) { return wrist + back * (s * std::cos(e)); };
-    const double s1 = 0.3 * forearm;
-    out.push_back(internal::segment(PartKind::wrist, along(-0.02 * L), along(s1), ww, ww * 1.1,
-                                    h_wrist, h_wrist + s1 * std::sin(e)));
-    const double h_elbow = h_wrist + forearm * std::sin(e);
-    out.push_back(internal::segment(PartKind::forearm, along(s1), along(forearm), ww * 1.1, we,
-                                    h_wrist + s1 * std::sin(e), h_elbow));
-    const double e2 = std::min(e + 25 * deg, 80 * deg);
-    const cv::Point2d elbow = along(forearm);
-    out.push_back(internal::segment(PartKind::upper_arm, elbow,
-                                    elbow + back * (upper * std::cos(e2)), we, we * 1.2, h_elbow,
-                                    h_elbow + upper * std::sin(e2)));
+    internal::add_arm(out, user, pose, at(wrist_local.x, wrist_local.y), h_wrist, elevation_deg,
+                      user.arm_width_cm);
   };
 
   switch (pose.shape) {

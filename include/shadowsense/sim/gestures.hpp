@@ -4,6 +4,10 @@
 // GestureSessionConfig::randomise a session also draws a DomainSample (randomise.hpp) and renders
 // its fabric, light, camera, body and occluders from it; the renderer's shading is set for the
 // frame and restored afterwards (the Renderer is used, not shared: one per thread as always).
+// With GestureSessionConfig::pixel_scale each gesture block draws a pixel scale of the body
+// (Scene::zoom), so one generator covers cameras that see hands smaller or larger. With
+// GestureSessionConfig::real_hands some hands of palm, point, punch, two_hands and hug frames
+// are real hand silhouettes (silhouette_hand.hpp) instead of the parametric polygons.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -12,12 +16,14 @@
 #include <shadowsense/sim/randomise.hpp>
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/rng.hpp>
+#include <shadowsense/sim/silhouette_hand.hpp>
 
 #include <opencv2/core.hpp>
 
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -140,7 +146,8 @@ inline HandPose hand_from(const GesturePose& g, HandShape shape) {
 // body's centre (the visible top's centre, or hug_body_radius_cm behind the chest for a
 // larger body), forearms and hands in contact. press_depth widens the chest's contact patch
 // towards the torso's outline.
-inline void add_hug(std::vector<BodyPart>& out, const User& user, const GesturePose& g) {
+inline void add_hug(std::vector<BodyPart>& out, const User& user, const GesturePose& g,
+                    std::array<const HandSilhouette*, 2> real = {}) {
   const double a = g.rotation_deg * deg;
   const cv::Point2d out_dir{std::cos(a), std::sin(a)}; // from the robot centre to the person
   const cv::Point2d side{-out_dir.y, out_dir.x};
@@ -198,6 +205,10 @@ inline void add_hug(std::vector<BodyPart>& out, const User& user, const GestureP
     hp.left = k < 0;
     hp.arm_elevation_deg = 5;
     // Only the hand itself: the forearm is already drawn along the path.
+    if (const HandSilhouette* r = real[k < 0 ? 0 : 1]) {
+      add_silhouette_hand(out, user, hp, *r, false);
+      continue;
+    }
     std::vector<BodyPart> hand;
     add_hand(hand, user, hp);
     for (auto& p : hand)
@@ -207,10 +218,20 @@ inline void add_hug(std::vector<BodyPart>& out, const User& user, const GestureP
 }
 } // namespace internal
 
-// The scene of one gesture frame on the robot rig.
-inline Scene gesture_scene(Gesture gesture, const User& user, const GesturePose& pose) {
+// The scene of one gesture frame on the robot rig. real: silhouettes replacing the parametric
+// hands (nullptr: parametric) - [0] the hand of palm, point and punch, the right hand of
+// two_hands and the hug's left (k = -1) hand; [1] the other hand of two_hands and hug. Their
+// shapes are the caller's choice (GestureSession picks open hands for palm, two_hands, hug).
+inline Scene gesture_scene(Gesture gesture, const User& user, const GesturePose& pose,
+                           std::array<const HandSilhouette*, 2> real = {}) {
   user.validate();
   pose.validate();
+  auto hand = [&](const HandPose& hp, const HandSilhouette* r, std::vector<BodyPart>& out) {
+    if (r)
+      add_silhouette_hand(out, user, hp, *r);
+    else
+      add_hand(out, user, hp);
+  };
   Scene scene;
   scene.skin_tone = user.skin_tone;
   switch (gesture) {
@@ -228,16 +249,16 @@ inline Scene gesture_scene(Gesture gesture, const User& user, const GesturePose&
     break;
   }
   case Gesture::hug:
-    internal::add_hug(scene.parts, user, pose);
+    internal::add_hug(scene.parts, user, pose, real);
     break;
   case Gesture::palm:
-    add_hand(scene.parts, user, internal::hand_from(pose, HandShape::open));
+    hand(internal::hand_from(pose, HandShape::open), real[0], scene.parts);
     break;
   case Gesture::point:
-    add_hand(scene.parts, user, internal::hand_from(pose, HandShape::point));
+    hand(internal::hand_from(pose, HandShape::point), real[0], scene.parts);
     break;
   case Gesture::punch:
-    add_hand(scene.parts, user, internal::hand_from(pose, HandShape::fist));
+    hand(internal::hand_from(pose, HandShape::fist), real[0], scene.parts);
     break;
   case Gesture::two_hands: {
     const double a = pose.rotation_deg * internal::deg;
@@ -248,8 +269,8 @@ inline Scene gesture_scene(Gesture gesture, const User& user, const GesturePose&
     right.left = false, left.left = true;
     right.rotation_deg -= 6, left.rotation_deg += 6; // hands slightly turned in
     right.wrist_bend_deg = pose.wrist_bend_deg, left.wrist_bend_deg = -pose.wrist_bend_deg;
-    add_hand(scene.parts, user, right);
-    add_hand(scene.parts, user, left);
+    hand(right, real[0], scene.parts);
+    hand(left, real[1], scene.parts);
     break;
   }
   }
@@ -338,9 +359,29 @@ struct GestureSessionConfig {
   // byte for byte. On: one DomainSample per session, drawn from the session seed.
   bool randomise = false;
   DomainRanges ranges{};
+  // Pixel scale of the body (Scene::zoom), drawn log-uniformly in [lo, hi] for every gesture
+  // block from the session seed (its own stream: the other draws are unchanged), about the
+  // block's anchor (the hand's touch point, the hands' centre, the chest, the standing body).
+  // {1, 1}: no draw, the frames of before this existed, byte for byte.
+  Range pixel_scale{1.0, 1.0};
+  // Real hand silhouettes (silhouette_hand.hpp): each hand of a palm, point, punch, two_hands
+  // or hug frame is, with real_hand_probability, one of these of the gesture's shape (open for
+  // palm, two_hands and hug; point; fist for punch), drawn per frame from the session seed
+  // (its own stream). A gesture without silhouettes of its shape keeps the parametric hands.
+  // nullptr: none, the frames of before this existed.
+  std::shared_ptr<const std::vector<HandSilhouette>> real_hands = nullptr;
+  double real_hand_probability = 0.5;
 
   void validate() const {
+    detail::require(real_hand_probability >= 0 && real_hand_probability <= 1,
+                    "GestureSessionConfig: real_hand_probability must be in [0, 1]");
+    if (real_hands)
+      for (const HandSilhouette& h : *real_hands) h.validate();
     if (randomise) ranges.validate();
+    detail::require(std::isfinite(pixel_scale.lo) && std::isfinite(pixel_scale.hi) &&
+                        pixel_scale.lo >= 0.25 && pixel_scale.lo <= pixel_scale.hi &&
+                        pixel_scale.hi <= 4,
+                    "GestureSessionConfig: pixel_scale must be a range 0.25 <= lo <= hi <= 4");
     detail::require(frames_per_gesture >= 1 && frames_per_gesture <= 100000,
                     "GestureSessionConfig: frames_per_gesture must be in [1, 100000], got " +
                         std::to_string(frames_per_gesture));
@@ -381,6 +422,15 @@ public:
       poses_[g] = random_gesture_pose(all_gestures[g], block);
       drifts_[g] = PoseDrift::random(block);
     }
+    if (config.real_hands)
+      for (std::size_t i = 0; i < config.real_hands->size(); ++i)
+        real_of_[static_cast<std::size_t>((*config.real_hands)[i].shape)].push_back(i);
+    if (config.pixel_scale.lo != 1.0 || config.pixel_scale.hi != 1.0)
+      for (std::size_t g = 0; g < all_gestures.size(); ++g) {
+        Rng z(derive_seed(seed, 0x5CA1E000ull + g));
+        zoom_[g] = std::exp(
+            Range{std::log(config.pixel_scale.lo), std::log(config.pixel_scale.hi)}.draw(z));
+      }
     if (config.randomise) {
       domain_ = DomainSample::draw(seed, config.ranges);
       user_ = randomise_user(user_, domain_);
@@ -398,6 +448,8 @@ public:
   const User& user() const { return user_; }
   // The session's domain sample (meaningful only with config.randomise).
   const DomainSample& domain() const { return domain_; }
+  // The pixel scale (Scene::zoom) of a gesture's block; 1 unless config.pixel_scale is set.
+  double zoom(Gesture g) const { return zoom_[static_cast<std::size_t>(g)]; }
 
   GestureFrameInfo info(int index) const {
     check(index);
@@ -420,7 +472,14 @@ public:
     const auto b = static_cast<std::size_t>(block);
     GesturePose pose = drifts_[b].apply(poses_[b], t_s);
     if (config_.randomise) pose = randomise_pose(pose, domain_);
-    Scene s = gesture_scene(all_gestures[b], user_, pose);
+    Scene s = gesture_scene(all_gestures[b], user_, pose, real_hands(index));
+    if (zoom_[b] != 1.0) {
+      s.zoom = zoom_[b];
+      // The anchor: where the gesture is performed (add_hug's chest for a hug).
+      s.zoom_centre_cm = all_gestures[b] == Gesture::hug
+                             ? pose.position_cm * (1.0 - pose.hug_centre_pull)
+                             : pose.position_cm;
+    }
     s.wrinkle = wrinkle_;
     s.distractors = distractors_;
     Rng rng(derive_seed(seed_, 0xD15A0000ull + static_cast<std::uint64_t>(index)));
@@ -459,8 +518,29 @@ private:
   std::vector<Distractor> distractors_;
   std::array<GesturePose, 6> poses_{};
   std::array<PoseDrift, 6> drifts_{};
+  std::array<double, 6> zoom_{1, 1, 1, 1, 1, 1};
+  std::array<std::vector<std::size_t>, 3> real_of_; // silhouette indices by HandShape
   DomainSample domain_{};
   std::string name_;
+
+  // The silhouettes of a frame's hands (nullptr: parametric).
+  std::array<const HandSilhouette*, 2> real_hands(int index) const {
+    std::array<const HandSilhouette*, 2> r{};
+    if (!config_.real_hands) return r;
+    const Gesture g = all_gestures[static_cast<std::size_t>(index / config_.frames_per_gesture)];
+    const HandShape shape = g == Gesture::point   ? HandShape::point
+                            : g == Gesture::punch ? HandShape::fist
+                                                  : HandShape::open;
+    if (g == Gesture::nothing) return r;
+    const std::vector<std::size_t>& pool = real_of_[static_cast<std::size_t>(shape)];
+    if (pool.empty()) return r;
+    Rng rng(derive_seed(seed_, 0x4EA10000ull + static_cast<std::uint64_t>(index)));
+    for (auto& h : r)
+      if (rng.chance(config_.real_hand_probability))
+        h = &(*config_.real_hands)[pool[static_cast<std::size_t>(
+            rng.integer(0, static_cast<int>(pool.size()) - 1))]];
+    return r;
+  }
 
   void check(int index) const {
     detail::require(index >= 0 && index < size(), "GestureSession: frame index " +

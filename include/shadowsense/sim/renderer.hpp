@@ -5,8 +5,10 @@
 // Per frame: each part's shadow is shifted along the light direction by height x
 // tan(zenith) (per vertex, so rising arms stretch), projected through the fisheye, filled,
 // and blurred with a penumbra that grows with height, at an opacity that falls with height.
-// Parts at height 0 are in contact: sharp, opacity 1, skin-tinted. The fabric (weave,
-// wrinkles), vignetting, light colour, ambient light and sensor noise are then composed.
+// Parts at height 0 are in contact: sharp, opacity 1, skin-tinted. A Scene's zoom scales the
+// body's parts, shadow shifts and penumbrae in the plane about its zoom centre before the
+// projection (the body seen larger or smaller in pixels; distractors keep their size). The fabric
+// (weave, wrinkles), vignetting, light colour, ambient light and sensor noise are then composed.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -78,6 +80,14 @@ struct RenderConfig {
   }
 };
 
+namespace internal {
+// A Scene's zoom as the renderer applies it (see Scene::zoom).
+struct Zoom {
+  double factor = 1.0;
+  cv::Point2d centre{0, 0};
+};
+} // namespace internal
+
 // Holds the per-rig precomputed maps (surface, vignetting x weave, wrinkle fields, noise table)
 // and scratch buffers: construct once per rig, reuse for every frame. Not thread-safe; use one
 // Renderer per thread (frames do not depend on each other, so that parallelises trivially).
@@ -140,9 +150,10 @@ public:
     const cv::Point2d shift_per_cm{tz * std::cos(az), tz * std::sin(az)};
 
     bool any_contact = false;
+    const internal::Zoom zoom{scene.zoom, scene.zoom_centre_cm};
     for (const BodyPart& part : scene.parts) {
       if (part.in_contact()) {
-        project(part.outline_cm, &part.height_cm, {0, 0});
+        project(part.outline_cm, &part.height_cm, {0, 0}, zoom);
         fill(gt.contact_mask, 1, 255.0);
         any_contact = true;
         continue;
@@ -150,8 +161,8 @@ public:
       const double h = part.mean_height();
       const double alpha = opacity_at(h);
       if (alpha < 1.0 / 512) continue;
-      const cv::Point2d c = project(part.outline_cm, &part.height_cm, shift_per_cm);
-      draw_soft(gt.shadow_opacity, alpha, penumbra_cm(h) * rig_.local_px_per_cm(c));
+      const cv::Point2d c = project(part.outline_cm, &part.height_cm, shift_per_cm, zoom);
+      draw_soft(gt.shadow_opacity, alpha, penumbra_cm(h) * zoom.factor * rig_.local_px_per_cm(c));
     }
     bool any_distractor = false;
     for (const Distractor& d : scene.distractors) {
@@ -252,20 +263,25 @@ private:
     for (float& v : noise_table_) v = static_cast<float>(noise_rng.normal());
   }
 
-  // Subdivides the outline, shifts each vertex by its height along the light, projects it
-  // into the image. Fills px_ and returns the projected (shifted) centroid in plane cm.
+  // Subdivides the outline, shifts each vertex by its height along the light, scales it by the
+  // zoom about its centre, projects it into the image. Fills px_ and returns the projected
+  // (shifted, zoomed) centroid in plane cm. Zoom 1 leaves the plane points untouched (bit for
+  // bit the frames of before the zoom existed).
   cv::Point2d project(const std::vector<cv::Point2d>& outline, const std::vector<double>* heights,
-                      cv::Point2d shift_per_cm) {
+                      cv::Point2d shift_per_cm, internal::Zoom zoom = {}) {
     plane_.clear();
     const std::size_t n = outline.size();
+    const bool zoomed = zoom.factor != 1.0;
     for (std::size_t i = 0; i < n; ++i) {
       const cv::Point2d a = outline[i], b = outline[(i + 1) % n];
       const double ha = heights ? (*heights)[i] : 0.0, hb = heights ? (*heights)[(i + 1) % n] : 0.0;
-      const int steps = std::max(
-          1, static_cast<int>(std::ceil(std::hypot(b.x - a.x, b.y - a.y) / cfg_.edge_step_cm)));
+      // Edge steps in the zoomed plane, so the fisheye bends a zoomed edge as finely.
+      const int steps = std::max(1, static_cast<int>(std::ceil(std::hypot(b.x - a.x, b.y - a.y) *
+                                                               zoom.factor / cfg_.edge_step_cm)));
       for (int s = 0; s < steps; ++s) {
         const double t = static_cast<double>(s) / steps;
-        plane_.push_back(a + (b - a) * t + shift_per_cm * (ha + (hb - ha) * t));
+        const cv::Point2d q = a + (b - a) * t + shift_per_cm * (ha + (hb - ha) * t);
+        plane_.push_back(zoomed ? zoom.centre + (q - zoom.centre) * zoom.factor : q);
       }
     }
     px_.resize(plane_.size());

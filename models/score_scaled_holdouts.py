@@ -1,0 +1,45 @@
+#!/usr/bin/python3
+"""Scores gesture models on the generator hold-outs g and hold at every pre-registered scale
+(models/make_scaled_holdouts.sh) with ss_eval_classify --score --lighting-normalise, and prints
+per set accuracy and per-class recall, and over all sets pooled the minimum and mean per-class
+recall: the selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
+handdata: the highest pooled minimum recall wins; ties within one frame go to the higher mean).
+usage: models/score_scaled_holdouts.py NAME=MODEL.ssm ...
+environment: SS_EVAL_CLASSIFY (default build/examples/ss_eval_classify), HOLDOUTS (default
+/work/hands-sets), SCORE_CACHE (json per model and set, default /work/hands-logs/gen; a cached
+file is reused, so give every model its own NAME)."""
+import json, os, subprocess, sys
+SETS = [f"{s}_s{z}" for z in ("0.6", "0.7", "1", "1.5", "2") for s in ("g", "hold")]
+BIN = os.environ.get("SS_EVAL_CLASSIFY", "build/examples/ss_eval_classify")
+SETS_DIR = os.environ.get("HOLDOUTS", "/work/hands-sets")
+CACHE = os.environ.get("SCORE_CACHE", "/work/hands-logs/gen")
+CLASSES = ["nothing", "hug", "palm", "point", "punch", "two_hands"]
+os.makedirs(CACHE, exist_ok=True)
+for arg in sys.argv[1:]:
+    name, model = arg.split("=", 1)
+    pooled = [[0] * 6 for _ in range(6)]
+    missing = 0
+    print(f"== {name} ({model})")
+    for s in SETS:
+        data = f"{SETS_DIR}/{s}"
+        if not os.path.exists(f"{data}/metadata.csv"):
+            print(f"  {s}: missing")
+            missing += 1
+            continue
+        out = f"{CACHE}/{name}_{s}.json"
+        if not os.path.exists(out):
+            subprocess.run([BIN, "--score", model, "--data", data, "--lighting-normalise",
+                            "--quiet", "--json", out], check=True, stdout=subprocess.DEVNULL)
+        j = json.load(open(out))
+        c = j["confusion"]["all"]
+        rec = [c[i][i] / sum(c[i]) for i in range(6)]
+        for i in range(6):
+            for k in range(6):
+                pooled[i][k] += c[i][k]
+        print(f"  {s:9s} acc {100 * j['accuracy']['all']:6.2f}%  recall " +
+              " ".join(f"{100 * r:5.1f}" for r in rec))
+    rec = [pooled[i][i] / max(1, sum(pooled[i])) for i in range(6)]
+    if missing:
+        print(f"  INCOMPLETE: {missing} of {len(SETS)} sets missing from the pool")
+    print(f"  pooled    min recall {100 * min(rec):.2f}% ({CLASSES[rec.index(min(rec))]}), mean "
+          f"recall {100 * sum(rec) / 6:.2f}%  per class " + " ".join(f"{100 * r:5.1f}" for r in rec))
