@@ -7,17 +7,17 @@
 # is C1 (models/make_c1.sh) - and real hand shapes mixed in: each hand of a palm, punch,
 # two_hands and hug frame is, with probability 0.5, a real hand silhouette of the rps source's
 # train split (ss_gesture_data --hands: 535 open hands and 523 fists, CC BY-SA 4.0, made by
-# tools/handsets/extract_rps.py on branch handdata; its heldout split and the epsrc source are
+# tools/handsets/extract_rps.py, committed as data/hands/rps; its heldout split and the epsrc source are
 # validation only), placed, lifted and shadowed by the generator's renderer. rps has no
 # pointing hands: point frames keep the parametric hands.
 # About 35-40 minutes of one core, 5 of them data.
-#   sh models/make_c1.sh [BUILD_DIR] [WORK_DIR] [OUT]
+#   sh models/make_c2.sh [BUILD_DIR] [WORK_DIR] [OUT] [HANDS_DIR]
 set -e
 BUILD=${1:-build}
 WORK=${2:-/tmp/shadowsense-c2}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${3:-$SRC/models/candidates/c2.ssm}
-HANDS=${4:-/work/handdata/rps}
+HANDS=${4:-$SRC/data/hands/rps}
 SCALE="--scale-range 0.6,2 --hands $HANDS --hands-split train --real-hand-probability 0.5"
 "$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users 12 \
   --first-user 100 --frames 12 --seed 2 --randomise $SCALE

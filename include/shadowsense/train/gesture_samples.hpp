@@ -168,8 +168,13 @@ time_split(const GestureSamples& set, std::span<const std::size_t> indices, doub
 inline cv::Mat read_colour_image(const std::filesystem::path& path) {
   std::string ext = path.extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp")
-    return read_image_file(path, cv::IMREAD_COLOR);
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp") {
+    try {
+      return read_image_file(path, cv::IMREAD_COLOR);
+    } catch (const IoError& e) { // the reason from the header check, after the usual words
+      SHADOWSENSE_THROW(IoError(path.string() + ": cannot read the image (" + e.what() + ")"));
+    }
+  }
   cv::Mat img = cv::imread(path.string(), cv::IMREAD_COLOR);
   detail::require<IoError>(!img.empty(), path.string() +
                                              ": cannot read the image (missing, corrupt or not "
