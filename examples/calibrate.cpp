@@ -152,8 +152,9 @@ std::vector<std::string> split(const std::string& line) {
 // file -> labels, from the --labels CSV. video: `file` is a frame index, kept as its decimal
 // text (leading zeros dropped).
 std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path, bool video) {
-  std::ifstream f(path);
-  if (!f) throw IoError("cannot open labels '" + path + "'");
+  // The library's bounded reader: a regular file of at most 1 GiB (a FIFO or /dev/zero is
+  // refused with its name instead of hanging or growing without bound).
+  std::istringstream f(detail::read_csv_text(path));
   std::map<std::string, BoxLabelledFrame> out;
   std::string line;
   int n = 0;

@@ -19,6 +19,8 @@
 #include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
 
+#include <shadowsense/io/dataset.hpp>
+
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
 #include "common/runner.hpp"
@@ -37,6 +39,7 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -139,8 +142,9 @@ Options parse(int argc, char** argv) {
 // file -> timestamp_ms from a CSV (lines "file,timestamp_ms"; a first line that is not a number
 // is a header).
 std::map<std::string, double> read_timestamps(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw IoError("cannot open timestamps '" + path + "'");
+  // The library's bounded reader: a regular file of at most 1 GiB (a FIFO or /dev/zero is
+  // refused with its name instead of hanging or growing without bound).
+  std::istringstream f(detail::read_csv_text(path));
   std::map<std::string, double> out;
   std::string line;
   int n = 0;

@@ -79,6 +79,13 @@ public:
       SHADOWSENSE_THROW(InvalidArgument("Runtime: classify_every is " +
                                         std::to_string(config.classify_every) +
                                         "; expected 1 or more (1 = every frame)"));
+    // Room for typical scenes up front, as the pipeline's own buffers (32 blobs and tracks):
+    // copying its frame into these then never allocates.
+    constexpr std::size_t typical = 32;
+    result_.touch.tracks.reserve(typical);
+    result_.touch.shadow_boxes.reserve(typical);
+    result_.touch.contact_points.reserve(typical);
+    result_.touch.events.reserve(4 * typical);
     OutputGesture& g = result_.gesture;
     g.available = classifier_.has_value();
     if (classifier_) {
