@@ -9,7 +9,8 @@
 //   "source" is Config::source ("" when not set), escaped as a JSON string (RFC 8259, invalid
 //   UTF-8 as U+FFFD); x and y are null when the event has no contact position; gesture,
 //   confidence and gesture_frame are null when the run has no classifier or it was gated off;
-//   from and to are null on gesture lines, the temporal gesture's fields null on touch lines.
+//   from and to are null on gesture lines, the temporal gesture's fields null on touch lines,
+//   hand_shape null when the gesture has none.
 //   Numbers are the shortest round-trip decimal, '.' whatever the locale; a non-finite number
 //   is written as null.
 //
@@ -99,7 +100,10 @@ public:
       line_ += ",\"repetitions\":";
       detail::append_integer(line_, e.repetitions);
       line_ += ",\"hand_shape\":";
-      detail::append_json_string(line_, e.hand_shape.view());
+      if (e.hand_shape.empty())
+        line_ += "null";
+      else
+        detail::append_json_string(line_, e.hand_shape.view());
       line_ += ",\"gesture_confidence\":";
       number(e.confidence);
       line_ += "}\n";
