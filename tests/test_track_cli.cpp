@@ -259,9 +259,9 @@ TEST_CASE("ss_track --format json: the same events as JSON lines, one valid obje
     std::string expected = "{";
     for (std::size_t k = 0; k < v.size(); ++k) {
       const bool text = names[k] == "source" || names[k] == "from" || names[k] == "to" ||
-                        names[k] == "direction" || names[k] == "gesture" ||
-                        names[k] == "kind" || names[k] == "touch_gesture" ||
-                        names[k] == "phase" || names[k] == "hand_shape";
+                        names[k] == "direction" || names[k] == "gesture" || names[k] == "kind" ||
+                        names[k] == "touch_gesture" || names[k] == "phase" ||
+                        names[k] == "hand_shape";
       if (k) expected += ',';
       expected += "\"" + names[k] + "\":";
       if (v[k].empty() && names[k] != "source")
