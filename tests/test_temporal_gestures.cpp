@@ -285,6 +285,16 @@ TEST_CASE("hug, punch and two_hands: label intervals on track 0") {
   CHECK(label[3].hand_shape.view() == "punch");
 }
 
+TEST_CASE("a contact read as hug or two_hands is part of that gesture: no hold, no pat") {
+  Feed a;
+  a.hover(0, 480, 20, "hug");
+  a.touch(500, 2000, {100, 100}, "hug"); // 1.5 s still: would be a hold
+  a.hover(2020, 2100, 20, "");
+  REQUIRE(a.all.size() == 2);
+  check_event(a.all[0], TouchGesture::hug, GesturePhase::began, 0, 0, 0, 0);
+  check_event(a.all[1], TouchGesture::hug, GesturePhase::ended, 0, 0, 2000, 2020);
+}
+
 TEST_CASE("several tracks are recognised independently, events ordered by track id") {
   Feed a;
   for (double t = 0; t <= 380; t += 20) a.frame(t, {{1, std::nullopt}, {2, std::nullopt}});

@@ -35,7 +35,8 @@
 //              (repetitions n).
 //  * none      a still contact longer than a tap/pat and shorter than a hold, or a moved one
 //              shorter than a stroke, is a plain touch: no gesture event (the touch events have
-//              it).
+//              it). A contact whose most frequent label is hug or two_hands belongs to that
+//              whole-frame gesture: no track gesture (a punch's contact can be a hit).
 //  * hug, punch, two_hands: the frame's classifier label. `began` in the first frame with the
 //              label (track_id 0: the classifier reads the whole frame; position: the mean of
 //              the live tracks' shadow centroids), `ended` in the first frame without it, with
@@ -352,7 +353,8 @@ private:
     if (std::hypot(p.x - s.p_start.x, p.y - s.p_start.y) >
         config_.still_radius_cm * config_.px_per_cm)
       s.moved = true;
-    if (!s.moved && !s.hold_began && t - s.c_start >= config_.hold_min_ms) {
+    if (!s.moved && !s.hold_began && t - s.c_start >= config_.hold_min_ms &&
+        !whole_body(s.votes.best())) {
       s.hold_began = true;
       GestureEvent& e = emit(s, TouchGesture::hold, GesturePhase::began, t);
       e.end_ms = t;
@@ -386,6 +388,7 @@ private:
       return;
     }
     if (vanished) return;
+    if (whole_body(s.votes.best())) return void(s.chain = false); // a hug's or two hands' contact
     const int reversals = std::max(s.sx.reversals, s.sy.reversals);
     const double length_cm = s.path / config_.px_per_cm;
     const float palm_share = static_cast<float>(s.palm_votes) / static_cast<float>(s.frames);
@@ -463,6 +466,9 @@ private:
     if (s.in_contact) on_lift(s, t, true);
     s = Slot{};
   }
+
+  // A contact seen mostly as a hug or two hands is part of that whole-frame gesture.
+  static bool whole_body(std::string_view label) { return label == "hug" || label == "two_hands"; }
 
   // Hand-shape gestures of the whole frame, from the classifier's label.
   static bool frame_gesture(std::string_view label, TouchGesture& g) {
