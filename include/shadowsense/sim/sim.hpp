@@ -9,4 +9,5 @@
 #include <shadowsense/sim/renderer.hpp>
 #include <shadowsense/sim/rig.hpp>
 #include <shadowsense/sim/rng.hpp>
+#include <shadowsense/sim/touch_sequences.hpp>
 #include <shadowsense/sim/tracking.hpp>
