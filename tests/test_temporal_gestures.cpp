@@ -155,6 +155,30 @@ TEST_CASE("hold: began at exactly hold_min_ms of still contact, ended at lift") 
   CHECK(b.all.empty());
 }
 
+TEST_CASE("a hold that starts to travel ends there, and the travel is a stroke") {
+  Feed a;
+  a.hover(0, 480, 20, "palm");
+  a.touch(500, 1500, {100, 100}, "palm"); // hold began at 1500
+  for (int k = 1; k <= 10; ++k) // 8 px per frame to the left: leaves the 15 px circle at k = 2
+    a.frame(1500 + 20 * k, {{1, cv::Point2f(100.f - 8 * k, 100)}}, "palm");
+  a.frame(1720, {{1, std::nullopt}}, "palm");
+  REQUIRE(a.all.size() == 3);
+  check_event(a.all[0], TouchGesture::hold, GesturePhase::began, 1, 500, 1500, 1500);
+  check_event(a.all[1], TouchGesture::hold, GesturePhase::ended, 1, 500, 1540, 1540);
+  check_event(a.all[2], TouchGesture::stroke, GesturePhase::complete, 1, 1540, 1720, 1720);
+  CHECK(a.all[2].direction == Direction::left);
+  CHECK(a.all[2].length_px == 64.0f); // from x = 84 to x = 20
+  CHECK(a.all[2].position == cv::Point2f(84, 100));
+
+  Feed b; // a hold that moves a little and stops: the hold ends, the rest is a plain touch
+  b.hover(0, 480, 20, "palm");
+  b.touch(500, 1500, {100, 100}, "palm");
+  b.touch(1520, 1600, {120, 100}, "palm");
+  b.frame(1620, {{1, std::nullopt}}, "palm");
+  REQUIRE(b.all.size() == 2);
+  check_event(b.all[1], TouchGesture::hold, GesturePhase::ended, 1, 500, 1520, 1520);
+}
+
 TEST_CASE("pat: palm contacts in one place, each one revising the count; the slowest pat") {
   Feed a;
   a.hover(0, 480, 20, "palm");

@@ -224,6 +224,16 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
                     "' --fps=13 --quiet --source=cam0 --model=none");
   CHECK(t.status == 0);
   CHECK(t.out == expected_csv(frames, 13.0, calibration_path(), "cam0"));
+  // --no-temporal: the same touch rows, no gesture rows.
+  const Run n = run("--input='" + folder.string() + "' --calibration='" + calibration_path() +
+                    "' --fps=13 --quiet --source=cam0 --model=none --no-temporal");
+  CHECK(n.status == 0);
+  std::string touch_only;
+  std::istringstream all(t.out);
+  for (std::string line; std::getline(all, line);)
+    if (line.rfind("3,gesture,", 0) != 0) touch_only += line + "\n";
+  CHECK(touch_only != t.out); // the slide's stroke was there
+  CHECK(n.out == touch_only);
 }
 
 TEST_CASE("ss_track --format json: the same events as JSON lines, one valid object per line") {

@@ -21,7 +21,10 @@
 //              displacement's dominant axis (+x right, -x left, -y front, +y back, as the touch
 //              state machine's default), length (px) = path length, speed (px/s) = length / d.
 //  * hold      still and d >= hold_min_ms: a `began` event in the first frame where that holds
-//              (latency 0 after the threshold), an `ended` event at lift with the whole interval.
+//              (latency 0 after the threshold), an `ended` event at lift with the whole interval,
+//              or in the first frame the contact leaves the still circle: from that frame on
+//              the contact is a new episode (a stroke or rub at lift if it travels far enough,
+//              never a tap, pat or hit).
 //  * hit       at lift: still (or moved less than a stroke), d <= hit_max_contact_ms, a palm,
 //              the first contact of the track and the contact began <= hit_max_approach_ms after
 //              the track appeared (the shadow sharpened into a contact fast: a fast approach).
@@ -253,6 +256,7 @@ private:
     bool had_contact = false; // any contact since the track appeared
     // The contact episode.
     bool in_contact = false, first_contact = false, hold_began = false, moved = false;
+    bool after_hold = false; // the episode continues a hold that started to travel
     double c_start = 0, c_last = 0;
     cv::Point2f p_start{}, p_last{};
     double path = 0;
@@ -332,7 +336,7 @@ private:
       s.in_contact = true;
       s.first_contact = !s.had_contact;
       s.had_contact = true;
-      s.hold_began = s.moved = false;
+      s.hold_began = s.moved = s.after_hold = false;
       s.c_start = t;
       s.p_start = s.p_last = p;
       s.path = 0;
@@ -353,6 +357,19 @@ private:
     if (std::hypot(p.x - s.p_start.x, p.y - s.p_start.y) >
         config_.still_radius_cm * config_.px_per_cm)
       s.moved = true;
+    if (s.hold_began && s.moved) { // a hold that starts to travel: the hold ends here
+      GestureEvent& e = emit(s, TouchGesture::hold, GesturePhase::ended, t);
+      e.confidence = 1;
+      // The contact goes on as a new episode from this frame: a stroke or rub if it travels on,
+      // never a tap, pat or hit.
+      s.hold_began = s.moved = s.first_contact = false;
+      s.after_hold = true;
+      s.c_start = t;
+      s.p_start = s.p_last = p;
+      s.path = 0;
+      s.sx.reset(p.x);
+      s.sy.reset(p.y);
+    }
     if (!s.moved && !s.hold_began && t - s.c_start >= config_.hold_min_ms &&
         !whole_body(s.votes.best())) {
       s.hold_began = true;
@@ -411,7 +428,7 @@ private:
       s.chain = false;
       return;
     }
-    if (s.moved) return void(s.chain = false); // a small slide: a plain touch
+    if (s.moved || s.after_hold) return void(s.chain = false); // a plain touch
     const float shape_conf = palm ? palm_share : 1 - palm_share;
     if (palm && s.first_contact && d <= config_.hit_max_contact_ms &&
         s.c_start - s.appeared_ms <= config_.hit_max_approach_ms) {
