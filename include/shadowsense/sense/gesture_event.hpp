@@ -85,7 +85,7 @@ struct ShortLabel {
   std::array<char, 32> text{};
   void assign(std::string_view s) {
     const std::size_t n = std::min(s.size(), text.size() - 1);
-    std::memcpy(text.data(), s.data(), n);
+    if (n > 0) std::memcpy(text.data(), s.data(), n); // s.data() may be null when empty
     text[n] = '\0';
   }
   std::string_view view() const { return std::string_view(text.data()); }
