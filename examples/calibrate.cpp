@@ -1,15 +1,29 @@
 // ss_calibrate: a calibration file (thresholds + empty-skin model) from a robot's own frames.
 //
-//   ss_calibrate --empty DIR|VIDEO [--touch DIR [--labels CSV]] --out FILE [--preview PNG]
+//   ss_calibrate --empty DIR|VIDEO [--touch DIR|VIDEO|DATASET [--labels CSV]] --out FILE
+//                [--preview PNG]
 //
-// --empty: frames of the untouched skin (a folder of images sorted by name, or a video; one or
-// several light levels). --touch: frames with a hand; --labels: a CSV with the header
-//   file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h
-// (file relative to --touch; empty contact fields = no contact, e.g. a hover; empty shadow
-// fields = no shadow). Touch frames not in the labels are fitted unlabelled (clustering). The
-// fit is calibrate_from_frames (docs/calibration.md); its warnings go to stderr. --preview draws
-// the fitted segmentation on up to 8 frames as a montage. Writes are atomic.
+// --empty: frames of the untouched skin: a folder of images or a video (one or several light
+// levels). --touch: frames with a hand, as users have them:
+//   * a folder of images (the one rule of shadowsense/io/image_folder.hpp: recursive, sorted by
+//     path) with an optional --labels CSV whose header is
+//       file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h
+//     and whose `file` is the image's path relative to --touch ('/' separators; the file name
+//     for a flat folder);
+//   * a video with an optional --labels CSV of the same header whose `file` is the frame index
+//     (0 = the first frame);
+//   * a dataset folder with a metadata.csv (docs/dataset_format.md): the boxes come from the
+//     metadata; no --labels. Rows without a shadow box are labelled "no shadow"; rows whose
+//     image is also in the --empty folder (--empty DATASET/nothing) are left out.
+// Empty contact fields = no contact (a hover); empty shadow fields = no shadow. Frames not in
+// the labels are fitted unlabelled (clustering); from a video at most --max-touch of them,
+// evenly spaced. The fit is calibrate_from_frames (docs/calibration.md); its warnings go to
+// stderr naming the file (or "VIDEO#k"). --preview draws the fitted segmentation on up to 8
+// frames as a montage. The run ends with a summary on stdout: frames used per light level,
+// warnings, where the calibration was written. Writes are atomic.
 // Exit status: 0 written (maybe with warnings), 2 bad command line, input or a refused fit.
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/sense/calibration.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
 
@@ -25,6 +39,8 @@
 #include <iostream>
 #include <map>
 #include <optional>
+#include <set>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -38,41 +54,51 @@ constexpr const char* kProgram = "ss_calibrate";
 struct Options {
   std::string empty, touch, labels, out, preview;
   long long max_empty = 60; // frames taken from an empty-skin video (evenly spaced)
+  long long max_touch = 60; // unlabelled frames taken from a touch video (evenly spaced)
   double light_group_ratio = 1.25;
   int max_side = 8192;
 };
 
 const char* kHelp =
-    "usage: ss_calibrate --empty DIR|VIDEO [--touch DIR [--labels CSV]] --out FILE\n"
-    "                    [--preview PNG]\n"
+    "usage: ss_calibrate --empty DIR|VIDEO [--touch DIR|VIDEO|DATASET [--labels CSV]]\n"
+    "                    --out FILE [--preview PNG]\n"
     "Fits a segmenter calibration (thresholds and the empty-skin model) from your own frames.\n"
+    "Options take \"--opt value\" or \"--opt=value\". Folders are searched recursively\n"
+    "(.png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm; sorted by path).\n"
     "\n"
     "  --empty SPEC              frames of the untouched skin: folder of images or video file\n"
-    "  --touch DIR               frames with a hand on or over the skin\n"
-    "  --labels CSV              boxes for the touch frames, header:\n"
+    "  --touch SPEC              frames with a hand on or over the skin: a folder of images, a\n"
+    "                            video file, or a dataset folder with metadata.csv (its boxes\n"
+    "                            are the labels; docs/dataset_format.md; frames that are also\n"
+    "                            in --empty, e.g. --empty DATASET/nothing, are left out)\n"
+    "  --labels CSV              boxes for a touch folder or video, header:\n"
     "      file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
-    "                            (empty contact fields: no contact; frames not listed are\n"
-    "                            fitted unlabelled)\n"
+    "                            file: the image's path relative to --touch, or for a video\n"
+    "                            the frame index (0 = first); empty contact fields: no\n"
+    "                            contact; frames not listed are fitted unlabelled\n"
     "  --out FILE                the calibration file to write (atomically)\n"
     "  --preview PNG             the fitted segmentation on up to 8 frames, as a montage\n"
     "  --max-empty N             frames taken from an empty-skin video (default 60)\n"
+    "  --max-touch N             unlabelled frames taken from a touch video (default 60)\n"
     "  --light-group-ratio R     luminance step that starts a new light level (default 1.25)\n"
     "  --max-side N              refuse images larger than N px per side (default 8192)\n"
     "  --help, --version\n"
-    "Warnings (degenerate fits) go to stderr; see docs/calibration.md.\n";
+    "Warnings (degenerate fits) go to stderr naming the frame; a summary ends the run.\n"
+    "See docs/calibration.md.\n";
 
 // Returns the options; throws cli::Exit once --help or --version has been answered.
 Options parse(int argc, char** argv) {
   Options o;
   cli::Parser p(kProgram, "Fits a segmenter calibration from your own frames.");
   p.help_text(kHelp);
-  p.style(cli::Style::lenient());
   p.option("--empty", "SPEC", "frames of the untouched skin", o.empty);
-  p.option("--touch", "DIR", "frames with a hand on or over the skin", o.touch);
+  p.option("--touch", "SPEC", "frames with a hand on or over the skin", o.touch);
   p.option("--labels", "CSV", "boxes for the touch frames", o.labels);
   p.option("--out", "FILE", "the calibration file to write", o.out);
   p.option("--preview", "PNG", "the fitted segmentation as a montage", o.preview);
   p.option("--max-empty", "N", "frames taken from an empty-skin video", o.max_empty)
+      .range(1, 100000);
+  p.option("--max-touch", "N", "unlabelled frames taken from a touch video", o.max_touch)
       .range(1, 100000);
   p.option("--light-group-ratio", "R", "luminance step of a new light level", o.light_group_ratio)
       .range(1.01, 100.0);
@@ -84,20 +110,32 @@ Options parse(int argc, char** argv) {
   return o;
 }
 
+// Indices 0..count-1 to keep when at most `max` of them are wanted, evenly spaced.
+std::set<std::size_t> evenly_spaced(std::size_t count, long long max) {
+  std::set<std::size_t> keep;
+  const auto m = static_cast<std::size_t>(max);
+  for (std::size_t k = 0; k < std::min(count, m); ++k) keep.insert(count <= m ? k : k * count / m);
+  return keep;
+}
+
 // Frames of the empty skin: every image of a folder, or up to max_empty evenly spaced frames of
-// a video.
+// a video (every frame when the video does not tell its length, then evenly spaced).
 std::vector<cv::Mat> read_empty(const Options& o) {
   frames::FrameSource src = frames::FrameSource::open(o.empty, o.max_side);
+  if (src.is_camera())
+    throw cli::UsageError("--empty: '" + o.empty +
+                          "' is a camera; record a video or a folder of frames first");
+  std::optional<std::set<std::size_t>> keep;
+  if (!src.is_folder() && src.count()) keep = evenly_spaced(*src.count(), o.max_empty);
   std::vector<cv::Mat> all;
   cv::Mat f;
   std::string name;
-  while (src.next(f, name)) all.push_back(f.clone());
+  for (std::size_t i = 0; src.next(f, name); ++i)
+    if (!keep || keep->count(i)) all.push_back(f.clone());
   if (all.empty()) throw IoError("'" + o.empty + "' gave no frame");
   if (src.is_folder() || static_cast<long long>(all.size()) <= o.max_empty) return all;
   std::vector<cv::Mat> picked;
-  for (long long k = 0; k < o.max_empty; ++k)
-    picked.push_back(
-        all[static_cast<std::size_t>(k * static_cast<long long>(all.size()) / o.max_empty)]);
+  for (std::size_t k : evenly_spaced(all.size(), o.max_empty)) picked.push_back(all[k]);
   return picked;
 }
 
@@ -111,8 +149,9 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
-// file -> labels, from the --labels CSV.
-std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path) {
+// file -> labels, from the --labels CSV. video: `file` is a frame index, kept as its decimal
+// text (leading zeros dropped).
+std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path, bool video) {
   std::ifstream f(path);
   if (!f) throw IoError("cannot open labels '" + path + "'");
   std::map<std::string, BoxLabelledFrame> out;
@@ -152,13 +191,100 @@ std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path) {
     BoxLabelledFrame b;
     b.shadow_box = box(1, "shadow");
     b.contact_box = box(5, "contact");
-    if (c[0].empty() || fs::path(c[0]).is_absolute() || c[0].find("..") != std::string::npos)
-      throw IoError(where + ": file '" + c[0] + "' must be a name relative to --touch");
-    if (!out.emplace(c[0], b).second) throw IoError(where + ": '" + c[0] + "' appears twice");
+    std::string key = c[0];
+    if (video) {
+      long long index = -1;
+      const auto r = std::from_chars(key.data(), key.data() + key.size(), index);
+      if (key.empty() || r.ec != std::errc() || r.ptr != key.data() + key.size() || index < 0)
+        throw IoError(where + ": file '" + key +
+                      "' must be a frame index (0 = the first frame) for a video --touch");
+      key = std::to_string(index);
+    } else if (key.empty() || fs::path(key).is_absolute() || key.find("..") != std::string::npos) {
+      throw IoError(where + ": file '" + key + "' must be a path relative to --touch");
+    }
+    if (!out.emplace(key, b).second) throw IoError(where + ": '" + c[0] + "' appears twice");
   }
   if (n == 0)
     throw IoError("labels '" + path + "' are empty; expected the header '" + header + "'");
   return out;
+}
+
+// Touch frames of a dataset folder: every metadata.csv row, its boxes as labels, except the
+// rows whose image is one of the --empty folder's (e.g. --empty DATASET/nothing): those are
+// empty frames already.
+std::vector<BoxLabelledFrame> read_dataset_touch(const Options& o) {
+  const Metadata md = read_metadata(fs::path(o.touch) / "metadata.csv");
+  if (md.rows.empty()) throw DatasetError(md.csv_path.string() + ": no frames");
+  ImageLimits limits;
+  limits.max_width = limits.max_height = o.max_side;
+  std::set<fs::path> empty_files;
+  std::error_code ec;
+  if (fs::is_directory(o.empty, ec))
+    for (const fs::path& p : find_images(o.empty)) empty_files.insert(fs::weakly_canonical(p, ec));
+  std::vector<BoxLabelledFrame> out;
+  for (const MetadataRow& row : md.rows) {
+    if (empty_files.count(fs::weakly_canonical(md.image_path(row), ec))) continue;
+    BoxLabelledFrame b;
+    b.image = read_image(md, row, limits);
+    b.shadow_box = row.shadow_box;
+    b.contact_box = row.contact_box;
+    b.name = row.file_name;
+    out.push_back(std::move(b));
+  }
+  if (out.empty())
+    throw DatasetError(md.csv_path.string() + ": every frame is one of --empty's; no touch frame");
+  return out;
+}
+
+// Touch frames of a folder of images or a video, labelled from --labels where listed.
+std::vector<BoxLabelledFrame> read_touch(const Options& o) {
+  std::error_code ec;
+  const bool folder = fs::is_directory(o.touch, ec);
+  std::map<std::string, BoxLabelledFrame> labels;
+  if (!o.labels.empty()) labels = read_labels(o.labels, !folder);
+  frames::FrameSource src = frames::FrameSource::open(o.touch, o.max_side);
+  if (src.is_camera())
+    throw cli::UsageError("--touch: '" + o.touch +
+                          "' is a camera; record a video or a folder of frames first");
+  // Video: keep the labelled frames and at most max_touch unlabelled ones, evenly spaced.
+  std::optional<std::set<std::size_t>> keep_unlabelled;
+  if (!folder && src.count()) {
+    std::size_t unlabelled = 0;
+    for (std::size_t i = 0; i < *src.count(); ++i)
+      unlabelled += labels.count(std::to_string(i)) ? 0 : 1;
+    std::set<std::size_t> picks = evenly_spaced(unlabelled, o.max_touch);
+    keep_unlabelled.emplace();
+    for (std::size_t i = 0, u = 0; i < *src.count(); ++i)
+      if (!labels.count(std::to_string(i)) && picks.count(u++)) keep_unlabelled->insert(i);
+  }
+  std::vector<BoxLabelledFrame> touch;
+  std::size_t unlabelled_taken = 0;
+  cv::Mat f;
+  std::string name;
+  for (std::size_t i = 0; src.next(f, name); ++i) {
+    const std::string key = folder ? name : std::to_string(i);
+    BoxLabelledFrame b;
+    const auto it = labels.find(key);
+    if (it != labels.end()) {
+      b = it->second;
+      labels.erase(it);
+    } else {
+      if (!folder && (keep_unlabelled ? !keep_unlabelled->count(i)
+                                      : unlabelled_taken >= static_cast<std::size_t>(o.max_touch)))
+        continue;
+      b.labelled = false;
+      ++unlabelled_taken;
+    }
+    b.image = f.clone();
+    b.name = folder ? name : o.touch + "#" + std::to_string(i);
+    touch.push_back(std::move(b));
+  }
+  if (!labels.empty())
+    throw IoError("'" + o.labels + "' labels '" + labels.begin()->first + "', which is not " +
+                  (folder ? "an image in '" + o.touch + "'"
+                          : "a frame of '" + o.touch + "' (frames are counted from 0)"));
+  if (touch.empty()) throw IoError("'" + o.touch + "' gave no frame");
+  return touch;
 }
 
 // The fitted segmentation on up to 8 frames (touch frames first), 4 per row.
@@ -180,41 +306,26 @@ int run(const Options& o) {
   frames::limit_decoder(o.max_side);
   const std::vector<cv::Mat> empty = read_empty(o);
   std::vector<BoxLabelledFrame> touch;
-  std::size_t labelled = 0;
+  std::string touch_kind;
   if (!o.touch.empty()) {
-    std::map<std::string, BoxLabelledFrame> labels;
-    if (!o.labels.empty()) labels = read_labels(o.labels);
-    const std::vector<fs::path> files = frames::list_images(o.touch);
-    if (files.empty()) throw IoError("folder '" + o.touch + "' holds no image");
-    for (const fs::path& p : files) {
-      BoxLabelledFrame b;
-      const auto it = labels.find(p.filename().string());
-      if (it != labels.end()) {
-        b = it->second;
-        labels.erase(it);
-        ++labelled;
-      } else {
-        b.labelled = false;
-      }
-      b.image = frames::read_image(p, o.max_side);
-      touch.push_back(std::move(b));
-    }
-    if (!labels.empty())
-      throw IoError("'" + o.labels + "' labels '" + labels.begin()->first +
-                    "', which is not an "
-                    "image in '" +
-                    o.touch + "'");
+    std::error_code ec;
+    const bool dataset = fs::is_regular_file(fs::path(o.touch) / "metadata.csv", ec);
+    if (dataset && !o.labels.empty())
+      throw cli::UsageError("--labels: '" + o.touch +
+                            "' is a dataset folder; its metadata.csv gives the boxes");
+    touch = dataset ? read_dataset_touch(o) : read_touch(o);
+    touch_kind = dataset ? "dataset" : fs::is_directory(o.touch, ec) ? "folder" : "video";
   }
+  std::size_t labelled = 0;
+  for (const BoxLabelledFrame& b : touch) labelled += b.labelled ? 1 : 0;
   CalibrationOptions co;
   co.light_group_ratio = static_cast<float>(o.light_group_ratio);
   co.base.max_image_side = o.max_side;
   const CalibrationResult r = calibrate_from_frames(empty, touch, co);
   for (const CalibrationWarning& w : r.warnings)
     std::cerr << kProgram << ": warning: " << to_string(w.issue) << ": " << w.message << "\n";
+  std::cerr.flush();
   save_calibration(r.calibration, o.out);
-  std::cout << "calibration: " << empty.size() << " empty frames, " << touch.size()
-            << " touch frames (" << labelled << " labelled), " << r.groups.size()
-            << " light level(s), " << r.warnings.size() << " warning(s) -> " << o.out << "\n";
   for (const LightGroupReport& g : r.groups)
     std::cout << "  luminance " << g.luminance << ": " << g.empty_frames << " empty, "
               << g.touch_frames << " touch; noise " << g.noise_darkness << ", shadow "
@@ -223,13 +334,24 @@ int run(const Options& o) {
               << (g.fitted ? "" : " (not fitted here)") << "\n";
   if (!o.preview.empty()) {
     std::vector<cv::Mat> sample;
-    const std::size_t n_touch = std::min<std::size_t>(6, touch.size()); // spread over the folder
+    const std::size_t n_touch = std::min<std::size_t>(6, touch.size()); // spread over the input
     for (std::size_t k = 0; k < n_touch; ++k)
       sample.push_back(touch[k * touch.size() / n_touch].image);
     for (std::size_t k = 0; k < empty.size() && sample.size() < 8; ++k) sample.push_back(empty[k]);
     frames::write_png_atomically(o.preview, montage(r.calibration, sample));
     std::cout << "preview: " << sample.size() << " frames -> " << o.preview << "\n";
   }
+  // The summary: what was used per light level, the warnings, where the result went.
+  std::ostringstream levels;
+  for (std::size_t g = 0; g < r.groups.size(); ++g)
+    levels << (g ? "; " : "") << "luminance " << static_cast<int>(r.groups[g].luminance + 0.5f)
+           << ": " << r.groups[g].empty_frames << " empty + " << r.groups[g].touch_frames
+           << " touch";
+  std::cout << "calibration: " << empty.size() << " empty frames, " << touch.size()
+            << " touch frames (" << labelled << " labelled"
+            << (touch_kind.empty() ? "" : ", from a " + touch_kind) << "), " << r.groups.size()
+            << " light level(s) (" << levels.str() << "), " << r.warnings.size() << " warning(s)"
+            << (r.warnings.empty() ? "" : " (on stderr)") << " -> " << o.out << "\n";
   return 0;
 }
 

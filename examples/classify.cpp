@@ -2,13 +2,15 @@
 // file, the frame encoding (lighting normalisation, dark-frame rule, preprocessing) taken from
 // the model file itself.
 //
-//   ss_classify [--model FILE] [--format csv|json] [--truth] [--threads N]
-//               [--lighting-normalise] INPUT
+//   ss_classify --input INPUT [--model FILE] [--format csv|json] [--truth] [--threads N]
+//               [--lighting-normalise] [--quiet]
 //
-// INPUT: a folder (images found recursively: .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm,
+// INPUT (--input, or as the last word): a folder (images found by the one rule of
+// shadowsense/io/image_folder.hpp: recursively, .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm,
 // sorted by path, names starting with '.' skipped) or a video file (when built with OpenCV
 // videoio). --model defaults to the shipped model, found by common/model_path.hpp (installed,
-// $SHADOWSENSE_MODEL, or the source tree's when run from the build folder).
+// $SHADOWSENSE_MODEL, or the source tree's when run from the build folder). Options take
+// "--opt value" or "--opt=value".
 // stdout: one line per frame.
 //   csv (default): header "frame,source,dark,label,<class 1>,...,<class n>", then the frame
 //                  number (from 0), the image path or "VIDEO#k", whether the dark-frame rule
@@ -22,8 +24,11 @@
 //   machine-readable.
 // --lighting-normalise: switch lighting normalisation on for version-1 model files, which do
 //   not record it (version-2 files apply what they record).
+// stderr: "ss_classify: frame i of n" at most once a second and "ss_classify: n frames" at the
+//   end, when the input is a video of unknown length or has more than 100 frames (--quiet: none).
 // Exit status: 0 on success; 2 on any error (message on stderr); --help (stdout) and
 // --version exit 0.
+#include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/shadowsense.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
@@ -35,10 +40,12 @@
 #include <opencv2/videoio.hpp>
 #endif
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -49,12 +56,16 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr const char* usage =
-    "usage: ss_classify [--model FILE] [--format csv|json] [--truth] [--threads N]\n"
-    "                   [--lighting-normalise] INPUT\n"
+    "usage: ss_classify --input INPUT [--model FILE] [--format csv|json] [--truth]\n"
+    "                   [--threads N] [--lighting-normalise] [--quiet]\n"
     "\n"
     "Classifies every frame of INPUT (a folder of images, searched recursively and sorted by\n"
     "path, or a video file) with a shadowsense model file and prints one line per frame.\n"
+    "Options take \"--opt value\" or \"--opt=value\".\n"
     "\n"
+    "  --input INPUT         a folder of images (.png .jpg .jpeg .bmp .tif .tiff .webp .ppm\n"
+    "                        .pgm, in sub-folders too) or a video file; may also be given as\n"
+    "                        the last word without --input\n"
     "  --model FILE          model file (default: @DEFAULT_MODEL@)\n"
     "  --format csv|json     csv (default): frame,source,dark,label,<one column per class>;\n"
     "                        json: one object per line with frame, source, dark, label,\n"
@@ -62,9 +73,11 @@ constexpr const char* usage =
     "  --truth               folders only: the true class is the first folder below INPUT\n"
     "                        (INPUT/<class>/...); accuracy and confusion matrix (rows true,\n"
     "                        columns predicted) are printed to stderr after the frames\n"
-    "  --threads N           inference threads, 1..64 (default 1)\n"
+    "  --threads N           inference threads, an integer in [1, 256] (default 1)\n"
     "  --lighting-normalise  normalise lighting for version-1 model files, which do not\n"
     "                        record it (version-2 files apply what they record)\n"
+    "  --quiet               no progress line on stderr (shown once a second for inputs\n"
+    "                        over 100 frames or of unknown length)\n"
     "  --help                this text;  --version  the library version\n"
     "\n"
     "Exit status 0 on success, 2 on an error (message on stderr).\n";
@@ -72,7 +85,7 @@ constexpr const char* usage =
 struct Options {
   std::string model; // empty: cli::find_default_model
   std::string input;
-  bool json = false, truth = false, force_normalise = false;
+  bool json = false, truth = false, force_normalise = false, quiet = false;
   int threads = 1;
 };
 
@@ -85,21 +98,18 @@ Options parse(int argc, char** argv) {
   const std::string marker = "@DEFAULT_MODEL@";
   help.replace(help.find(marker), marker.size(), cli::default_model_help(argv[0]));
   p.help_text(help);
-  cli::Style style;
-  style.equals = cli::Style::Equals::none;
-  style.repeat_replaces = true;
-  style.missing_value = [](const std::string& name) { return name + " needs a value"; };
-  p.style(std::move(style));
+  p.option("--input", "INPUT", "a folder of images or a video file", o.input)
+      .check([&o](const std::string& arg) {
+        if (!o.input.empty())
+          throw cli::UsageError("more than one INPUT ('" + o.input + "' and '" + arg + "')");
+      });
   p.option("--model", "FILE", "model file", o.model);
-  p.option("--format", "csv|json", "output format", format).check([](const std::string& f) {
-    if (f != "csv" && f != "json")
-      throw cli::UsageError("--format '" + f + "': expected csv or json");
-  });
+  p.option("--format", "csv|json", "output format", format).choices({"csv", "json"});
   p.flag("--truth", "the true class is the first folder below INPUT", o.truth);
-  p.option("--threads", "N", "inference threads", o.threads)
-      .range(1, 64)
-      .expected("a whole number in 1..64");
+  p.option("--threads", "N", "inference threads", o.threads).range(1, 256);
   p.flag("--lighting-normalise", "normalise lighting for version-1 model files", o.force_normalise);
+  p.flag("--quiet", "no progress line on stderr", o.quiet);
+  // INPUT as the last word stays accepted (the command line ss_classify documented first).
   p.positional("INPUT", "a folder of images or a video file", [&o](std::string_view arg) {
     if (!o.input.empty())
       throw cli::UsageError("more than one INPUT ('" + o.input + "' and '" + std::string(arg) +
@@ -109,7 +119,7 @@ Options parse(int argc, char** argv) {
   p.parse(argc, argv);
   o.json = format == "json";
   if (o.input.empty())
-    throw cli::UsageError("INPUT is required: a folder of images or a video file");
+    throw cli::UsageError("--input is required: a folder of images or a video file");
   if (o.model.empty()) { // say which file the default is, as --help does
     std::string what;
     o.model = cli::find_default_model(argv[0], &what).string();
@@ -157,8 +167,8 @@ public:
     if (fs::is_directory(input, ec)) {
       images_ = ss::find_images(input);
       if (images_.empty())
-        throw ss::IoError(input + ": no images found (looked for .png .jpg .jpeg .bmp .tif "
-                                  ".tiff .webp .ppm .pgm, recursively)");
+        throw ss::IoError(input + ": no images found (looked for " + ss::image_extensions_text() +
+                          ", recursively)");
       return;
     }
     if (!fs::is_regular_file(input, ec))
@@ -168,6 +178,8 @@ public:
     if (!video_.open(input) || !video_.isOpened())
       throw ss::IoError(input + ": cannot open as a video (not a format OpenCV videoio reads)");
     is_video_ = true;
+    const double n = video_.get(cv::CAP_PROP_FRAME_COUNT);
+    if (std::isfinite(n) && n > 0 && n < 1e9) count_ = static_cast<std::size_t>(n);
 #else
     throw ss::IoError(input + ": is a file; reading video needs OpenCV videoio, which this "
                               "build lacks (pass a folder of images)");
@@ -178,6 +190,11 @@ public:
   }
   const std::vector<fs::path>& images() const {
     return images_;
+  }
+  // Number of frames when known (folders, most video files).
+  std::optional<std::size_t> count() const {
+    if (!is_video_) return images_.size();
+    return count_;
   }
 
   // Next frame (BGR) and its source name; false at the end.
@@ -205,6 +222,7 @@ private:
   std::vector<fs::path> images_;
   std::size_t index_ = 0;
   bool is_video_ = false;
+  std::optional<std::size_t> count_;
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
   cv::VideoCapture video_;
 #endif
@@ -294,6 +312,7 @@ int run(const Options& o) {
   if (o.truth) truth = truth_labels(src, o.input, classes);
   std::vector<std::vector<int>> confusion(classes.size(), std::vector<int>(classes.size(), 0));
 
+  cli::Progress progress("ss_classify", src.count(), cli::Progress::wanted(o.quiet, src.count()));
   print_header(o, classes);
   cv::Mat frame;
   std::string source;
@@ -308,8 +327,10 @@ int run(const Options& o) {
     }
     print_frame(o, n, source, dark, r, classes);
     if (o.truth) ++confusion[static_cast<std::size_t>(truth[n])][static_cast<std::size_t>(r.index)];
+    progress.update(n + 1);
   }
   std::cout.flush();
+  progress.finish(n);
   if (!std::cout) throw ss::IoError("writing to stdout failed");
   if (n == 0) throw ss::IoError(o.input + ": no frames could be read");
   if (o.truth) print_confusion(confusion, classes);

@@ -6,9 +6,9 @@
 // (tools/train.py, models/make_eval_backbones.sh), so no model scoring a split has seen its test
 // users or lighting (docs/classification_eval.md).
 //
-//   ss_eval_classify --data DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--lighting-normalise]
+//   ss_eval_classify --input DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--lighting-normalise]
 //                    [--tables 1,2,3,4] [--json OUT.json] [--confusion-dir DIR] [--threads N]
-//   ss_eval_classify --speed MODEL.ssm[@WxH] ... [--data DIR --subsample K]   (speed vs error)
+//   ss_eval_classify --speed MODEL.ssm[@WxH] ... [--input DIR --subsample K]   (speed vs error)
 //
 // --backbone: Tables 1 and 2 (must not have seen the evaluation users); default: the shipped
 // model (common/model_path.hpp), trained on generated users 100-135.
@@ -20,6 +20,7 @@
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
 #include "common/json.hpp"
 #include "common/model_path.hpp"
 
@@ -197,7 +198,7 @@ void write_confusion_png(const fs::path& path, const Confusion& c,
     }
   }
   fs::create_directories(path.parent_path());
-  if (!cv::imwrite(path.string(), img)) throw ss::IoError("cannot write " + path.string());
+  frames::write_png_atomically(path, img); // temp + rename: never a truncated PNG
 }
 
 std::string lname(ss::sim::Lighting l) {
@@ -311,10 +312,10 @@ int run_speed(const Options& o) {
   return 0;
 }
 
-// Scores a model file as it is (its own classifier, no training) on every frame of --data with
+// Scores a model file as it is (its own classifier, no training) on every frame of --input with
 // the C++ Classifier: accuracy per lighting and overall, confusion matrices.
 int run_score(const Options& o) {
-  if (o.data.empty()) throw cli::UsageError("--score: needs --data DIR");
+  if (o.data.empty()) throw cli::UsageError("--score: needs --input DIR");
   const auto model = ss::ModelFile::load(o.score_model);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
@@ -376,11 +377,12 @@ Options parse_options(int argc, char** argv) {
                 "folder: every split trains a linear classifier on frozen backbone features and "
                 "scores the split's test frames (docs/classification_eval.md). --score scores a "
                 "model as it is; --speed times models (speed vs error).");
-  p.usage("ss_eval_classify --data DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--tables LIST] "
+  p.usage("ss_eval_classify --input DIR [--backbone ALL.ssm] [--backbone-dir DIR] [--tables LIST] "
           "[options]");
-  p.usage("ss_eval_classify --score MODEL --data DIR [options]");
-  p.usage("ss_eval_classify --speed MODEL[@WxH] ... [--data DIR --subsample K] [options]");
-  p.option("--data", "DIR", "gesture folder (dataset format)", o.data);
+  p.usage("ss_eval_classify --score MODEL --input DIR [options]");
+  p.usage("ss_eval_classify --speed MODEL[@WxH] ... [--input DIR --subsample K] [options]");
+  p.option("--input", "DIR", "gesture folder (dataset format)", o.data);
+  p.alias("--data", "--input");
   p.option("--backbone", "ALL.ssm", "backbone of Tables 1 and 2 (never saw the evaluated users)",
            o.backbone)
       .default_text(cli::default_model_help(argv[0]) + ", trained on generated users 100-135");
@@ -392,9 +394,9 @@ Options parse_options(int argc, char** argv) {
   p.option("--json", "OUT.json", "write the results as JSON", o.json);
   p.option("--confusion-dir", "DIR", "write confusion matrices as PNG images", o.confusion_dir);
   p.option("--threads", "N", "worker threads", o.threads).range(1, 256);
-  p.option("--score", "MODEL", "score this model's own classifier on --data", o.score_model);
+  p.option("--score", "MODEL", "score this model's own classifier on --input", o.score_model);
   p.repeated("--speed", "MODEL[@WxH]",
-             "time this model, optionally resized to WxH; with --data also its Table-1 accuracy",
+             "time this model, optionally resized to WxH; with --input also its Table-1 accuracy",
              o.speed_models);
   p.option("--subsample", "K", "with --speed: every K-th frame of each session x class block",
            o.subsample)
@@ -411,7 +413,7 @@ Options parse_options(int argc, char** argv) {
   o.tables = std::set<int>(tables.begin(), tables.end());
   if (o.speed_models.empty() && o.score_model.empty()) {
     if (o.data.empty())
-      throw cli::UsageError("--data is required (or --score / --speed; see --help)");
+      throw cli::UsageError("--input is required (or --score / --speed; see --help)");
     if ((o.tables.count(3) || o.tables.count(4)) && o.backbone_dir.empty())
       throw cli::UsageError(
           "--backbone-dir: Tables 3 and 4 need it (no_<lighting>.ssm, only_<lighting>.ssm)");

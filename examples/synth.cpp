@@ -16,6 +16,7 @@
 #include <shadowsense/eval.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -152,8 +153,7 @@ int main(int argc, char** argv) {
              preview_path);
     p.parse(argc, argv);
     if (!preview_path.empty()) {
-      if (!cv::imwrite(preview_path, preview(seed)))
-        throw ss::IoError("cannot write " + preview_path);
+      frames::write_png_atomically(preview_path, preview(seed)); // temp + rename, checked
       std::cout << "preview -> " << preview_path << "\n";
       if (out.empty()) return 0;
     }

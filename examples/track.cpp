@@ -108,7 +108,6 @@ Options parse(int argc, char** argv) {
   std::string tuio;
   cli::Parser p(kProgram, "Touch events and gestures from a folder, a video or a camera.");
   p.help_text(std::string(kHelp) + "Default model: " + runner::default_model_text(argv[0]) + "\n");
-  p.style(cli::Style::lenient());
   p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input);
   p.option("--calibration", "FILE", "calibration with the empty-skin model", o.calibration);
   p.option("--model", "FILE|none", "gesture model", o.model);
@@ -124,9 +123,9 @@ Options parse(int argc, char** argv) {
   p.option("--source", "NAME", "the events' source field", o.source);
   p.option("--tuio", "HOST[:PORT]", "also send TUIO 1.1 over UDP", tuio)
       .check([&o](const std::string& spec) {
-        const auto [host, port] = runner::parse_tuio_target(spec, "--tuio");
-        o.tuio_host = host;
-        o.tuio_port = port;
+        const cli::TuioTarget target = cli::parse_tuio_target(spec, "--tuio");
+        o.tuio_host = target.host;
+        o.tuio_port = target.port;
       });
   p.option("--annotate", "DIR", "write an annotated PNG per frame into DIR", o.annotate);
   p.option("--fps", "F", "frame rate of a folder or override for a video", o.fps)
@@ -140,12 +139,12 @@ Options parse(int argc, char** argv) {
   p.flag("--show", "show the annotated frames in a window", o.show);
   p.flag("--quiet", "no progress line on stderr", o.quiet);
   p.parse(argc, argv);
+  if (o.show) cli::require_display("--show"); // before the other checks: `--show` alone says why
   if (o.input.empty()) throw cli::UsageError("--input is required (a folder, a video or a camera)");
   if (o.calibration.empty())
     throw cli::UsageError("--calibration is required (make one with ss_calibrate)");
   if (o.realtime && o.no_realtime)
     throw cli::UsageError("--realtime and --no-realtime contradict each other; give one");
-  if (o.show) runner::require_display("--show");
   if (o.source.empty()) o.source = o.input;
   return o;
 }
@@ -177,15 +176,27 @@ std::map<std::string, double> read_timestamps(const std::string& path) {
   return out;
 }
 
-// The events of one frame (or the flush) through every sink.
+// The events of one frame (or the flush) through every sink. stdout is the run's result: a
+// failure there ends the run. TUIO is a live view for other programs: a frame it cannot send (a
+// lost route, a frame with more blobs than one packet holds) is counted, the first reason said
+// once, and tracking goes on.
 struct Sinks {
   std::optional<CsvSink> csv;
   std::optional<JsonLinesSink> json;
   std::optional<TuioSink> tuio;
+  long long tuio_frames = 0, tuio_failed = 0;
   void write(const OutputFrame& f) {
     if (csv) csv->write(f);
     if (json) json->write(f);
-    if (tuio) tuio->write(f);
+    if (!tuio) return;
+    ++tuio_frames;
+    try {
+      tuio->write(f);
+    } catch (const Error& e) { // IoError (socket), InvalidArgument (too many blobs)
+      if (tuio_failed++ == 0)
+        std::cerr << kProgram << ": warning: TUIO frame " << f.frame_index
+                  << " not sent, tracking goes on: " << e.what() << '\n';
+    }
   }
 };
 
@@ -236,7 +247,7 @@ int run(const Options& o) {
               << (realtime ? "; paced to the timestamps" : "") << '\n';
   }
   if (!o.annotate.empty()) fs::create_directories(o.annotate);
-  runner::Progress progress(kProgram, o.quiet, src.count());
+  cli::Progress progress(kProgram, src.count(), cli::Progress::wanted(o.quiet, src.count()));
   const auto start = std::chrono::steady_clock::now();
   std::optional<double> first_t;
   cv::Mat frame;
@@ -284,14 +295,17 @@ int run(const Options& o) {
     }
     last_t = t;
     ++i;
-    progress.tick(i);
+    progress.update(static_cast<std::size_t>(i));
   }
   if (i == 0) throw IoError("'" + o.input + "' gave no frame");
   const double step = stamps || src.is_camera() ? 1.0 : 1000.0 / fps;
   sense.flush(last_t + step);
   sinks.write(sense.output()); // the lifts reach the clients
   std::cout.flush();
-  progress.done(i);
+  progress.finish(static_cast<std::size_t>(i));
+  if (sinks.tuio_failed)
+    std::cerr << kProgram << ": warning: " << sinks.tuio_failed << " of " << sinks.tuio_frames
+              << " TUIO frames could not be sent to " << sinks.tuio->destination() << '\n';
   if (!std::cout) throw IoError("writing the events to stdout failed");
   return 0;
 }

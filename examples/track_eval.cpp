@@ -2,7 +2,7 @@
 // Figure 14 (slide direction accuracy against the observed ratio) on datasets written by
 // ss_synth. Keys of the --json output are documented in docs/tracking_eval.md.
 //
-//   ss_track_eval --data DIR [--tracking DIR] [--slides DIR] [--json PATH] [--annotate DIR]
+//   ss_track_eval --input DIR [--tracking DIR] [--slides DIR] [--json PATH] [--annotate DIR]
 //                 [--annotate-limit N] [--calib-seed N] [--calib-frames N]
 //                 [--calibration FILE] [--save-calibration FILE] [--mode relative|fixed_ranges]
 //                 [--differential-window MS] [--roc CSV] [--roc-gate PX] [--roc-pick-frames N]
@@ -22,6 +22,7 @@
 #include <shadowsense/sense/touch_state_machine.hpp>
 
 #include "common/cli.hpp"
+#include "common/frame_source.hpp"
 #include "common/json.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -63,9 +64,10 @@ Options parse(int argc, char** argv) {
                 "Figure 14 (slide direction accuracy against the observed ratio) on datasets "
                 "written by ss_synth; the segmenter is calibrated on generator frames, never on "
                 "the evaluated ones.");
-  p.usage("ss_track_eval --data DIR [options]");
+  p.usage("ss_track_eval --input DIR [options]");
   p.usage("ss_track_eval --tracking DIR --slides DIR [options]");
-  p.option("--data", "DIR", "folder holding tracking/ and slides/", data);
+  p.option("--input", "DIR", "folder holding tracking/ and slides/", data);
+  p.alias("--data", "--input");
   p.option("--tracking", "DIR", "tracking dataset (instead of DIR/tracking)", o.tracking);
   p.option("--slides", "DIR", "slides dataset (instead of DIR/slides)", o.slides);
   p.option("--json", "PATH", "write the results as JSON (docs/tracking_eval.md)", o.json);
@@ -98,7 +100,7 @@ Options parse(int argc, char** argv) {
     if (!p.given("--slides")) o.slides = data / "slides";
   }
   if (o.tracking.empty() && o.slides.empty())
-    throw cli::UsageError("give --data DIR, --tracking DIR or --slides DIR");
+    throw cli::UsageError("give --input DIR, --tracking DIR or --slides DIR");
   o.mode = mode == "relative" ? SegmentMode::relative : SegmentMode::fixed_ranges;
   return o;
 }
@@ -175,7 +177,7 @@ std::map<std::string, CategoryResult> evaluate_tracking(const Options& o, Segmen
       annotate(a, s, row.shadow_box, row.contact_box, state_label(s));
       const fs::path p = o.annotate / "tracking" / row.file_name;
       fs::create_directories(p.parent_path());
-      if (!cv::imwrite(p.string(), a)) throw IoError("cannot write '" + p.string() + "'");
+      frames::write_png_atomically(p, a); // temp + rename, checked
     }
   }
   return out;
@@ -231,7 +233,7 @@ SlideResults evaluate_slides(const Options& o, Segmenter& seg) {
         annotate(a, s, row.shadow_box, row.contact_box, label);
         const fs::path p = o.annotate / "slides" / q.sequence / row.file_name;
         fs::create_directories(p.parent_path());
-        if (!cv::imwrite(p.string(), a)) throw IoError("cannot write '" + p.string() + "'");
+        frames::write_png_atomically(p, a); // temp + rename, checked
       }
     }
     if (!any_contact) ++r.no_touch;
@@ -529,6 +531,16 @@ int main(int argc, char** argv) {
           rig = sim::Rig::robot();
       }
     }
+    // Refuse a missing input before the calibration's minute of rendering.
+    const bool has_tracking = !o.tracking.empty() && fs::exists(o.tracking / "metadata.csv");
+    const bool has_slides = !o.slides.empty() && fs::exists(o.slides / "sequences.csv");
+    if (!has_tracking && !has_slides)
+      throw DatasetError(
+          "nothing to evaluate: no " +
+          (o.tracking.empty() ? std::string("--tracking")
+                              : (o.tracking / "metadata.csv").string()) +
+          " and no " +
+          (o.slides.empty() ? std::string("--slides") : (o.slides / "sequences.csv").string()));
     sim::Renderer renderer(rig);
     Segmenter::Config base;
     base.calibration.mode = o.mode;
@@ -553,21 +565,19 @@ int main(int argc, char** argv) {
 
     std::optional<std::map<std::string, CategoryResult>> t5;
     std::optional<SlideResults> f14;
-    if (!o.tracking.empty() && fs::exists(o.tracking / "metadata.csv")) {
+    if (has_tracking) {
       t5 = evaluate_tracking(o, seg);
       print_table5(*t5);
     } else if (!o.tracking.empty()) {
       std::cout << "no tracking dataset at " << o.tracking << "\n";
     }
-    if (!o.slides.empty() && fs::exists(o.slides / "sequences.csv")) {
+    if (has_slides) {
       Segmenter slide_seg = segmenter_from(cal);
       f14 = evaluate_slides(o, slide_seg);
       print_figure14(*f14);
     } else if (!o.slides.empty()) {
       std::cout << "no slides dataset at " << o.slides << "\n";
     }
-    if (!t5 && !f14)
-      throw DatasetError("nothing to evaluate: no tracking/metadata.csv or slides/sequences.csv");
     std::optional<RocResult> roc;
     if (!o.roc.empty()) {
       detail::require<DatasetError>(t5.has_value(), "--roc needs a tracking dataset");

@@ -2,7 +2,7 @@
 // linear classifier is trained on a labelled image folder with the paper's recipe (Adam 1e-3,
 // batch 16, 20 epochs, best epoch by validation accuracy), and a new model file is written.
 //
-//   ss_train_head [--model BASE.ssm] --data DIR --out NEW.ssm [--val-fraction 0.3]
+//   ss_train_head [--model BASE.ssm] --input DIR --out NEW.ssm [--val-fraction 0.3]
 //                 [--users 0,1] [--lightings night] [--epochs 20] [--lighting-normalise]
 //                 [--fine-tune] [--seed S] [--threads N]
 //                 [--anchor L] [--balanced] [--standardise] [--augment K]
@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
                   "file.");
     p.option("--model", "BASE.ssm", "model file whose features are used", model_path)
         .default_text(cli::default_model_help(argv[0]));
-    p.option("--data", "DIR", "labelled gesture folder (dataset format)", data).required();
+    p.option("--input", "DIR", "labelled gesture folder (dataset format)", data).required();
+    p.alias("--data", "--input");
     p.option("--out", "NEW.ssm", "model file to write", out).required();
     p.option("--val-fraction", "F",
              "validation share of every session x class block (by time); 0: none, the last epoch "

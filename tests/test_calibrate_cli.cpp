@@ -1,13 +1,20 @@
-// ss_calibrate on folders of PNGs with a labels CSV writes exactly the calibration
-// calibrate_from_frames makes in memory from the same frames, plus a preview; bad labels and
+// ss_calibrate on folders of PNGs with a labels CSV, on a dataset folder with metadata.csv and
+// on videos writes exactly the calibration calibrate_from_frames makes in memory from the same
+// frames (warnings naming the files), plus a preview and a closing summary; bad labels and
 // arguments are refused with exit status 2 and a message naming the problem.
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/sense/calibration.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
+#include <shadowsense/sim/dataset_writer.hpp>
 
 #include <doctest/doctest.h>
 
 #include <opencv2/imgcodecs.hpp>
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+#include <opencv2/videoio.hpp>
+#endif
 
 #include "common/run_program.hpp"
 
@@ -74,7 +81,7 @@ Written write_frames() {
         w.empty.push_back(back);
         continue;
       }
-      BoxLabelledFrame b{back, i != 7, std::nullopt, std::nullopt};
+      BoxLabelledFrame b{back, i != 7, std::nullopt, std::nullopt, name};
       if (b.labelled) {
         b.shadow_box = f.gt.shadow_box;
         b.contact_box = f.gt.contact_box;
@@ -100,10 +107,14 @@ TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from 
                     "' --out '" + out + "' --preview '" + preview + "'");
   INFO(r.err);
   REQUIRE(r.status == 0);
-  CHECK(r.out.find("6 empty frames, 18 touch frames (15 labelled), 3 light level(s)") !=
-        std::string::npos);
+  CHECK(r.out.find("6 empty frames, 18 touch frames (15 labelled, from a folder), 3 light "
+                   "level(s) (luminance ") != std::string::npos);
+  // The summary is the last line and says where the calibration went.
+  CHECK(r.out.rfind("calibration: ") > r.out.rfind("preview: "));
+  CHECK(r.out.ends_with(" -> " + out + "\n"));
   const CalibrationResult expected = calibrate_from_frames(w.empty, w.touch);
   CHECK(load_calibration(out) == expected.calibration);
+  CHECK(r.out.find(std::to_string(expected.warnings.size()) + " warning(s)") != std::string::npos);
   CHECK(read_file(out) == calibration_to_string(expected.calibration));
   // Warnings are the same and on stderr.
   for (const CalibrationWarning& x : expected.warnings)
@@ -136,6 +147,9 @@ TEST_CASE("ss_calibrate: bad labels and arguments exit 2 naming the problem") {
   r = with_labels(header + "t0_2.png,1,2,3,,,,,\n");
   CHECK(r.status == 2);
   CHECK(r.err.find("shadow box is incomplete") != std::string::npos);
+  r = with_labels(header + "../t0_2.png,1,2,3,4,,,,\n");
+  CHECK(r.status == 2);
+  CHECK(r.err.find("must be a path relative to --touch") != std::string::npos);
   r = with_labels(header + "nope.png,1,2,3,4,,,,\n");
   CHECK(r.status == 2);
   CHECK(r.err.find("'nope.png', which is not an image") != std::string::npos);
@@ -155,7 +169,208 @@ TEST_CASE("ss_calibrate: bad labels and arguments exit 2 naming the problem") {
   r = run(base + " --max-empty 1e3");
   CHECK(r.status == 2);
   CHECK(r.err.find("--max-empty: expected an integer") != std::string::npos);
+  r = run(base + " --max-empty=0");
+  CHECK(r.status == 2);
+  CHECK(r.err.find("--max-empty: expected an integer in [1, 100000], got '0'") !=
+        std::string::npos);
 }
+
+namespace {
+
+// The frames and boxes of a dataset folder as ss_calibrate reads them, named by file_name.
+std::vector<BoxLabelledFrame> dataset_frames(const fs::path& dir) {
+  const Metadata md = read_metadata(dir / "metadata.csv");
+  std::vector<BoxLabelledFrame> out;
+  for (const MetadataRow& row : md.rows)
+    out.push_back({read_image(md, row), true, row.shadow_box, row.contact_box, row.file_name});
+  return out;
+}
+
+// Empty-skin generator frames of the test box at one lighting preset.
+std::vector<cv::Mat> empty_frames(int light, int n, std::uint64_t seed) {
+  static sim::Renderer renderer(sim::Rig::tracking_box());
+  sim::TrackingSampleConfig variety;
+  variety.lighting_weights = {0, 0, 0};
+  variety.lighting_weights[static_cast<std::size_t>(light)] = 1;
+  std::vector<cv::Mat> out;
+  for (int i = 0; i < n; ++i)
+    out.push_back(sim::render_random_tracking_frame(renderer, sim::TrackCategory::nothing,
+                                                    sim::derive_seed(seed, i), variety)
+                      .image);
+  return out;
+}
+
+} // namespace
+
+TEST_CASE("ss_calibrate --touch on a dataset folder takes the boxes from its metadata.csv") {
+  // The generator's tracking dataset (all three light presets) and empty frames in daylight
+  // only: touch frames in dusk and night light are far from every empty light level, and the
+  // warnings must name their files.
+  const fs::path data = kDir / "dataset";
+  fs::remove_all(data);
+  sim::TrackingDatasetConfig config;
+  config.frames_per_category = 3;
+  sim::write_tracking_dataset(data, 7, config);
+  fs::remove_all(kDir / "day_empty");
+  fs::create_directories(kDir / "day_empty");
+  std::vector<cv::Mat> empty;
+  for (const cv::Mat& f : empty_frames(0, 3, 0xE3)) {
+    const fs::path p = kDir / "day_empty" / ("e" + std::to_string(empty.size()) + ".png");
+    REQUIRE(cv::imwrite(p.string(), f));
+    empty.push_back(cv::imread(p.string()));
+  }
+  const std::vector<BoxLabelledFrame> touch = dataset_frames(data);
+  REQUIRE(touch.size() == 15);
+  const CalibrationResult expected = calibrate_from_frames(empty, touch);
+  std::size_t naming_a_file = 0;
+  for (const CalibrationWarning& x : expected.warnings)
+    naming_a_file += x.message.find(".png'") != std::string::npos ? 1 : 0;
+  REQUIRE(naming_a_file > 0); // the case tests what it claims
+
+  const std::string out = (kDir / "dataset.calib").string();
+  fs::remove(out);
+  const Run r = run("--empty=" + tests::shell_quote((kDir / "day_empty").string()) + " --touch=" +
+                    tests::shell_quote(data.string()) + " --out=" + tests::shell_quote(out));
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(load_calibration(out) == expected.calibration);
+  for (const CalibrationWarning& x : expected.warnings)
+    CHECK(r.err.find("ss_calibrate: warning: " + std::string(to_string(x.issue)) + ": " +
+                     x.message + "\n") != std::string::npos);
+  // e.g. "touch frame 'point/point_0002.png' has reference luminance ..."
+  CHECK(r.err.find("touch frame '") != std::string::npos);
+  CHECK(r.err.find("touch frame 0") == std::string::npos);
+  CHECK(r.out.find("3 empty frames, 15 touch frames (15 labelled, from a dataset), 1 light "
+                   "level(s) (luminance ") != std::string::npos);
+  CHECK(r.out.ends_with(std::to_string(expected.warnings.size()) + " warning(s) (on stderr) -> " +
+                        out + "\n"));
+
+  // --empty DATASET/nothing: those frames are the empty skin and left out of the touch frames.
+  std::vector<cv::Mat> nothing;
+  for (const fs::path& p : find_images(data / "nothing")) nothing.push_back(cv::imread(p.string()));
+  REQUIRE(nothing.size() == 3);
+  std::vector<BoxLabelledFrame> touching;
+  for (const BoxLabelledFrame& b : touch)
+    if (!b.name.starts_with("nothing/")) touching.push_back(b);
+  REQUIRE(touching.size() == 12);
+  const CalibrationResult split = calibrate_from_frames(nothing, touching);
+  const Run own = run("--empty '" + (data / "nothing").string() + "' --touch '" + data.string() +
+                      "' --out '" + out + "'");
+  INFO(own.err);
+  REQUIRE(own.status == 0);
+  CHECK(load_calibration(out) == split.calibration);
+  CHECK(own.out.find("3 empty frames, 12 touch frames (12 labelled, from a dataset)") !=
+        std::string::npos);
+
+  // The metadata gives the boxes: a labels CSV as well is refused.
+  std::ofstream(kDir / "extra_labels.csv")
+      << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
+  const Run both =
+      run("--empty '" + (kDir / "day_empty").string() + "' --touch '" + data.string() +
+          "' --labels '" + (kDir / "extra_labels.csv").string() + "' --out '" + out + "'");
+  CHECK(both.status == 2);
+  CHECK(both.err.find("is a dataset folder; its metadata.csv gives the boxes") !=
+        std::string::npos);
+}
+
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+namespace {
+
+// Writes frames as a video (a lossless codec when there is one) and returns them as decoded;
+// empty when this OpenCV has no encoder for either codec.
+std::vector<cv::Mat> write_video(const fs::path& path, const std::vector<cv::Mat>& frames) {
+  fs::remove(path);
+  cv::VideoWriter writer;
+  for (const char* codec : {"FFV1", "MJPG"}) {
+    writer.open(path.string(), cv::VideoWriter::fourcc(codec[0], codec[1], codec[2], codec[3]),
+                10.0, frames[0].size());
+    if (writer.isOpened()) break;
+  }
+  if (!writer.isOpened()) return {};
+  for (const cv::Mat& f : frames) writer.write(f);
+  writer.release();
+  cv::VideoCapture cap(path.string());
+  std::vector<cv::Mat> decoded;
+  for (cv::Mat f; cap.read(f) && !f.empty();) decoded.push_back(f.clone());
+  return decoded;
+}
+
+} // namespace
+
+TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame index") {
+  static sim::Renderer renderer(sim::Rig::tracking_box());
+  std::vector<cv::Mat> touch_images;
+  std::vector<sim::GroundTruth> truth;
+  for (int i = 0; i < 6; ++i) {
+    sim::TrackingSampleConfig variety;
+    variety.lighting_weights = {1, 0, 0};
+    const sim::Frame f = sim::render_random_tracking_frame(
+        renderer, static_cast<sim::TrackCategory>(1 + i % 4), sim::derive_seed(0xF1D, i), variety);
+    touch_images.push_back(f.image);
+    truth.push_back(f.gt);
+  }
+  const std::vector<cv::Mat> empty = write_video(kDir / "empty.avi", empty_frames(0, 4, 0xE4));
+  const std::vector<cv::Mat> decoded = write_video(kDir / "touch.avi", touch_images);
+  if (empty.empty() || decoded.empty()) {
+    MESSAGE("skipped: no FFV1 or MJPG encoder in this OpenCV build");
+    return;
+  }
+  REQUIRE(empty.size() == 4);
+  REQUIRE(decoded.size() == 6);
+  // Frames 0, 2 and 3 labelled (by index, one with leading zeros), the others unlabelled.
+  std::ofstream labels(kDir / "video_labels.csv");
+  labels << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
+  std::vector<BoxLabelledFrame> touch;
+  const std::string video = (kDir / "touch.avi").string();
+  for (int i = 0; i < 6; ++i) {
+    const bool labelled = i == 0 || i == 2 || i == 3;
+    BoxLabelledFrame b{decoded[static_cast<std::size_t>(i)], labelled, std::nullopt, std::nullopt,
+                       video + "#" + std::to_string(i)};
+    if (labelled) {
+      b.shadow_box = truth[static_cast<std::size_t>(i)].shadow_box;
+      b.contact_box = truth[static_cast<std::size_t>(i)].contact_box;
+      labels << (i == 3 ? "003" : std::to_string(i)) << ',' << box_fields(b.shadow_box) << ','
+             << box_fields(b.contact_box) << '\n';
+    }
+    touch.push_back(b);
+  }
+  labels.close();
+  const CalibrationResult expected = calibrate_from_frames(empty, touch);
+  const std::string out = (kDir / "video.calib").string();
+  fs::remove(out);
+  const std::string args =
+      "--empty '" + (kDir / "empty.avi").string() + "' --touch '" + video + "' --out '" + out + "'";
+  const Run r = run(args + " --labels '" + (kDir / "video_labels.csv").string() + "'");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(load_calibration(out) == expected.calibration);
+  for (const CalibrationWarning& x : expected.warnings)
+    CHECK(r.err.find(x.message) != std::string::npos);
+  CHECK(r.out.find("4 empty frames, 6 touch frames (3 labelled, from a video), 1 light level(s)") !=
+        std::string::npos);
+
+  // --max-touch bounds the unlabelled frames taken from a video (labelled ones are all kept).
+  const Run capped =
+      run(args + " --labels '" + (kDir / "video_labels.csv").string() + "' --max-touch 1");
+  INFO(capped.err);
+  CHECK(capped.status == 0);
+  CHECK(capped.out.find("4 touch frames (3 labelled, from a video)") != std::string::npos);
+
+  // A label for a frame the video does not have, and a file name instead of an index.
+  std::ofstream(kDir / "bad_video_labels.csv")
+      << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
+      << "99,1,2,3,4,,,,\n";
+  Run bad = run(args + " --labels '" + (kDir / "bad_video_labels.csv").string() + "'");
+  CHECK(bad.status == 2);
+  CHECK(bad.err.find("labels '99', which is not a frame of") != std::string::npos);
+  std::ofstream(kDir / "bad_video_labels.csv")
+      << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
+      << "f.png,1,2,3,4,,,,\n";
+  bad = run(args + " --labels '" + (kDir / "bad_video_labels.csv").string() + "'");
+  CHECK(bad.status == 2);
+  CHECK(bad.err.find("must be a frame index (0 = the first frame)") != std::string::npos);
+}
+#endif
 
 #else
 TEST_CASE("ss_calibrate tests need the examples (SHADOWSENSE_BUILD_EXAMPLES)") {

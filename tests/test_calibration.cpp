@@ -231,6 +231,11 @@ TEST_CASE("degenerate input: warnings for what can still be used, refusal for th
     std::vector<BoxLabelledFrame> outside{{f.empty[0], true, cv::Rect(190, 0, 20, 20), {}}};
     CHECK_THROWS_WITH_AS(calibrate_from_frames(f.empty, outside),
                          doctest::Contains("touch frame 0"), InvalidArgument);
+    outside[0].name = "day/0001.png"; // a name replaces the index in messages
+    CHECK_THROWS_WITH_AS(calibrate_from_frames(f.empty, outside),
+                         "calibrate_from_frames: touch frame 'day/0001.png': a label box is empty "
+                         "or reaches outside the image",
+                         InvalidArgument);
   }
 }
 

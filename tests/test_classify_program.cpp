@@ -14,6 +14,7 @@
 #include <opencv2/videoio.hpp>
 #endif
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -74,13 +75,17 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
   cv::imwrite((dir / "a.png").string(), frame(0));
   const std::string d = shell_quote(dir.string());
   const std::vector<std::pair<std::string, std::string>> bad = {
-      {"", "INPUT is required"},
-      {"--threads 0 " + d, "--threads: expected a whole number in 1..64, got '0'"},
-      {"--threads 2x " + d, "--threads: expected a whole number in 1..64, got '2x'"},
-      {"--threads", "--threads needs a value"},
-      {"--format xml " + d, "--format 'xml': expected csv or json"},
+      {"", "--input is required"},
+      {"--threads 0 " + d, "--threads: expected an integer in [1, 256], got '0'"},
+      {"--threads=257 " + d, "--threads: expected an integer in [1, 256], got '257'"},
+      {"--threads 2x " + d, "--threads: expected an integer in [1, 256], got '2x'"},
+      {"--threads", "--threads: missing value (expected N, an integer in [1, 256])"},
+      {"--format xml " + d, "--format: expected one of csv, json, got 'xml'"},
       {"--bogus " + d, "unknown option '--bogus'"},
       {d + " " + d, "more than one INPUT"},
+      {"--input " + d + " " + d, "more than one INPUT"},
+      {d + " --input=" + d, "more than one INPUT"},
+      {"--input=" + shell_quote((dir / "missing").string()), "no such folder or file"},
       {"--model /nonexistent.ssm " + d, "/nonexistent.ssm"},
       {"--model " + d + " " + d, "is a directory"},
       {"--model /dev/zero " + d, "not a regular file"},
@@ -171,6 +176,21 @@ TEST_CASE("awkward paths stay valid JSON and CSV") {
   CHECK(csv.out.find("0,\"" + dir.string() + "/we\"\"ird,dir/f.png\",0,") != std::string::npos);
 }
 
+TEST_CASE("--input and the last word are one input; options take '=' too; progress on stderr") {
+  // 101 frames: above the 100 of the progress rule, so the closing line is printed.
+  const fs::path dir = fresh("classify_forms");
+  for (int i = 0; i < 101; ++i) cv::imwrite((dir / numbered("f", i)).string(), frame(i % 3));
+  const auto positional = run("--format json " + shell_quote(dir.string()));
+  const auto named = run("--format=json --input=" + shell_quote(dir.string()));
+  REQUIRE(positional.status == 0);
+  REQUIRE(named.status == 0);
+  CHECK(lines(named.out).size() == 101);
+  CHECK(named.out == positional.out);
+  // Progress: at most one line a second while classifying, and the closing count.
+  CHECK(named.err.ends_with("\rss_classify: 101 frames\n"));
+  CHECK(named.err.find("error") == std::string::npos);
+}
+
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
 TEST_CASE("a video file gives the same lines as its decoded frames in a folder") {
   const fs::path dir = fresh("classify_video");
@@ -208,6 +228,44 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
   CHECK(truth.err.find("--truth needs a folder of images") != std::string::npos);
 }
 #endif
+
+namespace {
+// CRC-32 (ISO-HDLC, as PNG chunks use) of bytes.
+std::uint32_t crc32(const unsigned char* p, std::size_t n) {
+  std::uint32_t c = 0xffffffffu;
+  for (std::size_t i = 0; i < n; ++i) {
+    c ^= p[i];
+    for (int k = 0; k < 8; ++k) c = (c >> 1) ^ (0xedb88320u & (0u - (c & 1u)));
+  }
+  return ~c;
+}
+} // namespace
+
+TEST_CASE("a small PNG claiming 30000x30000 pixels is refused from its header, never decoded") {
+  std::vector<unsigned char> png;
+  REQUIRE(cv::imencode(".png", cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(90)), png));
+  // IHDR: length (4) "IHDR" (4) width (4) height (4) ... at byte 8; patch the size, fix the CRC.
+  REQUIRE(png.size() > 33);
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 4; ++b)
+      png[16 + 4 * k + b] = static_cast<unsigned char>((30000u >> (24 - 8 * b)) & 0xff);
+  const std::uint32_t crc = crc32(png.data() + 12, 17);
+  for (int b = 0; b < 4; ++b)
+    png[29 + b] = static_cast<unsigned char>((crc >> (24 - 8 * b)) & 0xff);
+  const fs::path dir = fresh("classify_huge");
+  {
+    std::FILE* f = std::fopen((dir / "huge.png").string().c_str(), "wb");
+    REQUIRE(f);
+    REQUIRE(std::fwrite(png.data(), 1, png.size(), f) == png.size());
+    std::fclose(f);
+  }
+  const tests::ProgramRun r = run("--input " + shell_quote(dir.string()) + " --quiet");
+  CHECK(r.status == 2);
+  CHECK(r.err.find("huge.png") != std::string::npos);
+  CHECK(r.err.find("30000") != std::string::npos);
+  CHECK(r.err.find("8192") != std::string::npos);
+  CHECK(r.out.find("huge.png") == std::string::npos);
+}
 
 #else
 TEST_CASE("ss_classify is not built (SHADOWSENSE_BUILD_EXAMPLES=OFF): nothing to test") {}

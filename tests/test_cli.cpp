@@ -7,9 +7,11 @@
 
 #include <csignal>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -322,6 +324,130 @@ TEST_CASE("a documented command line of its own: help text, wording, '=' and rep
   CHECK(Own().run(lenient, {"--n"}) == "--n: needs a value");
   CHECK(Own().run(lenient, {"--q=1"}) == "unknown option '--q' (see --help)");
   CHECK_THROWS_AS(Own().run(lenient, {"--help=1"}), cli::Exit);
+}
+
+TEST_CASE("an alias spells the same option: one value, once, listed under the option") {
+  std::string input;
+  int n = 1;
+  cli::Parser p{"ss_test", "Tests aliases."};
+  p.option("--input", "DIR", "input folder", input).required();
+  p.alias("--data", "--input");
+  p.option("--n", "N", "a number", n).range(1, 9);
+  p.alias("--count", "--n");
+  const auto parse = [&](std::vector<const char*> args) -> std::string {
+    input.clear();
+    cli::Parser q{"ss_test", "Tests aliases."};
+    q.option("--input", "DIR", "input folder", input).required();
+    q.alias("--data", "--input");
+    q.option("--n", "N", "a number", n).range(1, 9);
+    q.alias("--count", "--n");
+    args.insert(args.begin(), "ss_test");
+    try {
+      q.parse(static_cast<int>(args.size()), args.data());
+    } catch (const cli::UsageError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  CHECK(parse({"--data", "d1"}) == "");
+  CHECK(input == "d1");
+  CHECK(parse({"--data=d2", "--count=3"}) == "");
+  CHECK(input == "d2");
+  CHECK(n == 3);
+  CHECK(parse({"--input", "a", "--data", "b"}) == "--data: given more than once");
+  CHECK(parse({"--data=x", "--count=10"}) == "--count: expected an integer in [1, 9], got '10'");
+  CHECK(parse({}) == "missing required option --input DIR");
+  const std::string help = p.help();
+  CHECK(help.find("input folder (also --data; required)") != std::string::npos);
+  CHECK(help.find("  --data") == std::string::npos);
+  CHECK_THROWS_AS(p.alias("--other", "--nope"), shadowsense::InvalidArgument);
+  CHECK_THROWS_AS(p.alias("--n", "--input"), shadowsense::InvalidArgument);
+}
+
+TEST_CASE("require_display: --show refused in one line without highgui or a display") {
+  const auto keep = [](const char* name) -> std::optional<std::string> {
+    const char* v = std::getenv(name);
+    return v ? std::optional<std::string>(v) : std::nullopt;
+  };
+  const auto display = keep("DISPLAY"), wayland = keep("WAYLAND_DISPLAY");
+  ::unsetenv("DISPLAY");
+  ::unsetenv("WAYLAND_DISPLAY");
+  CHECK(cli::display_problem(true) ==
+        "no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset)");
+  CHECK(cli::display_problem(false) ==
+        "this build has no OpenCV highgui (install libopencv-highgui-dev)");
+  ::setenv("DISPLAY", "", 1); // set but empty: no display either
+  CHECK(cli::display_problem(true) != "");
+  ::setenv("WAYLAND_DISPLAY", "wayland-0", 1);
+  CHECK(cli::display_problem(true) == "");
+  ::unsetenv("WAYLAND_DISPLAY");
+  ::setenv("DISPLAY", ":0", 1);
+  CHECK(cli::display_problem(true) == "");
+  CHECK(cli::display_problem(false) != ""); // a display is no use without highgui
+  // This test is built without SHADOWSENSE_HAVE_HIGHGUI: the message names the option.
+  CHECK_THROWS_WITH_AS(cli::require_display("--show"),
+                       "--show: this build has no OpenCV highgui (install libopencv-highgui-dev)",
+                       cli::UsageError);
+  const auto restore = [](const char* name, const std::optional<std::string>& v) {
+    if (v)
+      ::setenv(name, v->c_str(), 1);
+    else
+      ::unsetenv(name);
+  };
+  restore("DISPLAY", display);
+  restore("WAYLAND_DISPLAY", wayland);
+}
+
+TEST_CASE("parse_tuio_target: HOST[:PORT], IPv6 in brackets") {
+  const auto t = [](const char* spec) {
+    const cli::TuioTarget x = cli::parse_tuio_target(spec);
+    return x.host + " " + std::to_string(x.port);
+  };
+  CHECK(t("127.0.0.1") == "127.0.0.1 3333");
+  CHECK(t("127.0.0.1:3334") == "127.0.0.1 3334");
+  CHECK(t("localhost:1") == "localhost 1");
+  CHECK(t("[::1]:3334") == "::1 3334");
+  CHECK(t("[::1]") == "::1 3333");
+  CHECK(t("::1") == "::1 3333");
+  CHECK(t("fe80::1:65535") == "fe80::1:65535 3333"); // bare IPv6: all of it is the host
+  CHECK(cli::parse_tuio_target("h", "--tuio", 4000).port == 4000);
+  const auto error = [](const char* spec) -> std::string {
+    try {
+      cli::parse_tuio_target(spec);
+    } catch (const cli::UsageError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string form =
+      "'; expected HOST[:PORT], e.g. 127.0.0.1:3333 or [::1]:3333, PORT in 1..65535";
+  CHECK(error("") == "--tuio: no host in '" + form);
+  CHECK(error(":3333") == "--tuio: no host in ':3333" + form);
+  CHECK(error("[]:3333") == "--tuio: no host in '[]:3333" + form);
+  CHECK(error("host:") == "--tuio: no port after ':' in 'host:" + form);
+  CHECK(error("host:0") == "--tuio: bad port '0' in 'host:0" + form);
+  CHECK(error("host:65536") == "--tuio: bad port '65536' in 'host:65536" + form);
+  CHECK(error("host:12x") == "--tuio: bad port '12x' in 'host:12x" + form);
+  CHECK(error("[::1:3333") == "--tuio: no ']' after the IPv6 address in '[::1:3333" + form);
+  CHECK(error("[::1]3333") == "--tuio: text after ']' in '[::1]3333" + form);
+  CHECK(error("[::1]:") == "--tuio: no port after ':' in '[::1]:" + form);
+}
+
+TEST_CASE("Progress: the closing line, nothing when disabled; wanted for long inputs") {
+  std::ostringstream err;
+  cli::Progress on("ss_test", 250, true, err);
+  on.update(1); // within the first second: no line yet
+  on.finish(250);
+  CHECK(err.str() == "\rss_test: 250 frames\n");
+  std::ostringstream quiet;
+  cli::Progress off("ss_test", 250, false, quiet);
+  off.update(1);
+  off.finish(250);
+  CHECK(quiet.str().empty());
+  CHECK(cli::Progress::wanted(false, std::nullopt));
+  CHECK(cli::Progress::wanted(false, 101));
+  CHECK_FALSE(cli::Progress::wanted(false, 100));
+  CHECK_FALSE(cli::Progress::wanted(true, 1000));
 }
 
 TEST_CASE("declaring a bad option is a programming error") {

@@ -10,21 +10,8 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 "$bin/ss_synth" --out "$work/cal" --dataset tracking --tracking-per-category 12 --seed 2 >/dev/null
 "$bin/ss_synth" --out "$work/data" --dataset tracking --paper-sizes --seed 1 >/dev/null
-python3 - "$work/cal/tracking" "$work" <<'PY'
-import csv, os, shutil, sys
-src, work = sys.argv[1], sys.argv[2]
-os.makedirs(work + "/empty"); os.makedirs(work + "/touch")
-keys = ["shadow_x", "shadow_y", "shadow_w", "shadow_h", "contact_x", "contact_y", "contact_w", "contact_h"]
-with open(work + "/labels.csv", "w") as out:
-    out.write("file," + ",".join(keys) + "\n")
-    for r in csv.DictReader(open(src + "/metadata.csv")):
-        name = os.path.basename(r["file_name"])
-        empty = r["class"] == "nothing"
-        shutil.copy(os.path.join(src, r["file_name"]), os.path.join(work, "empty" if empty else "touch", name))
-        if not empty:
-            out.write(name + "," + ",".join(r[k] for k in keys) + "\n")
-PY
-"$bin/ss_calibrate" --empty "$work/empty" --touch "$work/touch" --labels "$work/labels.csv" \
+# The dataset's own boxes; its nothing/ frames are the empty skin (docs/calibration.md).
+"$bin/ss_calibrate" --empty "$work/cal/tracking/nothing" --touch "$work/cal/tracking" \
   --out "$work/skin.calib"
 "$bin/ss_track_eval" --tracking "$work/data/tracking" --calibration "$work/skin.calib" \
   --json "$work/eval.json"

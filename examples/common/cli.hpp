@@ -29,12 +29,18 @@
 // then the option's range is checked. An option may be given once, except list and repeated
 // options: the first occurrence replaces the default, later ones append.
 //
-// A program whose documented command line predates these conventions keeps it: a help text of
-// its own (Parser::help_text), its own wording for a value's expectation or check
-// (Declared::expected, Declared::check), for positional arguments (positional with a function)
-// and for the parser's own few choices (Style: '=' handling, repeats, a missing value).
+// Every program uses the default Style, so "--opt value" and "--opt=value" work everywhere; the
+// input of a program that reads frames or a dataset is --input (older names stay as aliases,
+// Parser::alias). A program may keep a help text of its own (Parser::help_text) and its own
+// wording for a value's expectation or check (Declared::expected, Declared::check).
 //
-// Threading: a Parser is used by one thread (declare, then parse once).
+// Shared helpers below the Parser:
+//   require_display(option)        --show without a display: UsageError (exit 2, one line)
+//   parse_tuio_target(spec, ...)   --tuio HOST[:PORT], IPv6 in brackets ("[::1]:3334")
+//   Progress                       a progress line on stderr at most once a second
+//
+// Threading: a Parser is used by one thread (declare, then parse once); the helpers are
+// stateless except Progress (one thread).
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -42,13 +48,17 @@
 
 #include <algorithm>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <concepts>
+#include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -153,6 +163,8 @@ struct Option {
   std::function<std::string()> expected; // what a value must be (unset for flags)
   bool takes_value = true, required = false, many = false, split = false, seen = false;
   std::function<void(std::string_view)> assign;
+  Option* target = nullptr;         // an alias: the option it spells
+  std::vector<std::string> aliases; // other spellings of this option
 };
 
 } // namespace detail
@@ -226,8 +238,9 @@ struct Style {
   // argument (unset: "unexpected argument '<arg>'").
   std::function<std::string(std::string_view arg)> unexpected_argument;
 
-  // The command line of ss_calibrate and ss_track as they document it: '=' cut, repeats
-  // replace, "<name>: needs a value", a stray argument "unknown option '<arg>' (see --help)".
+  // The command line ss_track documented before every program shared the default style:
+  // '=' cut, repeats replace, "<name>: needs a value", a stray argument "unknown option
+  // '<arg>' (see --help)". No other program uses it; to be removed with ss_track's rewrite.
   static Style lenient() {
     return {.equals = Equals::cut,
             .repeat_replaces = true,
@@ -290,6 +303,18 @@ public:
     o.assign = [&target, value](std::string_view) { target = value; };
   }
 
+  // Another spelling of an option already declared (e.g. "--data" for "--input"): the same
+  // value, checks and once-only rule; listed in --help under the option.
+  // requires: `of` declared; `name` a new option name.
+  void alias(std::string name, std::string_view of) {
+    detail::Option* o = find(of);
+    if (!o) throw shadowsense::InvalidArgument("cli::Parser::alias: no option " + std::string(of));
+    auto& a = add(std::move(name), o->value_name, "", o->expected);
+    a.takes_value = o->takes_value;
+    a.target = o;
+    o->aliases.push_back(a.name);
+  }
+
   // Arguments that do not start with '-' are appended to `target` (without this, they are an
   // error).
   void positional(std::string value_name, std::string description,
@@ -309,7 +334,7 @@ public:
   // Whether the option was on the command line (after parse()).
   bool given(std::string_view name) const {
     for (const auto& o : options_)
-      if (o->name == name) return o->seen;
+      if (o->name == name) return o->target ? o->target->seen : o->seen;
     throw shadowsense::InvalidArgument("given(): no option " + std::string(name));
   }
 
@@ -346,20 +371,33 @@ public:
       if (o && !o->takes_value && eq != std::string_view::npos && style_.equals == Equals::cut)
         o = nullptr; // "--flag=x": no option of that spelling
       if (!o) throw UsageError("unknown option '" + name + "' (see --help)");
+      const detail::Option* spelled = o;
+      if (o->target) o = o->target;
       if (o->seen && !o->many && !style_.repeat_replaces)
         throw UsageError(name + ": given more than once");
+      // A value's error names the option as the user spelled it (an alias, not its target).
+      const auto assign = [&](std::string_view value) {
+        if (spelled == o) return o->assign(value);
+        try {
+          o->assign(value);
+        } catch (const UsageError& e) {
+          const std::string what = e.what();
+          if (!what.starts_with(o->name + ":")) throw;
+          throw UsageError(name + what.substr(o->name.size()));
+        }
+      };
       if (!o->takes_value) {
         if (eq != std::string_view::npos) throw UsageError(name + ": takes no value");
-        o->assign({});
+        assign({});
       } else if (eq != std::string_view::npos) {
-        o->assign(arg.substr(eq + 1));
+        assign(arg.substr(eq + 1));
       } else {
         if (i + 1 >= argc)
           throw UsageError(style_.missing_value
                                ? style_.missing_value(name)
                                : name + ": missing value (expected " + o->value_name +
                                      (o->expected().empty() ? "" : ", " + o->expected()) + ")");
-        o->assign(argv[++i]);
+        assign(argv[++i]);
       }
       o->seen = true;
     }
@@ -390,8 +428,14 @@ public:
     };
     if (positional_) entry(positional_name_ + "...", positional_description_);
     for (const auto& o : options_) {
+      if (o->target) continue; // listed with the option it spells
       std::string text = o->description;
       std::vector<std::string> notes;
+      if (!o->aliases.empty()) {
+        std::string also = "also";
+        for (const auto& a : o->aliases) also += " " + a;
+        notes.push_back(also);
+      }
       if (o->takes_value && !o->expected().empty())
         notes.push_back(o->split ? "a comma-separated list, each " + o->expected() : o->expected());
       if (o->many && !o->split) notes.push_back("may be repeated");
@@ -510,5 +554,113 @@ int run(std::string_view program, Body&& body) noexcept {
     return report("unknown exception");
   }
 }
+
+// Refuses a window option (e.g. "--show") when no window can open: this program built without
+// OpenCV highgui, or (on X11/Wayland systems) neither DISPLAY nor WAYLAND_DISPLAY is set, where
+// highgui would abort the program instead of failing.
+// ensures: returns when a window can be tried. throws: UsageError "<option>: ..." naming why.
+// display_problem(have_highgui): the reason as text, empty when a window can be tried.
+inline std::string display_problem(bool have_highgui) {
+  if (!have_highgui) return "this build has no OpenCV highgui (install libopencv-highgui-dev)";
+#if !defined(_WIN32) && !defined(__APPLE__)
+  const auto set = [](const char* name) {
+    const char* v = std::getenv(name);
+    return v && *v;
+  };
+  if (!set("DISPLAY") && !set("WAYLAND_DISPLAY"))
+    return "no display to open a window on (DISPLAY and WAYLAND_DISPLAY are unset)";
+#endif
+  return {};
+}
+inline void require_display(std::string_view option) {
+#ifdef SHADOWSENSE_HAVE_HIGHGUI
+  const std::string why = display_problem(true);
+#else
+  const std::string why = display_problem(false);
+#endif
+  if (!why.empty()) throw UsageError(std::string(option) + ": " + why);
+}
+
+// Where TUIO goes: --tuio HOST[:PORT].
+struct TuioTarget {
+  std::string host;
+  std::uint16_t port = 3333;
+};
+// Parses "HOST", "HOST:PORT", "[IPV6]", "[IPV6]:PORT" (e.g. "127.0.0.1", "localhost:3334",
+// "[::1]:3334"); a bare IPv6 address ("::1") is taken whole, with the default port.
+// ensures: host without brackets, non-empty; port in 1..65535 (default_port when not given).
+// throws: UsageError "<option>: ..." quoting the text and the expected form.
+inline TuioTarget parse_tuio_target(std::string_view spec, std::string_view option = "--tuio",
+                                    std::uint16_t default_port = 3333) {
+  const auto fail = [&](const std::string& what) {
+    return UsageError(std::string(option) + ": " + what + " in '" + std::string(spec) +
+                      "'; expected HOST[:PORT], e.g. 127.0.0.1:3333 or [::1]:3333, PORT in "
+                      "1..65535");
+  };
+  TuioTarget t{.host = {}, .port = default_port};
+  std::string_view host = spec, port;
+  if (spec.starts_with('[')) {
+    const std::size_t close = spec.find(']');
+    if (close == std::string_view::npos) throw fail("no ']' after the IPv6 address");
+    host = spec.substr(1, close - 1);
+    const std::string_view rest = spec.substr(close + 1);
+    if (!rest.empty()) {
+      if (rest[0] != ':') throw fail("text after ']'");
+      port = rest.substr(1);
+      if (port.empty()) throw fail("no port after ':'");
+    }
+  } else if (const std::size_t colon = spec.find(':');
+             colon != std::string_view::npos &&
+             spec.find(':', colon + 1) == std::string_view::npos) {
+    host = spec.substr(0, colon);
+    port = spec.substr(colon + 1);
+    if (port.empty()) throw fail("no port after ':'");
+  }
+  if (host.empty()) throw fail("no host");
+  t.host = std::string(host);
+  if (!port.empty()) {
+    unsigned value = 0;
+    const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
+    if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
+      throw fail("bad port '" + std::string(port) + "'");
+    t.port = static_cast<std::uint16_t>(value);
+  }
+  return t;
+}
+
+// A progress line on stderr for long runs: "\r<program>: frame <i> of <n>" at most once a
+// second while frames go by, then "<program>: <n> frames" on a line of its own at finish().
+// enabled = false (e.g. --quiet) prints nothing. Programs show it when the input's length is
+// unknown or above 100 frames (Progress::wanted). One thread.
+class Progress {
+public:
+  Progress(std::string program, std::optional<std::size_t> total, bool enabled,
+           std::ostream& err = std::cerr)
+      : program_(std::move(program)), total_(total), enabled_(enabled), err_(&err),
+        last_(std::chrono::steady_clock::now()) {}
+  static bool wanted(bool quiet, std::optional<std::size_t> total) {
+    return !quiet && (!total || *total > 100);
+  }
+  // After frame `done` (counted from 1).
+  void update(std::size_t done) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (now - last_ < std::chrono::seconds(1)) return;
+    last_ = now;
+    *err_ << "\r" << program_ << ": frame " << done;
+    if (total_) *err_ << " of " << *total_;
+    *err_ << std::flush;
+  }
+  void finish(std::size_t done) {
+    if (enabled_) *err_ << "\r" << program_ << ": " << done << " frames\n" << std::flush;
+  }
+
+private:
+  std::string program_;
+  std::optional<std::size_t> total_;
+  bool enabled_;
+  std::ostream* err_;
+  std::chrono::steady_clock::time_point last_;
+};
 
 } // namespace cli

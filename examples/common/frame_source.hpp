@@ -1,16 +1,18 @@
-// Frames for the programs: a folder of images (sorted by file name), a video file, or a camera
+// Frames for the programs: a folder of images (io/image_folder.hpp), a video file, or a camera
 // index, read one frame at a time with the size limit checked before a frame is used; and an
 // atomic PNG writer. Programs only (imgcodecs, and videoio when SHADOWSENSE_HAVE_VIDEOIO).
 //
 // FrameSource::open(spec, max_side)
-//   spec: an existing folder -> its images (.png .jpg .jpeg .bmp .tif .tiff .ppm .pgm, any case),
-//         sorted by file name (byte order: name frames with zero-padded numbers); an existing
-//         file -> a video (needs videoio); a non-negative integer -> that camera (needs videoio).
+//   spec: an existing folder -> its images by the one rule of shadowsense/io/image_folder.hpp
+//         (recursive, .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm in any case, dot-names
+//         skipped, sorted by path: name frames with zero-padded numbers); an existing file -> a
+//         video (needs videoio); a non-negative integer -> that camera (needs videoio).
 //   throws: shadowsense::IoError naming the spec when it cannot be opened, when a folder holds
 //           no image, or when videoio is needed but was not built in.
 // next(frame, name) -> false at the end.
-//   ensures: frame is CV_8UC3 (grey images are expanded); name is the file name (folders) or
-//            "frame_NNNNNN" (videos, cameras).
+//   ensures: frame is CV_8UC3 (grey images are expanded); name is the path relative to the
+//            folder with '/' separators (folders) or "frame_NNNNNN", NNNNNN the frame index from
+//            0 (videos, cameras).
 //   throws:  IoError naming the file for an unreadable image or one larger than max_side.
 // Decoding limit: the programs set OPENCV_IO_MAX_IMAGE_PIXELS (limit_decoder) before the first
 // imread, so OpenCV refuses oversized images from their header, before allocating them.
@@ -19,6 +21,8 @@
 
 #include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/io/image_file.hpp>
+#include <shadowsense/io/image_folder.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -42,37 +46,31 @@ namespace frames {
 
 namespace fs = std::filesystem;
 
-// Caps OpenCV's image decoders at max_side x max_side pixels (checked from the file header).
-// Call before the first cv::imread.
+// Kept for the programs' start-up: OpenCV reads OPENCV_IO_MAX_IMAGE_PIXELS once, when its
+// image codecs are loaded (before main), so setting it here bounds nothing by itself; the bound
+// that takes effect is read_image's check of the file header before decoding.
 inline void limit_decoder(int max_side) {
   const std::string v = std::to_string(static_cast<long long>(max_side) * max_side);
   ::setenv("OPENCV_IO_MAX_IMAGE_PIXELS", v.c_str(), 1);
 }
 
-inline bool is_image_file(const fs::path& p) {
+// Reads one image as CV_8UC3, or throws IoError naming the file. PNG, JPEG and BMP (the formats
+// io/image_file.hpp parses) are refused from their header, before any pixel is decoded, when
+// larger than max_side per side; the other formats the image finder accepts (WebP, TIFF, PPM)
+// are decoded by OpenCV and then checked.
+inline cv::Mat read_image(const fs::path& p, int max_side) {
   std::string e = p.extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" || e == ".tiff" ||
-         e == ".ppm" || e == ".pgm";
-}
-
-// The images of a folder, sorted by file name.
-inline std::vector<fs::path> list_images(const fs::path& dir) {
-  std::vector<fs::path> out;
-  for (const auto& e : fs::directory_iterator(dir))
-    if (e.is_regular_file() && is_image_file(e.path())) out.push_back(e.path());
-  std::sort(out.begin(), out.end(),
-            [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
-  return out;
-}
-
-// Reads one image as CV_8UC3, or throws IoError naming the file.
-inline cv::Mat read_image(const fs::path& p, int max_side) {
+  if (e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp") {
+    shadowsense::ImageLimits limits;
+    limits.max_width = limits.max_height = max_side;
+    return shadowsense::read_image_file(p, cv::IMREAD_COLOR, limits);
+  }
   cv::Mat m;
   try {
     m = cv::imread(p.string(), cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    throw shadowsense::IoError("cannot read image '" + p.string() + "': " + e.what());
+  } catch (const cv::Exception& ex) {
+    throw shadowsense::IoError("cannot read image '" + p.string() + "': " + ex.what());
   }
   if (m.empty())
     throw shadowsense::IoError("cannot read image '" + p.string() +
@@ -92,10 +90,8 @@ public:
     s.max_side_ = max_side;
     std::error_code ec;
     if (fs::is_directory(spec, ec)) {
-      s.files_ = list_images(spec);
-      if (s.files_.empty())
-        throw shadowsense::IoError("folder '" + spec +
-                                   "' holds no image (.png .jpg .jpeg .bmp .tif .tiff .ppm .pgm)");
+      s.root_ = spec;
+      s.files_ = shadowsense::require_images(spec);
       return s;
     }
     const bool camera = !spec.empty() && std::all_of(spec.begin(), spec.end(), [](char c) {
@@ -127,7 +123,7 @@ public:
     if (!files_.empty()) {
       if (index_ >= files_.size()) return false;
       frame = read_image(files_[index_], max_side_);
-      name = files_[index_].filename().string();
+      name = files_[index_].lexically_relative(root_).generic_string();
       ++index_;
       return true;
     }
@@ -165,6 +161,7 @@ public:
   }
 
 private:
+  fs::path root_;
   std::vector<fs::path> files_;
   std::size_t index_ = 0;
   int max_side_ = 8192;

@@ -1,7 +1,8 @@
 // I/O umbrella header (target shadowsense::io, adds OpenCV imgcodecs): the dataset format
-// (docs/dataset_format.md) and reading image files.
+// (docs/dataset_format.md), reading image files and finding the images of a folder.
 #pragma once
 
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/io/image_file.hpp>
+#include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/shadowsense.hpp>

@@ -15,8 +15,11 @@ OpenCV/numpy build give the same files, for any --workers.
 Usage:
   /usr/bin/python3 tools/realhand/render.py --out DIR [--seed N] [--users 5]
       [--frames-per-user 4] [--tracking-contact 60] [--tracking-empty 120]
-      [--tracking-hover 120] [--slides 40] [--silhouettes data/realhand] [--only WHAT]
-      [--workers N]
+      [--tracking-hover 120] [--slides 40] [--hands data/realhand] [--split NAME]
+      [--scale S] [--hover-range LO,HI] [--only WHAT] [--workers N]
+  --hands (alias --silhouettes): any folder of 1-bit silhouettes with a manifest.csv
+  (tools/handsets writes them); --split keeps the rows of one split (e.g. heldout); --scale
+  makes every body S times larger on the same rig (a robot whose camera sits closer).
   WHAT: gestures, tracking or slides (default: all three).
 Exit 0 on success; 2 on bad arguments or unreadable silhouettes (message on stderr).
 This is a VALIDATION set: never train or tune on it.
@@ -86,12 +89,19 @@ BOX = dict(w=200, h=205, depth_cm=45.0, f_px=7.7 * 45.0, cx_off=2.5, cy_off=-1.5
 # --------------------------------------------------------------------------------------------
 # Silhouettes and parts. A part is a coverage function of skin-plane (X, Y) and a height (cm).
 
-def load_silhouettes(folder):
+def load_silhouettes(folder, split=None):
+    """Silhouettes by pose from folder/manifest.csv (columns file, pose; optional split).
+    split: keep only rows whose `split` column equals it. A pose may be absent (a source without
+    pointing hands, say): the classes that need it are then not rendered."""
     path = os.path.join(folder, "manifest.csv")
     try:
         rows = list(csv.DictReader(open(path)))
     except OSError as e:
         raise Fail(f"cannot read '{path}': {e}")
+    if split is not None:
+        if rows and "split" not in rows[0]:
+            raise Fail(f"{path}: --split given but the manifest has no 'split' column")
+        rows = [r for r in rows if r["split"] == split]
     out = {"palm": [], "point": [], "punch": []}
     for r in rows:
         m = cv2.imread(os.path.join(folder, r["file"]), cv2.IMREAD_GRAYSCALE)
@@ -102,9 +112,24 @@ def load_silhouettes(folder):
         wrist_x = float(xs.mean()) if len(xs) else m.shape[1] / 2
         out[r["pose"]].append({"mask": m, "wrist_x": wrist_x, "file": r["file"]})
     for k, v in out.items():
-        if len(v) < 4:
-            raise Fail(f"{path}: only {len(v)} silhouettes of pose '{k}'; expected >= 4")
+        if 0 < len(v) < 4:
+            raise Fail(f"{path}: only {len(v)} silhouettes of pose '{k}'; expected 0 or >= 4")
+    out = {k: v for k, v in out.items() if v}
+    if "palm" not in out:
+        raise Fail(f"{path}: no silhouettes of pose 'palm'{' in split ' + split if split else ''}"
+                   "; hug, two_hands and palm need them")
     return out
+
+
+# Pose each class needs (None: no hand). Classes whose pose a source lacks are skipped.
+NEEDS = {"nothing": None, "hug": "palm", "palm": "palm", "point": "point", "punch": "punch",
+         "two_hands": "palm", "fist": "punch", "finger": "point", "hover": "palm"}
+
+# Body size multiplier (--scale): hands, forearms, torso and the spacing of two hands are this
+# many times larger on the same rig, as if the camera sat closer to a proportionally larger
+# skin. Heights above the skin (hover) are not scaled. Set once in main() before any worker.
+SCALE = 1.0
+HOVER_CM = (2.5, 15.0)  # height range of hovering hands in tracking frames (--hover-range)
 
 
 POSE_LEN_CM = {"palm": 18.5, "point": 15.0, "punch": 10.5}  # silhouette height for a 1.0 user
@@ -317,7 +342,7 @@ def make_user(uid, sils, rng):
     for pose, lst in sils.items():
         idx = np.arange(len(lst))
         pools[pose] = [lst[i] for i in idx]  # every body draws from all silhouettes
-    return dict(id=uid, scale=rng.uniform(0.88, 1.1), arm=rng.uniform(5.2, 7.4),
+    return dict(id=uid, scale=rng.uniform(0.88, 1.1) * SCALE, arm=rng.uniform(5.2, 7.4) * SCALE,
                 skin=SKIN[int(rng.integers(0, len(SKIN)))] * rng.uniform(0.95, 1.05, 3),
                 mirror=bool(rng.integers(0, 2)), pools=pools)
 
@@ -381,12 +406,12 @@ def gesture_parts(rig, user, cls, rng):
                           "tip" if cls == "point" else "all")
     if cls == "two_hands":
         parts = []
-        sep = rng.uniform(11, 20)
+        sep = rng.uniform(11, 20) * SCALE
         for side in (-1, 1):
             ang = side * rng.uniform(0, 30)
             a = math.radians(ang)
             L = POSE_LEN_CM["palm"] * user["scale"]
-            c = (side * sep + rng.uniform(-3, 3), rng.uniform(-8, 6))
+            c = (side * sep + rng.uniform(-3, 3) * SCALE, rng.uniform(-8, 6))
             wrist = (c[0] - math.sin(a) * L / 2, c[1] + math.cos(a) * L / 2)
             u = dict(user, mirror=(side < 0))
             parts += hand_parts(rig, u, "palm", rng, wrist, ang, 0.0, "all")
@@ -394,13 +419,13 @@ def gesture_parts(rig, user, cls, rng):
     if cls == "hug":
         cy = rng.uniform(4, 14)
         cx = rng.uniform(-6, 6)
-        ax, ay = rng.uniform(15, 21), rng.uniform(9, 13)
+        ax, ay = rng.uniform(15, 21) * SCALE, rng.uniform(9, 13) * SCALE
         parts = [Part(lambda s, c=(cx, cy), ax=ax, ay=ay: ellipse(rig, c, ax, ay, s), 0.0, True),
                  Part(lambda s, c=(cx, cy + 4), ax=ax * 1.25, ay=ay * 1.3:
                       ellipse(rig, c, ax, ay, s), 4.0)]
         for side in (-1, 1):  # arms wrapping round from the sides, hands on the skin
             ang = side * rng.uniform(70, 100)
-            wrist = (cx + side * (ax + rng.uniform(4, 10)), cy - rng.uniform(2, 9))
+            wrist = (cx + side * (ax + rng.uniform(4, 10) * SCALE), cy - rng.uniform(2, 9) * SCALE)
             a = math.radians(ang)
             u = dict(user, mirror=(side < 0))
             parts += hand_parts(rig, u, "palm", rng, wrist, ang, 0.0, "all")
@@ -478,6 +503,8 @@ def _gesture_session(task):
     alb, tint = fabric(rig, srng)
     lines = []
     for b, cls in enumerate(GESTURES):
+        if NEEDS[cls] is not None and NEEDS[cls] not in sils:
+            continue
         for k in range(per_user):
             rng = rng_for(seed, "g", u, lighting, cls, k)
             light = light_preset(lighting, LEVEL[lighting], rng)
@@ -509,7 +536,8 @@ def track_parts(rig, user, cat, rng, centre=None, angle=None):
     a = math.radians(ang)
     pose = {"palm": "palm", "fist": "punch", "finger": "point"}.get(cat)
     if cat == "hover":
-        pose = ["palm", "punch", "point"][int(rng.integers(0, 3))]
+        have = [p for p in ("palm", "punch", "point") if p in user["pools"]]
+        pose = have[int(rng.integers(0, len(have)))]
     L = POSE_LEN_CM[pose] * user["scale"]
     if centre is None:
         centre = (rng.uniform(-4, 4), rng.uniform(-6, 0))
@@ -517,7 +545,7 @@ def track_parts(rig, user, cat, rng, centre=None, angle=None):
         centre = (centre[0], centre[1] + 2)
     wrist = (centre[0] - math.sin(a) * L / 2, centre[1] + math.cos(a) * L / 2)
     if cat == "hover":
-        return hand_parts(rig, user, pose, rng, wrist, ang, rng.uniform(2.5, 15), "none")
+        return hand_parts(rig, user, pose, rng, wrist, ang, rng.uniform(*HOVER_CM), "none")
     return hand_parts(rig, user, pose, rng, wrist, ang, 0.0, "tip" if cat == "finger" else "all")
 
 
@@ -549,7 +577,8 @@ def render_tracking(out, seed, sils, n_contact, n_empty, n_hover, n_users=8, wor
                 tusers=[make_user(100 + u, sils, rng_for(seed, "tuser", u)) for u in range(n_users)])
     counts = {"nothing": n_empty, "hover": n_hover, "palm": n_contact, "fist": n_contact,
               "finger": n_contact}
-    tasks = [(cat, n) for cat in TRACK for n in range(counts[cat])]
+    tasks = [(cat, n) for cat in TRACK for n in range(counts[cat])
+             if NEEDS[cat] is None or NEEDS[cat] in sils]
     lines = [HEADER] + _map(_tracking_frame, tasks, workers)
     write_text(os.path.join(out, "tracking", "metadata.csv"), lines)
     return len(lines) - 1
@@ -611,11 +640,13 @@ def _slide_sequence(q):
 
 def render_slides(out, seed, sils, n_seq, workers=1):
     _CTX.update(out=out, seed=seed, sils=sils, box=Rig(**BOX))
-    res = _map(_slide_sequence, list(range(n_seq)), workers)
+    seqs = [q for q in range(n_seq)
+            if SLIDE_COMBOS[q % len(SLIDE_COMBOS)][0] == "palm" or "point" in sils]
+    res = _map(_slide_sequence, seqs, workers)
     seq_lines = ["sequence,gesture,direction,num_frames,distance_cm,fps,user,lighting,lighting_level"]
     seq_lines += [r[0] for r in res]
     write_text(os.path.join(out, "slides", "sequences.csv"), seq_lines)
-    return n_seq, sum(r[1] for r in res)
+    return len(seqs), sum(r[1] for r in res)
 
 
 def main(argv):
@@ -628,8 +659,16 @@ def main(argv):
     ap.add_argument("--tracking-empty", type=int, default=120)
     ap.add_argument("--tracking-hover", type=int, default=120)
     ap.add_argument("--slides", type=int, default=40)
-    ap.add_argument("--silhouettes", default=os.path.join(
-        os.path.dirname(os.path.abspath(__file__)), "..", "..", "data", "realhand"))
+    ap.add_argument("--silhouettes", "--hands", dest="silhouettes", default=os.path.join(
+        os.path.dirname(os.path.abspath(__file__)), "..", "..", "data", "realhand"),
+        help="folder of silhouettes with manifest.csv (file,pose[,split]); default data/realhand")
+    ap.add_argument("--split", default=None,
+                    help="use only manifest rows whose split column equals this (e.g. heldout)")
+    ap.add_argument("--scale", type=float, default=1.0,
+                    help="body size multiplier: hands, arms, torso S times larger (default 1)")
+    ap.add_argument("--hover-range", default="2.5,15", metavar="LO,HI",
+                    help="height of hovering hands above the skin in tracking frames, cm "
+                         "(default 2.5,15)")
     ap.add_argument("--only", choices=["gestures", "tracking", "slides"])
     ap.add_argument("--workers", type=int, default=1,
                     help="worker processes; the files are identical for any value")
@@ -641,8 +680,22 @@ def main(argv):
     for k in ("tracking_contact", "tracking_empty", "tracking_hover", "seed"):
         if getattr(a, k) < 0:
             ap.error(f"--{k.replace('_', '-')} must be >= 0")
+    if not (math.isfinite(a.scale) and 0.25 <= a.scale <= 4.0):
+        ap.error("--scale must be a number in [0.25, 4]")
     try:
-        sils = load_silhouettes(a.silhouettes)
+        lo, hi = (float(v) for v in a.hover_range.split(","))
+    except ValueError:
+        ap.error(f"--hover-range '{a.hover_range}' is not LO,HI (two numbers in cm)")
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi <= 50):
+        ap.error("--hover-range needs 0 < LO <= HI <= 50 (cm)")
+    global SCALE, HOVER_CM
+    SCALE = a.scale
+    HOVER_CM = (lo, hi)
+    try:
+        sils = load_silhouettes(a.silhouettes, a.split)
+        missing = [p for p in ("palm", "point", "punch") if p not in sils]
+        if missing:
+            print(f"no silhouettes of {', '.join(missing)}: classes needing them are skipped")
         if a.only in (None, "gestures"):
             n = render_gestures(a.out, a.seed, sils, a.users, a.frames_per_user, a.workers)
             print(f"gestures: {n} frames")

@@ -315,12 +315,23 @@ inline SegmenterCalibration fit_calibration(const std::vector<cv::Mat>& empty_fr
 // A touch frame for calibrate_from_frames. labelled = true: shadow_box is the box around the
 // whole shadow (hand and arm on the skin) and contact_box the box around the part in contact
 // (none: a hovering hand); both coarse. labelled = false: no labels; the frame is clustered.
+// name: how warnings and errors call the frame (a file name, "clip.mp4#12"); empty: "touch
+// frame <index>".
 struct BoxLabelledFrame {
   cv::Mat image;
   bool labelled = true;
   std::optional<cv::Rect> shadow_box{};
   std::optional<cv::Rect> contact_box{};
+  std::string name{};
 };
+
+namespace detail {
+// "touch frame 3" or "touch frame 'u1/palm/0003.png'", for warnings and errors.
+inline std::string touch_frame_name(const std::vector<BoxLabelledFrame>& frames, std::size_t i) {
+  const std::string& n = frames[i].name;
+  return "touch frame " + (n.empty() ? std::to_string(i) : "'" + n + "'");
+}
+} // namespace detail
 
 enum class CalibrationIssue {
   no_touch_frames,           // only empty frames: contact thresholds are the defaults
@@ -502,7 +513,7 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
   const cv::Size size = empty_frames[0].size();
   for (std::size_t i = 0; i < touch_frames.size(); ++i) {
     const BoxLabelledFrame& f = touch_frames[i];
-    const std::string n = fn + ": touch frame " + std::to_string(i);
+    const std::string n = fn + ": " + detail::touch_frame_name(touch_frames, i);
     require_colour_image(f.image, n.c_str());
     detail::require(f.image.size() == size, n + " is " + std::to_string(f.image.cols) + "x" +
                                                 std::to_string(f.image.rows) +
@@ -613,8 +624,8 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
     ++result.groups[g].touch_frames;
     if (std::abs(std::log(lum / result.groups[g].luminance)) > std::log(options.light_group_ratio))
       warn(CalibrationIssue::touch_without_empty_light,
-           "touch frame " + std::to_string(i) + " has reference luminance " + std::to_string(lum) +
-               " but the nearest light level of the empty frames is " +
+           detail::touch_frame_name(touch_frames, i) + " has reference luminance " +
+               std::to_string(lum) + " but the nearest light level of the empty frames is " +
                std::to_string(result.groups[g].luminance) +
                "; record empty frames at this light too");
     if (blur > 1)
@@ -635,8 +646,8 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
           }
       if (static_cast<double>(cand.size()) < options.min_class_pixels) {
         warn(CalibrationIssue::too_few_pixels,
-             "unlabelled touch frame " + std::to_string(i) + ": " + std::to_string(cand.size()) +
-                 " shadow pixels; expected at least " +
+             "unlabelled " + detail::touch_frame_name(touch_frames, i) + ": " +
+                 std::to_string(cand.size()) + " shadow pixels; expected at least " +
                  std::to_string(static_cast<long long>(options.min_class_pixels)) +
                  " (frame skipped)");
         continue;
@@ -655,7 +666,7 @@ inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty
                              centres.at<float>(warm, 0) - centres.at<float>(1 - warm, 0) >= 0.05f;
       if (!separated)
         warn(CalibrationIssue::contact_not_separated,
-             "unlabelled touch frame " + std::to_string(i) +
+             "unlabelled " + detail::touch_frame_name(touch_frames, i) +
                  ": no darker, warmer cluster among its shadow pixels; taken as a hover");
       for (int k = 0; k < labels.rows; ++k) {
         const cv::Vec2f& v = cand[static_cast<std::size_t>(k)];

@@ -9,6 +9,8 @@
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 #include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/image_file.hpp>
+#include <shadowsense/io/image_folder.hpp>
 #include <shadowsense/train/head_trainer.hpp>
 
 #include <opencv2/imgcodecs.hpp>
@@ -73,40 +75,7 @@ inline GestureSamples load_gesture_samples(const std::filesystem::path& folder,
   return out;
 }
 
-// Image files under folder, recursively, sorted by path (byte order): extensions .png .jpg
-// .jpeg .bmp .tif .tiff .webp .ppm .pgm (any case); names starting with '.' are skipped.
-// Throws IoError if folder is not a directory or cannot be listed.
-inline std::vector<std::filesystem::path> find_images(const std::filesystem::path& folder) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  detail::require<IoError>(fs::is_directory(folder, ec),
-                           folder.string() + ": not a folder, expected a folder of images");
-  std::vector<fs::path> out;
-  try {
-    for (auto it = fs::recursive_directory_iterator(folder);
-         it != fs::recursive_directory_iterator(); ++it) {
-      const auto name = it->path().filename().string();
-      if (!name.empty() && name[0] == '.') {
-        if (it->is_directory()) it.disable_recursion_pending();
-        continue;
-      }
-      if (!it->is_regular_file()) continue;
-      std::string ext = it->path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(),
-                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-      for (const char* e :
-           {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".ppm", ".pgm"})
-        if (ext == e) {
-          out.push_back(it->path());
-          break;
-        }
-    }
-  } catch (const fs::filesystem_error& e) {
-    SHADOWSENSE_THROW(IoError(folder.string() + ": cannot list the folder: " + e.what()));
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
+// find_images (the one rule for a folder of images): io/image_folder.hpp.
 
 // A plain class-per-folder tree without metadata.csv: folder/<class>/**/<image>. The class of
 // an image is the name of the first folder below `folder` on its path. class_names: the
@@ -193,8 +162,14 @@ time_split(const GestureSamples& set, std::span<const std::size_t> indices, doub
   return out;
 }
 
-// Reads a colour image; a missing or corrupt file is an IoError naming it.
+// Reads a colour image; a missing or corrupt file is an IoError naming it. PNG, JPEG and BMP
+// are checked from their header (io/image_file.hpp: at most 8192 px per side) before any pixel
+// is decoded, so a small file claiming a huge image is refused cheaply.
 inline cv::Mat read_colour_image(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".bmp")
+    return read_image_file(path, cv::IMREAD_COLOR);
   cv::Mat img = cv::imread(path.string(), cv::IMREAD_COLOR);
   detail::require<IoError>(!img.empty(), path.string() +
                                              ": cannot read the image (missing, corrupt or not "

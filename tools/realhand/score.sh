@@ -1,0 +1,79 @@
+#!/bin/sh
+# Score a gesture model on one pre-registered validation source at one hand scale
+# (docs/validation_protocol.md): renders the source with tools/realhand/render.py into
+# VALSETS/<source>_s<scale>/ once (skipped when that folder exists), then runs ss_eval_classify
+# --score on it and prints overall and per-class accuracy.
+#
+# usage: tools/realhand/score.sh --model M.ssm --source NAME --scale S [--valsets DIR]
+#                                [--bin DIR] [--json OUT.json] [--render-only]
+#   NAME: realhand | epsrc | rps_heldout      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
+#   name is <source>_s<S>; any number in [0.25, 4] works)
+#   --valsets DIR  rendered folders (default /work/valsets, or $VALSETS)
+#   --bin DIR      folder of ss_eval_classify (default build/examples, or $TRACK_EVAL_BIN_DIR)
+# Exit 0 on success, 2 on bad arguments or a failing step (message on stderr).
+set -eu
+root=$(cd "$(dirname "$0")/../.." && pwd)
+model="" source="" scale="" json="" render_only=0
+valsets=${VALSETS:-/work/valsets}
+bin=${TRACK_EVAL_BIN_DIR:-$root/build/examples}
+die() { echo "score.sh: $*" >&2; exit 2; }
+while [ $# -gt 0 ]; do
+  case $1 in
+    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0;;
+    --version) echo "score.sh 1"; exit 0;;
+    --model) [ $# -ge 2 ] || die "--model needs a value"; model=$2; shift 2;;
+    --source) [ $# -ge 2 ] || die "--source needs a value"; source=$2; shift 2;;
+    --scale) [ $# -ge 2 ] || die "--scale needs a value"; scale=$2; shift 2;;
+    --valsets) [ $# -ge 2 ] || die "--valsets needs a value"; valsets=$2; shift 2;;
+    --bin) [ $# -ge 2 ] || die "--bin needs a value"; bin=$2; shift 2;;
+    --json) [ $# -ge 2 ] || die "--json needs a value"; json=$2; shift 2;;
+    --render-only) render_only=1; shift;;
+    *) die "unknown argument '$1' (see --help)";;
+  esac
+done
+[ -n "$source" ] || die "--source is required"
+[ -n "$scale" ] || die "--scale is required"
+[ $render_only = 1 ] || [ -n "$model" ] || die "--model is required"
+[ $render_only = 1 ] || [ -f "$model" ] || die "model '$model' not found"
+case $scale in ''|*[!0-9.]*|*.*.*) die "--scale '$scale' is not a number";; esac
+# The pre-registered sources (docs/validation_protocol.md): hands, split, render parameters.
+case $source in
+  realhand) hands="$root/data/realhand"; split="";;
+  epsrc) hands="$root/data/hands/epsrc"; split="";;
+  rps_heldout) hands="$root/data/hands/rps"; split="heldout";;
+  *) die "unknown --source '$source' (realhand, epsrc or rps_heldout)";;
+esac
+out="$valsets/${source}_s$scale"
+if [ ! -f "$out/gestures/metadata.csv" ]; then
+  mkdir -p "$valsets" || die "cannot create '$valsets'"
+  rm -rf "$out.tmp"
+  # shellcheck disable=SC2086
+  /usr/bin/python3 "$root/tools/realhand/render.py" --out "$out.tmp" --hands "$hands" \
+    ${split:+--split "$split"} --scale "$scale" --seed 21 --users 4 --frames-per-user 4 \
+    --only gestures --workers 1 >/dev/null || die "rendering $source at scale $scale failed"
+  mv "$out.tmp" "$out" || die "cannot move '$out.tmp' to '$out'"
+fi
+[ $render_only = 1 ] && { echo "rendered: $out"; exit 0; }
+[ -x "$bin/ss_eval_classify" ] || die "'$bin/ss_eval_classify' not found (build the target)"
+tmp=$(mktemp) || die "mktemp failed"
+trap 'rm -f "$tmp"' EXIT
+"$bin/ss_eval_classify" --score "$model" --data "$out/gestures" --lighting-normalise --quiet \
+  --json "$tmp" >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
+if [ -n "$json" ]; then
+  { cp "$tmp" "$json.tmp" && mv "$json.tmp" "$json"; } || die "cannot write '$json'"
+fi
+/usr/bin/python3 - "$tmp" "$source" "$scale" "$model" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+names = ["nothing", "hug", "palm", "point", "punch", "two_hands"]
+m = r["confusion"]["all"]
+if len(m) != len(names):
+    sys.exit(f"score.sh: expected {len(names)} classes, the model has {len(m)}")
+n = sum(map(sum, m))
+ok = sum(m[i][i] for i in range(len(m)))
+cells = []
+for i, nm in enumerate(names):
+    t = sum(m[i])
+    cells.append(f"{nm} {100.0 * m[i][i] / t:.1f}% ({m[i][i]}/{t})" if t else f"{nm} -")
+print(f"{sys.argv[2]} x{sys.argv[3]}: all {100.0 * ok / n:.2f}% ({ok}/{n}); " + "; ".join(cells))
+PY
