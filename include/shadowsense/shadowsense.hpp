@@ -28,7 +28,9 @@
 #include <shadowsense/output/output.hpp>
 #include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/runtime/runtime.hpp>
+#include <shadowsense/sense/gesture_event.hpp>
 #include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/temporal_gestures.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
