@@ -9,7 +9,9 @@
 // would calibrate at start-up; the calibration is written to DIR/skin.calib); the library's
 // Runtime (runtime/runtime.hpp: touch pipeline + classifier gated by the shadow) does the rest,
 // exactly as ss_track does on a robot's frames. Prints an event log (time, track, state,
-// position in cm, gesture, confidence) and writes DIR/demo_strip.png (annotated frames) and
+// position in cm, gesture, confidence; and a `gesture` line per temporal touch gesture: the
+// palm's hold, its stroke to the right, the punch, the hug - docs/temporal_gestures.md) and
+// writes DIR/demo_strip.png (annotated frames) and
 // DIR/events.csv (the project's event schema, docs/output.md). With --save-frames the rendered
 // frames go to DIR/frames/ (frame_000001.png, ...): `ss_track --input DIR/frames --calibration
 // DIR/skin.calib --fps 10` then prints the same event lines.
@@ -166,6 +168,17 @@ void log_event(const ss::TrackEvent& te, const ss::RuntimeFrame& r, const Scale&
               classified ? r.gesture.label.c_str() : "-", conf_s, scene.c_str());
 }
 
+// One line per temporal touch gesture (docs/temporal_gestures.md), between the touch events.
+void log_gesture(const ss::GestureEvent& g, const std::string& scene) {
+  const std::string shape(g.hand_shape.view());
+  std::printf("%6.1fs %5d  gesture %-10s %-8s %4.1f-%4.1fs  %-6s x%-3d %-10s %4.2f  %s\n",
+              g.decided_ms / 1000.0, g.track_id, ss::to_string(g.gesture), ss::to_string(g.phase),
+              g.start_ms / 1000.0, g.end_ms / 1000.0,
+              g.direction == ss::Direction::none ? "-" : ss::to_string(g.direction), g.repetitions,
+              shape.empty() ? "-" : shape.c_str(), static_cast<double>(g.confidence),
+              scene.c_str());
+}
+
 struct Shot {
   cv::Mat image;
   std::string caption;
@@ -259,6 +272,7 @@ int main(int argc, char** argv) {
       else if (r.gesture.label.empty())
         ++gated; // nothing near: no inference
       for (const ss::TrackEvent& e : r.touch.events) log_event(e, r, scale, scene);
+      for (const ss::GestureEvent& g : r.touch_gestures) log_gesture(g, scene);
       // One annotated frame per scripted phase, in the middle of it.
       if (scene != last_scene) shot_for_scene[scene] = i;
       last_scene = scene;
@@ -273,6 +287,7 @@ int main(int argc, char** argv) {
     const ss::RuntimeFrame& end = sense.flush(last_t + 1000.0 / fps); // as ss_track ends a file
     events.write(sense.output());
     for (const ss::TrackEvent& e : end.touch.events) log_event(e, end, scale, "stream ends");
+    for (const ss::GestureEvent& g : end.touch_gestures) log_gesture(g, "stream ends");
     ss::write_file_atomically(out / "events.csv", csv.str());
     const fs::path strip_path = out / "demo_strip.png";
     write_strip(shots, strip_path);

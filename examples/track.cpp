@@ -7,7 +7,10 @@
 // for touch events only), flushes pending events at the end of the stream, and writes every
 // event through the library's sinks: CSV or JSON lines on stdout in the project's one event
 // schema (docs/output.md), and TUIO 1.1 over UDP with the gesture as an OSC message in the same
-// bundle (--tuio). Frames are counted from 1.
+// bundle (--tuio). The temporal touch gestures (tap, double tap, pat, stroke, rub, hold, hit;
+// hug, punch, two hands; docs/temporal_gestures.md) are rows of kind `gesture` in the same
+// stream and /shadowsense/touch_gesture messages after the TUIO bundles (--no-temporal leaves
+// them out). Frames are counted from 1.
 // Timestamps: folders use --fps (frame i, from 0, at i * 1000 / fps ms) or --timestamps CSV
 // (file,timestamp_ms); videos use their declared frame rate (or --fps); cameras the clock.
 // --realtime paces a folder or video to its timestamps (the default when sending TUIO from a
@@ -59,15 +62,17 @@ struct Options {
   double fps = 0; // 0 = not given
   long long max_frames = -1;
   int max_side = 8192, threads = 1, classify_every = 1;
-  bool show = false, quiet = false, realtime = false, no_realtime = false;
+  bool show = false, quiet = false, realtime = false, no_realtime = false, no_temporal = false;
+  double px_per_cm = TemporalGestureConfig{}.px_per_cm;
   const char* argv0 = "ss_track"; // finds the installed model beside the program
 };
 
 const char* kHelp =
     "usage: ss_track --input DIR|VIDEO|CAMERA --calibration FILE [options]\n"
-    "Touch events (appear, touch, move, lift, disappear) with the hand-shape gesture from a\n"
-    "folder of images (sorted by name), a video file or a camera index, one line per event on\n"
-    "stdout in the project's event schema (docs/output.md).\n"
+    "Touch events (appear, touch, move, lift, disappear) with the hand-shape gesture, and the\n"
+    "touch gestures over time (tap, double_tap, pat, stroke, rub, hold, hit, hug, punch,\n"
+    "two_hands), from a folder of images (sorted by name), a video file or a camera index, one\n"
+    "line per event on stdout in the project's event schema (docs/output.md).\n"
     "\n"
     "  --input SPEC         folder of images, video file, or camera index (0, 1, ...)\n"
     "  --calibration FILE   calibration with the empty-skin model (ss_calibrate)\n"
@@ -81,6 +86,10 @@ const char* kHelp =
     "  --source NAME        the events' source field (default: --input as given)\n"
     "  --tuio HOST[:PORT]   also send TUIO 1.1 over UDP (default port 3333), e.g. 127.0.0.1,\n"
     "                       with the gesture as /shadowsense/gesture in the same bundle\n"
+    "                       and the touch gestures as /shadowsense/touch_gesture after it\n"
+    "  --no-temporal        no touch gestures over time (touch events and hand shape only)\n"
+    "  --px-per-cm F        image scale at the skin for the touch gestures' distances\n"
+    "                       (default 7.6, the generated rigs' scale at the centre)\n"
     "  --realtime           pace a folder or video to its timestamps (the default with --tuio)\n"
     "  --no-realtime        as fast as possible, also with --tuio\n"
     "  --annotate DIR       write an annotated PNG per frame into DIR\n"
@@ -89,9 +98,11 @@ const char* kHelp =
     "  --max-side N         refuse frames larger than N px per side (default 8192)\n"
     "  --quiet              no progress line on stderr\n"
     "  --help, --version\n"
-    "CSV columns: schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,\n"
-    "confidence,gesture_frame (frames from 1; x, y in pixels, empty without a contact position;\n"
-    "gesture fields empty while no shadow is seen). 'to' = none is a disappear.\n";
+    "CSV columns: schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,\n"
+    "confidence,gesture_frame,touch_gesture,phase,start_ms,end_ms,length_px,speed_px_s,\n"
+    "repetitions,hand_shape,gesture_confidence (kind touch: a touch event, kind gesture: a touch\n"
+    "gesture; frames from 1; x, y in pixels, empty without a contact position; gesture fields\n"
+    "empty while no shadow is seen). 'to' = none is a disappear.\n";
 
 // Returns the options; throws cli::Exit once --help or --version has been answered.
 Options parse(int argc, char** argv) {
@@ -124,6 +135,8 @@ Options parse(int argc, char** argv) {
       .range(0.001, 10000.0);
   p.option("--max-frames", "N", "stop after N frames", o.max_frames).range(1, 1'000'000'000);
   p.option("--max-side", "N", "largest frame side", o.max_side).range(16, 65536);
+  p.flag("--no-temporal", "no touch gestures over time", o.no_temporal);
+  p.option("--px-per-cm", "F", "image scale at the skin", o.px_per_cm).range(0.01, 10000.0);
   p.flag("--realtime", "pace a file to its timestamps", o.realtime);
   p.flag("--no-realtime", "as fast as possible", o.no_realtime);
   p.flag("--show", "show the annotated frames in a window", o.show);
@@ -208,8 +221,11 @@ int run(const Options& o) {
     classifier.emplace(
         make_densenet_classifier(ModelFile::load(model_path), {.threads = o.threads}));
   }
-  Runtime sense(TouchPipeline{Segmenter(sc)}, std::move(classifier),
-                {.classify_every = o.classify_every});
+  RuntimeConfig rc;
+  rc.classify_every = o.classify_every;
+  rc.temporal_gestures = !o.no_temporal;
+  rc.temporal.px_per_cm = o.px_per_cm;
+  Runtime sense(TouchPipeline{Segmenter(sc)}, std::move(classifier), rc);
   frames::FrameSource src = frames::FrameSource::open(o.input, o.max_side);
   std::optional<std::map<std::string, double>> stamps;
   if (!o.timestamps.empty()) {

@@ -63,10 +63,11 @@ TEST_CASE("CsvSink writes a header and one row per event, exactly") {
   CsvSink sink(out);
   sink.write(sample_frame());
   sink.write(OutputFrame{}); // no events: nothing
-  CHECK(out.str() == "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
-                     "confidence,gesture_frame\n"
-                     "2,,12,396.5,3,none,appear,none,,,,,\n"
-                     "2,,12,396.5,4,touch,move,left,101.5,0.1,,,\n");
+  CHECK(out.str() == "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,"
+                     "gesture,confidence,gesture_frame,touch_gesture,phase,start_ms,end_ms,"
+                     "length_px,speed_px_s,repetitions,hand_shape,gesture_confidence\n"
+                     "3,touch,,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n"
+                     "3,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n");
   CHECK(std::string(event_csv_header) + "\n" == out.str().substr(0, out.str().find('\n') + 1));
 }
 
@@ -93,15 +94,23 @@ TEST_CASE("CsvSink and JsonLinesSink write the frame's gesture, and nothing whil
   f.gesture.label.clear(); // gated off: available, no reading
   csv.write(f);
   json.write(f);
-  CHECK(csv_out.str() == "2,cam,12,396.5,3,none,appear,none,,,palm,0.75,11\n"
-                         "2,cam,12,396.5,3,none,appear,none,,,,,\n");
+  CHECK(csv_out.str() == "3,touch,cam,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
+                         "3,touch,cam,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
   CHECK(json_out.str() ==
-        "{\"schema\":2,\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
+        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
+        "\"track_id\":3,"
         "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
-        "\"gesture\":\"palm\",\"confidence\":0.75,\"gesture_frame\":11}\n"
-        "{\"schema\":2,\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,\"track_id\":3,"
+        "\"gesture\":\"palm\",\"confidence\":0.75,\"gesture_frame\":11,"
+        "\"touch_gesture\":null,\"phase\":null,\"start_ms\":null,\"end_ms\":null,"
+        "\"length_px\":null,\"speed_px_s\":null,\"repetitions\":null,\"hand_shape\":null,"
+        "\"gesture_confidence\":null}\n"
+        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
+        "\"track_id\":3,"
         "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
-        "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null}\n");
+        "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,"
+        "\"touch_gesture\":null,\"phase\":null,\"start_ms\":null,\"end_ms\":null,"
+        "\"length_px\":null,\"speed_px_s\":null,\"repetitions\":null,\"hand_shape\":null,"
+        "\"gesture_confidence\":null}\n");
 }
 
 TEST_CASE("the one JSON escaper: invalid UTF-8 becomes U+FFFD, valid UTF-8 and DEL as expected") {
@@ -113,7 +122,8 @@ TEST_CASE("the one JSON escaper: invalid UTF-8 becomes U+FFFD, valid UTF-8 and D
   std::ostringstream json_out;
   JsonLinesSink json(json_out, {.source = "bad\xfe"});
   json.write(sample_frame());
-  CHECK(json_out.str().rfind("{\"schema\":2,\"source\":\"bad\\ufffd\",", 0) == 0);
+  CHECK(json_out.str().rfind("{\"schema\":3,\"kind\":\"touch\",\"source\":\"bad\\ufffd\",", 0) ==
+        0);
 }
 
 TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") {
@@ -125,7 +135,8 @@ TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") 
   OutputFrame f = sample_frame();
   f.events.resize(1);
   sink.write(f);
-  CHECK(out.str() == "2,\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,,,,\n");
+  CHECK(out.str() ==
+        "3,touch,\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
   std::string field;
   detail::append_csv_field(field, " lead");
   CHECK(field == "\" lead\"");
@@ -143,25 +154,30 @@ TEST_CASE("JsonLinesSink writes one object per event per line, strings escaped")
   config.source = "a\"b\\c\n\x01";
   JsonLinesSink sink(out, config);
   sink.write(sample_frame());
-  const std::string no_gesture = ",\"gesture\":null,\"confidence\":null,\"gesture_frame\":null}\n";
-  CHECK(out.str() == "{\"schema\":2,\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
-                     "\"timestamp_ms\":396.5,\"track_id\":3,\"from\":\"none\",\"to\":\"appear\","
-                     "\"direction\":\"none\",\"x\":null,\"y\":null" +
-                         no_gesture +
-                         "{\"schema\":2,\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
-                         "\"timestamp_ms\":396.5,\"track_id\":4,\"from\":\"touch\",\"to\":\"move\","
-                         "\"direction\":\"left\",\"x\":101.5,\"y\":0.1" +
-                         no_gesture);
+  const std::string no_gesture =
+      ",\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,\"touch_gesture\":null,"
+      "\"phase\":null,\"start_ms\":null,\"end_ms\":null,\"length_px\":null,\"speed_px_s\":null,"
+      "\"repetitions\":null,\"hand_shape\":null,\"gesture_confidence\":null}\n";
+  CHECK(out.str() ==
+        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+        "\"timestamp_ms\":396.5,\"track_id\":3,\"from\":\"none\",\"to\":\"appear\","
+        "\"direction\":\"none\",\"x\":null,\"y\":null" +
+            no_gesture +
+            "{\"schema\":3,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+            "\"timestamp_ms\":396.5,\"track_id\":4,\"from\":\"touch\",\"to\":\"move\","
+            "\"direction\":\"left\",\"x\":101.5,\"y\":0.1" +
+            no_gesture);
   std::ostringstream plain;
   JsonLinesSink no_source(plain);
   OutputFrame f = sample_frame();
   f.events.resize(1);
   f.events[0].event.timestamp_ms = std::numeric_limits<double>::quiet_NaN();
   no_source.write(f);
-  CHECK(plain.str() == "{\"schema\":2,\"source\":\"\",\"frame\":12,\"timestamp_ms\":null,"
-                       "\"track_id\":3,\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\","
-                       "\"x\":null,\"y\":null" +
-                           no_gesture);
+  CHECK(plain.str() ==
+        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"\",\"frame\":12,\"timestamp_ms\":null,"
+        "\"track_id\":3,\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\","
+        "\"x\":null,\"y\":null" +
+            no_gesture);
 }
 
 TEST_CASE("a failed stream is an IoError, at construction and on write") {
@@ -190,7 +206,8 @@ TEST_CASE("publish() writes one frame to a user-defined sink and the library's s
   CHECK(counter.events_per_frame == std::vector<std::size_t>{2, 0});
   const std::string text = out.str();
   CHECK(std::count(text.begin(), text.end(), '\n') == 2);
-  CHECK(text.rfind("2,,12,396.5,4,touch,move,left,101.5,0.1,,,\n") == text.find('\n') + 1);
+  CHECK(text.rfind("3,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n") ==
+        text.find('\n') + 1);
 }
 
 TEST_CASE("OutputFrameBuilder: contacts while touching (last point during the hysteresis), "
@@ -235,4 +252,87 @@ TEST_CASE("OutputFrameBuilder: contacts while touching (last point during the hy
   CHECK(c.contacts.empty());
   CHECK(c.shadows.size() == 2);
   CHECK_THROWS_AS(builder.build(f, {0, 100}), InvalidArgument);
+}
+
+namespace {
+// Two temporal gestures: a double tap (a revision) and a stroke to the right.
+OutputFrame frame_with_touch_gestures() {
+  OutputFrame f;
+  f.frame_index = 30;
+  f.timestamp_ms = 920;
+  f.frame_size = {200, 100};
+  GestureEvent tap;
+  tap.gesture = TouchGesture::double_tap;
+  tap.phase = GesturePhase::revised;
+  tap.track_id = 3;
+  tap.start_ms = 400;
+  tap.end_ms = 900;
+  tap.decided_ms = 900;
+  tap.position = {100, 50};
+  tap.repetitions = 2;
+  tap.hand_shape.assign("point");
+  tap.confidence = 1;
+  GestureEvent stroke;
+  stroke.gesture = TouchGesture::stroke;
+  stroke.track_id = 4;
+  stroke.start_ms = 500;
+  stroke.end_ms = 920;
+  stroke.decided_ms = 920;
+  stroke.position = {100.5f, 80.25f};
+  stroke.direction = Direction::right;
+  stroke.length_px = 200;
+  stroke.speed_px_s = 476.5f;
+  stroke.hand_shape.assign("pa,lm");
+  stroke.confidence = 0.5f;
+  f.touch_gestures = {tap, stroke};
+  return f;
+}
+} // namespace
+
+TEST_CASE("CsvSink and JsonLinesSink write temporal gestures as rows of kind gesture, exactly") {
+  std::ostringstream csv_out, json_out;
+  CsvSink csv(csv_out, {.source = "cam", .header = false});
+  JsonLinesSink json(json_out, {.source = "cam"});
+  OutputFrame f = frame_with_touch_gestures();
+  csv.write(f);
+  json.write(f);
+  CHECK(csv_out.str() ==
+        "3,gesture,cam,30,900,3,,,none,100,50,,,,double_tap,revised,400,900,0,0,2,point,1\n"
+        "3,gesture,cam,30,920,4,,,right,100.5,80.25,,,,stroke,complete,500,920,200,476.5,1,"
+        "\"pa,lm\",0.5\n");
+  CHECK(json_out.str() ==
+        "{\"schema\":3,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":900,"
+        "\"track_id\":3,\"from\":null,\"to\":null,\"direction\":\"none\",\"x\":100,\"y\":50,"
+        "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,\"touch_gesture\":"
+        "\"double_tap\",\"phase\":\"revised\",\"start_ms\":400,\"end_ms\":900,\"length_px\":0,"
+        "\"speed_px_s\":0,\"repetitions\":2,\"hand_shape\":\"point\",\"gesture_confidence\":1}\n"
+        "{\"schema\":3,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":920,"
+        "\"track_id\":4,\"from\":null,\"to\":null,\"direction\":\"right\",\"x\":100.5,"
+        "\"y\":80.25,\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,"
+        "\"touch_gesture\":\"stroke\",\"phase\":\"complete\",\"start_ms\":500,\"end_ms\":920,"
+        "\"length_px\":200,\"speed_px_s\":476.5,\"repetitions\":1,\"hand_shape\":\"pa,lm\","
+        "\"gesture_confidence\":0.5}\n");
+  // touch rows first, then gesture rows, with the frame's hand shape on both
+  std::ostringstream both;
+  CsvSink csv2(both, {.source = "", .header = false});
+  OutputFrame g = frame_with_gesture();
+  g.events.resize(1);
+  g.touch_gestures = {frame_with_touch_gestures().touch_gestures[0]};
+  csv2.write(g);
+  CHECK(both.str() == "3,touch,,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
+                      "3,gesture,,12,900,3,,,none,100,50,palm,0.75,11,double_tap,revised,400,"
+                      "900,0,0,2,point,1\n");
+}
+
+TEST_CASE("OutputFrameBuilder carries the temporal gestures and clears them with a plain build") {
+  OutputFrameBuilder builder;
+  PipelineFrame pf;
+  pf.timestamp_ms = 5;
+  const std::vector<GestureEvent> events = frame_with_touch_gestures().touch_gestures;
+  const OutputFrame& a = builder.build(pf, {10, 10}, OutputGesture{}, events);
+  REQUIRE(a.touch_gestures.size() == 2);
+  CHECK(a.touch_gestures[1].gesture == TouchGesture::stroke);
+  CHECK(a.touch_gestures[1].hand_shape.view() == "pa,lm");
+  const OutputFrame& b = builder.build(pf, {10, 10});
+  CHECK(b.touch_gestures.empty());
 }

@@ -338,3 +338,55 @@ TEST_CASE("liblo cross-check SKIPPED: this test was built without liblo") {
                       "a real OSC decoder did not run; apt-get install liblo-dev and reconfigure");
 }
 #endif
+
+TEST_CASE("temporal gestures follow the TUIO bundles as /shadowsense/touch_gesture messages") {
+  TuioEncoder enc;
+  OutputFrame f = frame_at(9, 900.0, 50.0f);
+  GestureEvent tap;
+  tap.gesture = TouchGesture::double_tap;
+  tap.phase = GesturePhase::revised;
+  tap.track_id = 1;
+  tap.start_ms = 400;
+  tap.end_ms = 880;
+  tap.decided_ms = 900;
+  tap.position = {50, 25};
+  tap.repetitions = 2;
+  tap.hand_shape.assign("point");
+  tap.confidence = 1;
+  GestureEvent hold = tap;
+  hold.gesture = TouchGesture::hold;
+  hold.phase = GesturePhase::began;
+  hold.track_id = 2;
+  hold.end_ms = 900;
+  hold.repetitions = 1;
+  hold.direction = Direction::left;
+  hold.length_px = 100;
+  hold.speed_px_s = 50;
+  f.touch_gestures = {tap, hold};
+  const auto packets = encode(enc, f);
+  REQUIRE(packets.size() == 3); // 2Dcur, 2Dblb, then the gestures
+  const auto g = messages(packets[2]);
+  REQUIRE(g.size() == 2);
+  CHECK(text(g[0]) == "/shadowsense/touch_gesture i:1 s:double_tap s:revised f:0.250000 "
+                      "f:0.250000 s:none f:480.000000 f:20.000000 f:0.000000 f:0.000000 i:2 "
+                      "s:point f:1.000000 i:9");
+  CHECK(text(g[1]) == "/shadowsense/touch_gesture i:2 s:hold s:began f:0.250000 f:0.250000 "
+                      "s:left f:500.000000 f:0.000000 f:0.500000 f:0.250000 i:1 s:point "
+                      "f:1.000000 i:9");
+
+  // Many gestures split over bundles, every one within max_packet_bytes, none lost.
+  TuioEncoder::Config small_config;
+  small_config.max_packet_bytes = 256;
+  TuioEncoder small(small_config);
+  f.touch_gestures.assign(7, tap);
+  const auto split = encode(small, f);
+  REQUIRE(split.size() > 3);
+  std::size_t n = 0;
+  for (std::size_t i = 2; i < split.size(); ++i) {
+    CHECK(split[i].size() <= 256);
+    n += messages(split[i]).size();
+  }
+  CHECK(n == 7);
+  f.touch_gestures[0].position.x = std::numeric_limits<float>::quiet_NaN();
+  CHECK_THROWS_WITH_AS(encode(enc, f), doctest::Contains("non-finite position"), InvalidArgument);
+}

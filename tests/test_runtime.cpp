@@ -11,6 +11,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -206,6 +207,79 @@ TEST_CASE("Runtime with a user-defined backend and without a classifier") {
   CHECK(csv.str().find(",,,\n") != std::string::npos);
 }
 
+namespace {
+// A recogniser of the user's own: one "tap" per frame with a contact, on that track.
+struct EveryContactRecogniser {
+  std::vector<GestureEvent> out;
+  const std::vector<GestureEvent>& update(const TouchFrame& f, const OutputGesture&) {
+    out.clear();
+    for (const TouchTrack& t : f.tracks)
+      if (t.contact) {
+        GestureEvent& e = out.emplace_back();
+        e.track_id = t.id;
+        e.start_ms = e.end_ms = e.decided_ms = f.timestamp_ms;
+      }
+    return out;
+  }
+  const std::vector<GestureEvent>& flush(double) {
+    out.clear();
+    return out;
+  }
+};
+static_assert(TemporalRecogniser<EveryContactRecogniser>);
+
+bool same(const GestureEvent& a, const GestureEvent& b) {
+  return a.gesture == b.gesture && a.phase == b.phase && a.track_id == b.track_id &&
+         a.start_ms == b.start_ms && a.end_ms == b.end_ms && a.decided_ms == b.decided_ms &&
+         a.position == b.position && a.direction == b.direction && a.length_px == b.length_px &&
+         a.speed_px_s == b.speed_px_s && a.repetitions == b.repetitions &&
+         a.hand_shape.view() == b.hand_shape.view() && a.confidence == b.confidence;
+}
+} // namespace
+
+TEST_CASE("Runtime: the temporal gestures of the recogniser fed its frames; off by config; the "
+          "user's own recogniser") {
+  const std::vector<cv::Mat> frames = sequence();
+  using UserRuntime = BasicRuntime<CalibratedRule, BrightnessBackend>;
+  auto clf = [] {
+    return Classifier<BrightnessBackend>(BrightnessBackend{}, {model().preprocess});
+  };
+  UserRuntime on(TouchPipeline(segmenter_from(calibration())), clf());
+  RuntimeConfig off_config;
+  off_config.temporal_gestures = false;
+  UserRuntime off(TouchPipeline(segmenter_from(calibration())), clf(), off_config);
+  BasicRuntime<CalibratedRule, BrightnessBackend, EveryContactRecogniser> mine(
+      TouchPipeline(segmenter_from(calibration())), clf());
+  TemporalGestureRecogniser reference;
+  int strokes = 0, total = 0, contacts = 0, mine_events = 0;
+  double t = 0;
+  auto compare = [&](const RuntimeFrame& r, const std::vector<GestureEvent>& want) {
+    REQUIRE(r.touch_gestures.size() == want.size());
+    for (std::size_t k = 0; k < want.size(); ++k) CHECK(same(r.touch_gestures[k], want[k]));
+    const OutputFrame& out = on.output();
+    REQUIRE(out.touch_gestures.size() == want.size());
+    for (std::size_t k = 0; k < want.size(); ++k) CHECK(same(out.touch_gestures[k], want[k]));
+    for (const GestureEvent& e : want) strokes += e.gesture == TouchGesture::stroke, ++total;
+  };
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    t = 40.0 * static_cast<double>(i);
+    INFO("frame " << i + 1);
+    const RuntimeFrame& r = on.update(frames[i], t);
+    compare(r, reference.update(r.touch, r.gesture));
+    CHECK(off.update(frames[i], t).touch_gestures.empty());
+    CHECK(off.output().touch_gestures.empty());
+    const RuntimeFrame& m = mine.update(frames[i], t);
+    for (const TouchTrack& tr : m.touch.tracks) contacts += tr.contact.has_value();
+    mine_events += static_cast<int>(m.touch_gestures.size());
+  }
+  const RuntimeFrame& end = on.flush(t + 40);
+  compare(end, reference.flush(t + 40));
+  CHECK(strokes == 1); // the palm's slide
+  CHECK(total >= 1);
+  CHECK(contacts >= 6);
+  CHECK(mine_events == contacts);
+}
+
 TEST_CASE("TouchPipeline refuses an uncalibrated segmenter unless the caller opts in by name") {
   CHECK_THROWS_WITH_AS(TouchPipeline{Segmenter(SegmenterConfig{})},
                        doctest::Contains("not calibrated (no empty-skin model)"), InvalidArgument);
@@ -246,8 +320,8 @@ namespace {
 namespace ss = shadowsense;
 
 // The README's Runtime loop, verbatim between the markers (the test below compares the text).
-template <class Camera>
-void readme_runtime_loop(const Camera& camera) {
+template <class Camera, class React>
+void readme_runtime_loop(const Camera& camera, React&& react) {
   // clang-format off
   // README-BEGIN
   ss::Runtime sense{ss::TouchPipeline{ss::Segmenter({.calibration = ss::load_calibration("skin.calib")})},
@@ -255,7 +329,8 @@ void readme_runtime_loop(const Camera& camera) {
   ss::CsvSink csv(std::cout); // the event schema (docs/output.md); add a TuioSink or your own sink
   double t_end = 0;
   for (const auto& [frame, t_ms] : camera) {
-    sense.update(frame, t_ms); // returns a RuntimeFrame: touch.events, gesture.label, ...
+    const ss::RuntimeFrame& r = sense.update(frame, t_ms); // r.touch.events, r.gesture.label
+    for (const ss::GestureEvent& g : r.touch_gestures) react(g); // a tap, a pat, a stroke...
     ss::publish(sense.output(), csv);
     t_end = t_ms;
   }
@@ -302,7 +377,8 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
     camera.emplace_back(frames[i], 40.0 * static_cast<double>(i));
   std::ostringstream printed;
   std::streambuf* const cout_buf = std::cout.rdbuf(printed.rdbuf());
-  readme_runtime_loop(camera);
+  std::vector<GestureEvent> reacted;
+  readme_runtime_loop(camera, [&](const GestureEvent& g) { reacted.push_back(g); });
   std::cout.rdbuf(cout_buf);
   std::filesystem::current_path(old);
   const std::string text = printed.str();
@@ -310,4 +386,10 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
   CHECK(text.find(",appear,touch,") != std::string::npos);
   CHECK(text.find(",lift,none,") != std::string::npos);
   CHECK(text.find(",palm,") != std::string::npos); // the palm's touch, with its hand shape
+  // The palm's slide is a stroke, given to the loop's reaction and printed as a gesture row.
+  CHECK(std::count_if(reacted.begin(), reacted.end(), [](const GestureEvent& g) {
+          return g.gesture == TouchGesture::stroke;
+        }) == 1);
+  CHECK(text.find(",gesture,") != std::string::npos);
+  CHECK(text.find(",stroke,complete,") != std::string::npos);
 }

@@ -5,6 +5,7 @@
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/output/osc.hpp>
 #include <shadowsense/output/text_format.hpp>
+#include <shadowsense/sense/temporal_gestures.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
 #include <doctest/doctest.h>
@@ -87,18 +88,22 @@ const std::string kModel = std::string(SHADOWSENSE_SOURCE_DIR) + "/models/defaul
 
 // The CSV ss_track prints (the event schema, docs/output.md), made here from TouchPipeline and,
 // with a model, the classifier run on every frame where a shadow blob is seen, on `frames` at
-// i * 1000 / fps ms; frames counted from 1, the flush as one more frame.
+// i * 1000 / fps ms; frames counted from 1, the flush as one more frame; after each frame's touch
+// rows, the rows of the temporal gestures a TemporalGestureRecogniser (default config) decides
+// from the pipeline's frame and the hand shape.
 std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
                          const std::string& calibration_file, const std::string& source,
                          const std::string& model = "") {
   TouchPipeline p{Segmenter({.calibration = load_calibration(calibration_file)})};
   std::optional<Classifier<DenseNet>> clf;
   if (!model.empty()) clf.emplace(make_densenet_classifier(ModelFile::load(model)));
-  std::string o = "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
-                  "confidence,gesture_frame\n";
+  TemporalGestureRecogniser temporal;
+  std::string o = "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
+                  "confidence,gesture_frame,touch_gesture,phase,start_ms,end_ms,length_px,"
+                  "speed_px_s,repetitions,hand_shape,gesture_confidence\n";
   std::string gesture = ",,"; // label,confidence,frame of the current frame
   auto print = [&](std::size_t frame, const TrackEvent& e) {
-    o += "2," + source + "," + std::to_string(frame) + ",";
+    o += "3,touch," + source + "," + std::to_string(frame) + ",";
     detail::append_number(o, e.event.timestamp_ms);
     o += "," + std::to_string(e.track_id) + "," + to_string(e.event.from) + "," +
          to_string(e.event.to) + "," + to_string(e.event.direction) + ",";
@@ -109,24 +114,69 @@ std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
     } else {
       o += ',';
     }
-    o += "," + gesture + "\n";
+    o += "," + gesture + ",,,,,,,,,\n";
+  };
+  auto print_gesture = [&](std::size_t frame, const GestureEvent& e) {
+    o += "3,gesture," + source + "," + std::to_string(frame) + ",";
+    detail::append_number(o, e.decided_ms);
+    o += "," + std::to_string(e.track_id) + ",,," + to_string(e.direction) + ",";
+    detail::append_number(o, e.position.x);
+    o += ',';
+    detail::append_number(o, e.position.y);
+    o += "," + gesture + "," + to_string(e.gesture) + "," + to_string(e.phase) + ",";
+    for (double v : {e.start_ms, e.end_ms}) {
+      detail::append_number(o, v);
+      o += ',';
+    }
+    for (float v : {e.length_px, e.speed_px_s}) {
+      detail::append_number(o, v);
+      o += ',';
+    }
+    o += std::to_string(e.repetitions) + "," + std::string(e.hand_shape.view()) + ",";
+    detail::append_number(o, e.confidence);
+    o += "\n";
   };
   double t = 0;
+  OutputGesture reading;
+  reading.available = clf.has_value();
   for (std::size_t i = 0; i < frames.size(); ++i) {
     t = static_cast<double>(i) * 1000.0 / fps;
     const TouchFrame& r = p.update(frames[i], t);
     gesture = ",,";
+    reading.label.clear();
+    reading.confidence = 0;
     if (clf && !r.shadow_boxes.empty()) {
       const Classification c = clf->classify(frames[i]);
+      reading.label = c.label;
+      reading.confidence = c.probabilities[static_cast<std::size_t>(c.index)];
       gesture = c.label + ",";
-      detail::append_number(gesture, c.probabilities[static_cast<std::size_t>(c.index)]);
+      detail::append_number(gesture, reading.confidence);
       gesture += "," + std::to_string(i + 1);
     }
     for (const TrackEvent& e : r.events) print(i + 1, e);
+    for (const GestureEvent& e : temporal.update(r, reading)) print_gesture(i + 1, e);
   }
   gesture = ",,";
-  for (const TrackEvent& e : p.flush(t + 1000.0 / fps).events) print(frames.size() + 1, e);
+  const double t_end = t + 1000.0 / fps;
+  for (const TrackEvent& e : p.flush(t_end).events) print(frames.size() + 1, e);
+  for (const GestureEvent& e : temporal.flush(t_end)) print_gesture(frames.size() + 1, e);
   return o;
+}
+
+// The rows of `csv` (header first) split into fields (no quoted fields in these tests).
+std::vector<std::vector<std::string>> csv_rows(const std::string& csv) {
+  std::vector<std::vector<std::string>> rows;
+  std::istringstream lines(csv);
+  for (std::string line; std::getline(lines, line);) {
+    std::vector<std::string> v;
+    for (std::size_t a = 0, b; a <= line.size(); a = b + 1) {
+      b = line.find(',', a);
+      if (b == std::string::npos) b = line.size();
+      v.push_back(line.substr(a, b - a));
+    }
+    rows.push_back(v);
+  }
+  return rows;
 }
 
 using Run = tests::ProgramRun;
@@ -160,10 +210,10 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
   CHECK(expected.find(",lift,none,") != std::string::npos);
   // The gesture is there on events while the finger's shadow is seen (the appear, the touch).
   int with_gesture = 0;
-  std::istringstream lines(expected);
-  for (std::string line; std::getline(lines, line);)
-    with_gesture += line.size() > 2 && line.compare(line.size() - 2, 2, ",,") != 0;
+  for (const auto& row : csv_rows(expected)) with_gesture += row.size() == 23 && !row[11].empty();
   CHECK(with_gesture >= 3); // the header, the appear and the touch at least
+  // The script's touch is a slide: the recogniser reports it as a stroke to the right.
+  CHECK(expected.find(",stroke,complete,") != std::string::npos);
   const Run r = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
                     "' --fps 13 --quiet --source cam0 --model '" + kModel + "'");
   INFO(r.err);
@@ -174,6 +224,16 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
                     "' --fps=13 --quiet --source=cam0 --model=none");
   CHECK(t.status == 0);
   CHECK(t.out == expected_csv(frames, 13.0, calibration_path(), "cam0"));
+  // --no-temporal: the same touch rows, no gesture rows.
+  const Run n = run("--input='" + folder.string() + "' --calibration='" + calibration_path() +
+                    "' --fps=13 --quiet --source=cam0 --model=none --no-temporal");
+  CHECK(n.status == 0);
+  std::string touch_only;
+  std::istringstream all(t.out);
+  for (std::string line; std::getline(all, line);)
+    if (line.rfind("3,gesture,", 0) != 0) touch_only += line + "\n";
+  CHECK(touch_only != t.out); // the slide's stroke was there
+  CHECK(n.out == touch_only);
 }
 
 TEST_CASE("ss_track --format json: the same events as JSON lines, one valid object per line") {
@@ -209,7 +269,9 @@ TEST_CASE("ss_track --format json: the same events as JSON lines, one valid obje
     std::string expected = "{";
     for (std::size_t k = 0; k < v.size(); ++k) {
       const bool text = names[k] == "source" || names[k] == "from" || names[k] == "to" ||
-                        names[k] == "direction" || names[k] == "gesture";
+                        names[k] == "direction" || names[k] == "gesture" || names[k] == "kind" ||
+                        names[k] == "touch_gesture" || names[k] == "phase" ||
+                        names[k] == "hand_shape";
       if (k) expected += ',';
       expected += "\"" + names[k] + "\":";
       if (v[k].empty() && names[k] != "source")
@@ -315,11 +377,17 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
   CHECK(seconds >= 16.0 / 13.0);
   int cur_frames = 0, blb_frames = 0, cursor_sets = 0, gestures = 0, classified = 0;
   std::vector<std::int32_t> last_alive{-1};
+  std::vector<std::string> touch_gestures; // /shadowsense/touch_gesture names, in order
   while (const auto packet = udp.receive()) {
     std::vector<OscMessage> messages;
     osc_collect_messages(osc_decode(*packet), messages);
     for (const OscMessage& m : messages) {
       REQUIRE(!m.arguments.empty());
+      if (m.address == "/shadowsense/touch_gesture") { // s_id gesture phase ...
+        REQUIRE(m.arguments.size() == 14);
+        touch_gestures.push_back(std::get<std::string>(m.arguments[1]));
+        continue;
+      }
       const std::string& command = std::get<std::string>(m.arguments[0]);
       if (m.address == "/tuio/2Dcur" && command == "fseq") ++cur_frames;
       if (m.address == "/tuio/2Dblb" && command == "fseq") ++blb_frames;
@@ -361,6 +429,12 @@ TEST_CASE("ss_track --tuio: one /tuio/2Dcur and one /tuio/2Dblb bundle per frame
     with_shadow += !p.update(frames[i], static_cast<double>(i) * 1000.0 / 13).shadow_boxes.empty();
   CHECK(with_shadow >= 9); // hover, touch, six slide frames, hover
   CHECK(classified == with_shadow);
+  // The touch gestures of the CSV on the same frames, in order (the slide is a stroke).
+  std::vector<std::string> csv_gestures;
+  for (const auto& row : csv_rows(expected_csv(frames, 13.0, calibration_path(), "cam0", kModel)))
+    if (row[1] == "gesture") csv_gestures.push_back(row[14]);
+  CHECK(touch_gestures == csv_gestures);
+  CHECK(std::count(touch_gestures.begin(), touch_gestures.end(), "stroke") == 1);
   CHECK(run("--input x --calibration y --tuio :3333").status == 2);
   CHECK(run("--input x --calibration y --tuio 127.0.0.1:0").status == 2);
   CHECK(run("--input x --calibration y --tuio 127.0.0.1:65536").status == 2);

@@ -2,6 +2,7 @@
 // generated scenes.
 #pragma once
 
+#include <shadowsense/eval/temporal_eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sim.hpp>
 #include <shadowsense/train.hpp>

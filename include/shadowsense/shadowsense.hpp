@@ -1,7 +1,8 @@
 // Runtime umbrella header: what a robot links (OpenCV core + imgproc only; no Eigen, no
 // image files, no scene generator).
 //   core/      version, errors, tensors, directions, image checks
-//   sense/     segmenter, tracker, touch state machine (shadow -> contact -> touch events)
+//   sense/     segmenter, tracker, touch state machine (shadow -> contact -> touch events),
+//              temporal touch gestures (tap, pat, stroke, rub, hold, hit per track)
 //   classify/  preprocessing, the backend concept, Classifier<Backend>
 //   backends/densenet/  the reference backend: model file + hand-written forward pass
 //   output/    event sinks: EventSink concept, CSV, JSON lines, TUIO 1.1 over UDP (OSC encoder)
@@ -28,7 +29,9 @@
 #include <shadowsense/output/output.hpp>
 #include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/runtime/runtime.hpp>
+#include <shadowsense/sense/gesture_event.hpp>
 #include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sense/temporal_gestures.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>

@@ -11,6 +11,9 @@
 //   * shadows       the shadows alive in this frame (TUIO blobs): one per live track, with its
 //                   shadow box (pixels),
 //   * events        the frame's touch events, each with the track it belongs to,
+//   * touch_gestures the temporal gestures decided in this frame (GestureEvent,
+//                   sense/gesture_event.hpp; docs/temporal_gestures.md), empty when the run has
+//                   no recogniser,
 //   * gesture       the hand-shape classifier's reading of the frame (OutputGesture):
 //                   `available` is false when the run has no classifier (sinks then write no
 //                   gesture); otherwise `label` is the class with the highest probability, or ""
@@ -42,10 +45,13 @@
 //     throws:   InvalidArgument for an empty frame_size.
 //   build(touch_frame, frame_size, gesture)
 //     the same, with frame.gesture = gesture (copied into reused storage).
+//   build(touch_frame, frame_size, gesture, touch_gestures)
+//     the same, with frame.touch_gestures = touch_gestures (copied into reused storage).
 //   Threading: one instance per thread. No allocation after warm-up (buffers are reused).
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/gesture_event.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 
 #include <opencv2/core.hpp>
@@ -60,12 +66,13 @@ SHADOWSENSE_NAMESPACE_BEGIN
 
 // The version of the event schema the CSV and JSON-lines sinks write (docs/output.md): the
 // `schema` field of every row / object. 2: one schema for every program, frames counted from 1,
-// the gesture fields.
-inline constexpr int event_schema_version = 2;
+// the gesture fields. 3: a `kind` per row (touch or gesture) and the temporal gestures' fields.
+inline constexpr int event_schema_version = 3;
 // The CSV header of that schema (CsvSink writes it; JsonLinesSink uses the same names).
 inline constexpr const char* event_csv_header =
-    "schema,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,"
-    "gesture_frame";
+    "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,"
+    "gesture_frame,touch_gesture,phase,start_ms,end_ms,length_px,speed_px_s,repetitions,"
+    "hand_shape,gesture_confidence";
 
 // A contact alive in this frame (a TUIO cursor).
 struct OutputContact {
@@ -104,6 +111,7 @@ struct OutputFrame {
   std::vector<OutputShadow> shadows;
   std::vector<OutputEvent> events;
   OutputGesture gesture{};
+  std::vector<GestureEvent> touch_gestures;
 };
 
 template <class S>
@@ -140,6 +148,7 @@ public:
     frame_.contacts.reserve(16);
     frame_.shadows.reserve(16);
     frame_.events.reserve(32);
+    frame_.touch_gestures.reserve(32);
     last_contacts_.reserve(16);
     next_contacts_.reserve(16);
   }
@@ -161,6 +170,14 @@ public:
   }
 
   template <TouchFrameLike F>
+  const OutputFrame& build(const F& touch_frame, cv::Size frame_size, const OutputGesture& gesture,
+                           const std::vector<GestureEvent>& touch_gestures) {
+    build(touch_frame, frame_size, gesture);
+    frame_.touch_gestures.assign(touch_gestures.begin(), touch_gestures.end());
+    return frame_;
+  }
+
+  template <TouchFrameLike F>
   const OutputFrame& build(const F& touch_frame, cv::Size frame_size) {
     if (frame_size.width <= 0 || frame_size.height <= 0)
       SHADOWSENSE_THROW(InvalidArgument(
@@ -172,6 +189,7 @@ public:
     frame_.contacts.clear();
     frame_.shadows.clear();
     frame_.events.clear();
+    frame_.touch_gestures.clear();
     frame_.gesture.available = false;
     frame_.gesture.label.clear();
     frame_.gesture.confidence = 0;

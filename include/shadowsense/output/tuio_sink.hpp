@@ -18,6 +18,17 @@
 //   confidence: float32, its probability; frame: int32, the fseq it was computed on (0 when
 //   gated off); then one (string, float32) pair per class in the model's order (none when gated
 //   off, or when the pairs would not fit in max_packet_bytes).
+// When the frame carries temporal gestures (OutputFrame::touch_gestures), they follow the TUIO
+// bundles in bundles of their own (time tag "immediately"), one message per gesture event, as
+// many per bundle as fit in max_packet_bytes:
+//   /shadowsense/touch_gesture  s_id gesture phase x y direction duration_ms latency_ms length
+//                               speed repetitions hand_shape confidence fseq
+//   s_id: int32, the track id (0: a whole-frame gesture, hug/punch/two_hands); gesture, phase,
+//   direction, hand_shape: strings (docs/temporal_gestures.md); x, y: float32, where it began,
+//   normalised as the cursors; duration_ms: end - start; latency_ms: the deciding frame's time
+//   - end (0 for `began`); length, speed: float32, the contact path and its speed normalised by
+//   the frame width (per second); repetitions: int32; confidence: float32; fseq: int32, the
+//   frame_index of the frame that decided it.
 // s: session id = track id (int32); so the cursor of a hand's contact and the blob of its
 //    shadow share the session id. Every other argument is float32:
 // x, y: position normalised to 0..1 by the frame size (cursor: the contact point; blob: the
@@ -40,8 +51,8 @@
 // encode(frame, send)
 //   requires: frame.frame_size non-empty; 0 <= frame_index <= 2^31-1; ids unique per profile
 //             and >= 0; finite positions; send callable as send(std::span<const uint8_t>).
-//   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles); the
-//             span is valid only during the call.
+//   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles, then
+//             the touch-gesture bundles); the span is valid only during the call.
 //   throws:   InvalidArgument for a broken requirement or an alive list too long for one packet
 //             (5 bytes per id: 268 cursors or 262 blobs at the default); nothing is sent then.
 //             What send throws.
@@ -59,6 +70,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <span>
 #include <string>
@@ -134,10 +146,12 @@ public:
       });
       blb_prev_.swap(blb_next_);
     }
+    emit_touch_gestures(frame, send);
   }
 
   static constexpr std::string_view cursor_profile = "/tuio/2Dcur";
   static constexpr std::string_view gesture_address = "/shadowsense/gesture";
+  static constexpr std::string_view touch_gesture_address = "/shadowsense/touch_gesture";
   static constexpr std::string_view blob_profile = "/tuio/2Dblb";
 
 private:
@@ -216,6 +230,16 @@ private:
         if (g.class_names[i].find('\0') != std::string::npos)
           fail("gesture class name holds a NUL byte");
       }
+    }
+    for (const GestureEvent& e : f.touch_gestures) {
+      if (!std::isfinite(e.position.x) || !std::isfinite(e.position.y) ||
+          !std::isfinite(e.start_ms) || !std::isfinite(e.end_ms) || !std::isfinite(e.decided_ms))
+        fail("touch gesture of track " + std::to_string(e.track_id) +
+             " has a non-finite position or time");
+      if (e.track_id < 0)
+        fail("touch gesture track id " + std::to_string(e.track_id) + " is negative");
+      if (16 + touch_gesture_bytes(e) > config_.max_packet_bytes)
+        fail("a touch gesture message does not fit in max_packet_bytes");
     }
     const bool cursor_last = f.gesture.available && !config_.blobs;
     if (config_.cursors)
@@ -310,6 +334,51 @@ private:
       writer_.end_bundle();
       send(writer_.bytes());
     } while (i < n);
+  }
+
+  // Bytes of one /shadowsense/touch_gesture message.
+  static std::size_t touch_gesture_bytes(const GestureEvent& e) {
+    const std::size_t strings = padded(std::strlen(to_string(e.gesture)) + 1) +
+                                padded(std::strlen(to_string(e.phase)) + 1) +
+                                padded(std::strlen(to_string(e.direction)) + 1) +
+                                padded(e.hand_shape.view().size() + 1);
+    return element_bytes(touch_gesture_address, 14, strings + 10 * 4);
+  }
+
+  template <class Send>
+  void emit_touch_gestures(const OutputFrame& frame, Send& send) {
+    const auto& events = frame.touch_gestures;
+    const double w = frame.frame_size.width;
+    const double h = frame.frame_size.height;
+    std::size_t i = 0;
+    while (i < events.size()) {
+      writer_.clear();
+      writer_.begin_bundle(osc_immediately);
+      // at least one message per bundle (validate() checked that one fits)
+      do {
+        const GestureEvent& e = events[i++];
+        writer_.begin_message(touch_gesture_address);
+        writer_.add_int(e.track_id);
+        writer_.add_string(to_string(e.gesture));
+        writer_.add_string(to_string(e.phase));
+        writer_.add_float(static_cast<float>(e.position.x / w));
+        writer_.add_float(static_cast<float>(e.position.y / h));
+        writer_.add_string(to_string(e.direction));
+        writer_.add_float(static_cast<float>(e.end_ms - e.start_ms));
+        writer_.add_float(
+            static_cast<float>(e.phase == GesturePhase::began ? 0.0 : e.decided_ms - e.end_ms));
+        writer_.add_float(static_cast<float>(e.length_px / w));
+        writer_.add_float(static_cast<float>(e.speed_px_s / w));
+        writer_.add_int(e.repetitions);
+        writer_.add_string(e.hand_shape.view());
+        writer_.add_float(e.confidence);
+        writer_.add_int(static_cast<std::int32_t>(frame.frame_index));
+        writer_.end_message();
+      } while (i < events.size() &&
+               writer_.size() + touch_gesture_bytes(events[i]) <= config_.max_packet_bytes);
+      writer_.end_bundle();
+      send(writer_.bytes());
+    }
   }
 
   Config config_;

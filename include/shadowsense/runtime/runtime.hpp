@@ -11,10 +11,19 @@
 // 1 (the first update) and the number is the sinks' frame_index, so every program and sink
 // counts frames one way.
 //
-// BasicRuntime<Rule, Backend>(pipeline, classifier, config = {})
-//   requires: config.classify_every >= 1 (InvalidArgument). classifier may be std::nullopt:
-//             touch events only (RuntimeFrame::gesture.available is false).
+// The temporal gestures: after the classifier, a TemporalRecogniser (by default
+// TemporalGestureRecogniser, sense/temporal_gestures.hpp) is fed the frame's TouchFrame and the
+// hand-shape reading; its events are RuntimeFrame::touch_gestures and the sinks'
+// OutputFrame::touch_gestures. Config::temporal_gestures = false leaves it out (no events).
+//
+// BasicRuntime<Rule, Backend, Recogniser>(pipeline, classifier, config = {})
+//   requires: config.classify_every >= 1 (InvalidArgument); a valid config.temporal when the
+//             recogniser is TemporalGestureRecogniser (it is built from it; another recogniser
+//             type is default-constructed). classifier may be std::nullopt: touch events only
+//             (RuntimeFrame::gesture.available is false), the temporal gestures then decide
+//             palm or fingertip by the contact area.
 //   ensures:  the runtime owns both (moved in).
+// BasicRuntime(pipeline, classifier, config, recogniser): the same with the caller's recogniser.
 // update(frame, timestamp_ms) -> const RuntimeFrame&
 //   requires: as TouchPipeline::update (a frame the segmenter accepts, strictly increasing
 //             finite timestamps).
@@ -27,8 +36,9 @@
 //             timestamp, Error for a broken backend); the runtime is then still usable.
 // flush(timestamp_ms) -> const RuntimeFrame&
 //   requires: as TouchPipeline::flush.
-//   ensures:  the stream ends: the pipeline's pending lifts and disappears, as one more frame
-//             (frame_index = previous + 1, the last frame's size, no gesture).
+//   ensures:  the stream ends: the pipeline's pending lifts and disappears, and the
+//             recogniser's flush (every contact ends as a lift at timestamp_ms), as one more
+//             frame (frame_index = previous + 1, the last frame's size, no gesture).
 // output() -> const OutputFrame&: the last update/flush as the event sinks take it.
 // Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
 // ConcurrentUseError when one instance is used from two threads at once. The classifier's own
@@ -40,6 +50,7 @@
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/thread_owner.hpp>
 #include <shadowsense/output/event_sink.hpp>
+#include <shadowsense/sense/temporal_gestures.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 
 #include <opencv2/core.hpp>
@@ -47,7 +58,9 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
+#include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
@@ -55,6 +68,9 @@ struct RuntimeConfig {
   // While a shadow is seen, classify every n-th frame of its presence (1 = every frame); the
   // reading is carried in between.
   int classify_every = 1;
+  // Recognise temporal touch gestures (RuntimeFrame::touch_gestures), with this configuration.
+  bool temporal_gestures = true;
+  TemporalGestureConfig temporal{};
 };
 
 // Everything one frame produced.
@@ -65,16 +81,24 @@ struct RuntimeFrame {
   TouchFrame touch;        // tracks, shadow boxes, contact points, touch events
   OutputGesture gesture{}; // the hand shape (available: the runtime has a classifier)
   bool classified = false; // the classifier ran on this frame
+  std::vector<GestureEvent> touch_gestures; // the temporal gestures decided in this frame
 };
 
-template <PixelRule Rule, ClassifierBackend Backend>
+template <PixelRule Rule, ClassifierBackend Backend,
+          TemporalRecogniser Recogniser = TemporalGestureRecogniser>
 class BasicRuntime {
 public:
   using Config = RuntimeConfig;
 
   BasicRuntime(BasicTouchPipeline<Rule> pipeline, std::optional<Classifier<Backend>> classifier,
                const Config& config = {})
-      : pipeline_(std::move(pipeline)), classifier_(std::move(classifier)), config_(config) {
+      : BasicRuntime(std::move(pipeline), std::move(classifier), config, make_recogniser(config)) {}
+
+  BasicRuntime(BasicTouchPipeline<Rule> pipeline, std::optional<Classifier<Backend>> classifier,
+               const Config& config, Recogniser recogniser)
+      : pipeline_(std::move(pipeline)), classifier_(std::move(classifier)), config_(config),
+        recogniser_(std::move(recogniser)) {
+    result_.touch_gestures.reserve(32);
     if (!(config.classify_every >= 1))
       SHADOWSENSE_THROW(InvalidArgument("Runtime: classify_every is " +
                                         std::to_string(config.classify_every) +
@@ -122,7 +146,12 @@ public:
       clear_reading();
     }
     frame_index_ = index;
-    output_ = &builder_.build(result_.touch, result_.frame_size, g);
+    result_.touch_gestures.clear();
+    if (config_.temporal_gestures) {
+      const auto& events = recogniser_.update(result_.touch, g);
+      result_.touch_gestures.assign(events.begin(), events.end());
+    }
+    output_ = &builder_.build(result_.touch, result_.frame_size, g, result_.touch_gestures);
     return result_;
   }
 
@@ -134,8 +163,14 @@ public:
     result_.timestamp_ms = timestamp_ms;
     result_.classified = false;
     clear_reading();
+    result_.touch_gestures.clear();
+    if (config_.temporal_gestures) {
+      const auto& events = recogniser_.flush(timestamp_ms);
+      result_.touch_gestures.assign(events.begin(), events.end());
+    }
     if (result_.frame_size.empty()) result_.frame_size = cv::Size(1, 1); // flushed before a frame
-    output_ = &builder_.build(result_.touch, result_.frame_size, result_.gesture);
+    output_ =
+        &builder_.build(result_.touch, result_.frame_size, result_.gesture, result_.touch_gestures);
     return result_;
   }
 
@@ -155,8 +190,16 @@ public:
   // The classifier, or nullptr when the runtime has none.
   Classifier<Backend>* classifier() { return classifier_ ? &*classifier_ : nullptr; }
   const Config& config() const { return config_; }
+  Recogniser& recogniser() { return recogniser_; }
 
 private:
+  static Recogniser make_recogniser(const Config& config) {
+    if constexpr (std::is_constructible_v<Recogniser, const TemporalGestureConfig&>)
+      return Recogniser(config.temporal);
+    else
+      return Recogniser{};
+  }
+
   void clear_reading() {
     OutputGesture& g = result_.gesture;
     g.label.clear();
@@ -168,6 +211,7 @@ private:
   BasicTouchPipeline<Rule> pipeline_;
   std::optional<Classifier<Backend>> classifier_;
   Config config_;
+  Recogniser recogniser_;
   RuntimeFrame result_;
   Classification reading_;
   OutputFrameBuilder builder_;

@@ -25,7 +25,8 @@
 //   ensures:  the pipeline owns a copy of `segmenter` (with its empty-skin model).
 // update(frame, timestamp_ms) -> const TouchFrame&
 //   requires: a frame the segmenter accepts; a finite timestamp greater than the previous one.
-//   ensures:  the frame's tracks (live ones, matched or coasting), shadow boxes, contact points,
+//   ensures:  the frame's tracks (live ones, matched or coasting, each with its contact point
+//             and contact area), shadow boxes, contact points,
 //             the events this frame caused and the blob counts the segmenter's cap dropped. The
 //             reference stays valid until the next update/flush.
 //   throws:   InvalidArgument (bad frame or timestamp), with nothing changed for a bad timestamp.
@@ -65,6 +66,7 @@ struct TouchTrack {
   cv::Point2f position{};               // its shadow blob's centroid (last seen)
   std::optional<cv::Point2f> contact{}; // contact point this frame, if touching
   TouchState state = TouchState::none;  // its state machine after this frame
+  double contact_area = 0;              // its contact blobs' total area this frame (px)
 };
 
 // One event with the track it belongs to.
@@ -143,6 +145,7 @@ public:
     }
     for (const Blob& c : seg_.contacts) result_.contact_points.push_back(c.centroid);
     const std::vector<std::optional<cv::Point2f>>& contact_of = contacts_per_shadow();
+    const std::vector<double>& contact_area_of = sa_;
     const std::vector<Track>& tracks = tracker_.update(detections_, timestamp_ms);
     last_t_ = timestamp_ms;
     for (const Track& t : tracks)
@@ -152,7 +155,9 @@ public:
       Slot& slot = slots_[i];
       const Track* t = find_track(tracks, slot.id);
       TouchObservation obs;
+      double area = 0;
       if (t && t->matched) {
+        area = contact_area_of[static_cast<std::size_t>(t->detection_index)];
         obs.shadow = true;
         obs.contact = contact_of[static_cast<std::size_t>(t->detection_index)];
       }
@@ -160,7 +165,7 @@ public:
         result_.events.push_back({slot.id, e});
       if (t)
         result_.tracks.push_back(
-            {t->id, t->matched, t->box, t->position, obs.contact, slot.machine.state()});
+            {t->id, t->matched, t->box, t->position, obs.contact, slot.machine.state(), area});
       else if (slot.machine.state() == TouchState::none)
         slot.live = false; // the machine is kept for the next new track
     }

@@ -10,4 +10,5 @@
 #include <shadowsense/sim/rig.hpp>
 #include <shadowsense/sim/rng.hpp>
 #include <shadowsense/sim/silhouette_hand.hpp>
+#include <shadowsense/sim/touch_sequences.hpp>
 #include <shadowsense/sim/tracking.hpp>
