@@ -362,7 +362,7 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
   const std::string first = "ss::Runtime sense{", last = "the lifts reach the sinks";
   const auto readme = readme_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
   const auto here = readme_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
-  REQUIRE(readme.size() == 11);
+  REQUIRE(readme.size() == 12);
   CHECK(readme == here);
   const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_runtime";
   std::filesystem::create_directories(dir);
