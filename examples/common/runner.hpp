@@ -1,6 +1,7 @@
 // What the programs that run the library's Runtime share (ss_track, ss_demo): frame times, the
 // default model's location and the annotated frame (the --tuio target, the display check and
-// progress are cli.hpp's, shared by every program). Programs parse flags and move data; the library does the rest.
+// progress are cli.hpp's, shared by every program). Programs parse flags and move data; the library
+// does the rest.
 //
 // frame_time_ms(i, fps)        the time of frame i (from 0) of a file at fps: i * 1000 / fps, one
 //                              formula for every program (so their events are the same lines).
