@@ -71,7 +71,7 @@ static_assert(ClassifierBackend<BrokenBackend>);
 static_assert(!ClassifierBackend<NoLogits>);
 static_assert(!ClassifierBackend<int>);
 
-TEST_CASE("softmax through log-sum-exp: logits of +-1e4 and exact small cases") {
+TEST_CASE("softmax: logits of +-1e4, tied logits up to 3e38, exact small cases") {
   std::vector<float> p(3);
   softmax(std::vector<float>{1e4f, -1e4f, 0.0f}, p);
   CHECK(p[0] == 1.0f);
@@ -88,6 +88,16 @@ TEST_CASE("softmax through log-sum-exp: logits of +-1e4 and exact small cases") 
   CHECK(p[0] == doctest::Approx(1.0 / (2.0 + r)).epsilon(1e-6));
   CHECK(p[1] == doctest::Approx(r / (2.0 + r)).epsilon(1e-6));
   CHECK(p[1] == doctest::Approx(0.6).epsilon(1e-3));
+  // Tied logits far from zero: mx + log(sum) rounds the log away there (1e16: each got 1.0).
+  for (const float big : {1e15f, 1e16f, 3e38f, -3e38f}) {
+    std::vector<float> q(2);
+    softmax(std::vector<float>{big, big}, q);
+    CHECK(q[0] == 0.5f);
+    CHECK(q[1] == 0.5f);
+  }
+  std::vector<float> six(6);
+  softmax(std::vector<float>(6, 1e30f), six);
+  for (const float v : six) CHECK(v == doctest::Approx(1.0 / 6.0).epsilon(1e-6));
   std::vector<float> one(1);
   softmax(std::vector<float>{-3.0e38f}, one);
   CHECK(one[0] == 1.0f);

@@ -194,6 +194,15 @@ TEST_CASE("unknown, repeated, valueless and missing options") {
   CHECK(i.error({"--users", "3"}) == "missing required option --out DIR");
   Fixture n;
   CHECK(n.error({"--out"}) == "--out: missing value (expected DIR)");
+  // The next word is an option: the value is missing (not a file named "--users").
+  Fixture m1;
+  CHECK(m1.error({"--out", "--users", "3"}) == "--out: missing value (expected DIR)");
+  Fixture m2;
+  CHECK(m2.error({"--out", "--users=3"}) == "--out: missing value (expected DIR)");
+  Fixture m3; // a value spelled with '=' may look like an option
+  m3.parse({"--out=--users", "--users", "5"});
+  CHECK(m3.out == "--users");
+  CHECK(m3.users == 5);
   Fixture j;
   CHECK(j.error({"--out", "x", "--out", "y"}) == "--out: given more than once");
   Fixture k;

@@ -392,7 +392,13 @@ public:
       } else if (eq != std::string_view::npos) {
         assign(arg.substr(eq + 1));
       } else {
-        if (i + 1 >= argc)
+        // "--out --max-side 512": the next word is an option, not the missing value (a value
+        // that looks like an option can still be given as "--out=--max-side").
+        const auto next_is_option = [&] {
+          const std::string_view next = argv[i + 1];
+          return next.starts_with("--") && find(next.substr(0, next.find('='))) != nullptr;
+        };
+        if (i + 1 >= argc || next_is_option())
           throw UsageError(style_.missing_value
                                ? style_.missing_value(name)
                                : name + ": missing value (expected " + o->value_name +

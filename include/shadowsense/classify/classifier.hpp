@@ -62,11 +62,12 @@ inline void softmax(std::span<const float> logits, std::span<float> probabilitie
     detail::require(std::isfinite(v), "softmax: logits hold NaN or Inf, expected finite values");
     mx = std::max(mx, double(v));
   }
+  // Divide by the sum rather than subtract mx + log(sum): near 1e16 that addition rounds the
+  // log away (two tied logits then gave 1 and 1, not 0.5 and 0.5).
   double sum = 0;
   for (float v : logits) sum += std::exp(double(v) - mx);
-  const double lse = mx + std::log(sum);
   for (std::size_t i = 0; i < logits.size(); ++i)
-    probabilities[i] = static_cast<float>(std::exp(double(logits[i]) - lse));
+    probabilities[i] = static_cast<float>(std::exp(double(logits[i]) - mx) / sum);
 }
 
 struct Classification {

@@ -181,12 +181,12 @@ inline double head_loss(const LinearHead& head, const Eigen::MatrixXd& x,
   for (Eigen::Index i = 0; i < n; ++i) {
     Eigen::Index arg = 0;
     const double mx = z.row(i).maxCoeff(&arg);
-    const double lse = mx + std::log((z.row(i).array() - mx).exp().sum());
+    const double sum = (z.row(i).array() - mx).exp().sum();
     const int y = labels[static_cast<std::size_t>(i)];
-    loss -= z(i, y) - lse;
+    loss -= (z(i, y) - mx) - std::log(sum); // shifted by mx first: exact for huge logits
     ok += arg == y;
     if (gradient) { // d/dz = softmax - onehot, averaged over the batch
-      z.row(i) = (z.row(i).array() - lse).exp();
+      z.row(i) = (z.row(i).array() - mx).exp() / sum;
       z(i, y) -= 1.0;
     }
   }
