@@ -45,6 +45,8 @@ namespace {
 
 struct Options {
   fs::path tracking, slides, json, annotate, calibration_in, calibration_out;
+  // Named on the command line (not derived from --input): then it must exist.
+  bool tracking_named = false, slides_named = false;
   int annotate_limit = 10;
   std::uint64_t calib_seed = 0xCA11B8A7Eull;
   int calib_frames = 150;
@@ -101,6 +103,8 @@ Options parse(int argc, char** argv) {
   }
   if (o.tracking.empty() && o.slides.empty())
     throw cli::UsageError("give --input DIR, --tracking DIR or --slides DIR");
+  o.tracking_named = p.given("--tracking");
+  o.slides_named = p.given("--slides");
   o.mode = mode == "relative" ? SegmentMode::relative : SegmentMode::fixed_ranges;
   return o;
 }
@@ -534,6 +538,13 @@ int main(int argc, char** argv) {
     // Refuse a missing input before the calibration's minute of rendering.
     const bool has_tracking = !o.tracking.empty() && fs::exists(o.tracking / "metadata.csv");
     const bool has_slides = !o.slides.empty() && fs::exists(o.slides / "sequences.csv");
+    // A dataset named by --tracking or --slides is required; under --input either may be absent.
+    detail::require<DatasetError>(!o.tracking_named || has_tracking,
+                                  "--tracking: no dataset at " + o.tracking.string() +
+                                      " (expected " + (o.tracking / "metadata.csv").string() + ")");
+    detail::require<DatasetError>(!o.slides_named || has_slides,
+                                  "--slides: no dataset at " + o.slides.string() + " (expected " +
+                                      (o.slides / "sequences.csv").string() + ")");
     if (!has_tracking && !has_slides)
       throw DatasetError(
           "nothing to evaluate: no " +
