@@ -3,10 +3,12 @@
 #include <shadowsense/output/csv_sink.hpp>
 #include <shadowsense/output/event_sink.hpp>
 #include <shadowsense/output/json_lines_sink.hpp>
+#include <shadowsense/sense/touch_pipeline.hpp>
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -66,8 +68,8 @@ TEST_CASE("CsvSink writes a header and one row per event, exactly") {
   CHECK(out.str() == "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,"
                      "gesture,confidence,gesture_frame,touch_gesture,phase,start_ms,end_ms,"
                      "length_px,speed_px_s,repetitions,hand_shape,gesture_confidence\n"
-                     "3,touch,,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n"
-                     "3,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n");
+                     "4,touch,,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n"
+                     "4,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n");
   CHECK(std::string(event_csv_header) + "\n" == out.str().substr(0, out.str().find('\n') + 1));
 }
 
@@ -94,17 +96,17 @@ TEST_CASE("CsvSink and JsonLinesSink write the frame's gesture, and nothing whil
   f.gesture.label.clear(); // gated off: available, no reading
   csv.write(f);
   json.write(f);
-  CHECK(csv_out.str() == "3,touch,cam,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
-                         "3,touch,cam,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
+  CHECK(csv_out.str() == "4,touch,cam,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
+                         "4,touch,cam,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
   CHECK(json_out.str() ==
-        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
+        "{\"schema\":4,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
         "\"track_id\":3,"
         "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
         "\"gesture\":\"palm\",\"confidence\":0.75,\"gesture_frame\":11,"
         "\"touch_gesture\":null,\"phase\":null,\"start_ms\":null,\"end_ms\":null,"
         "\"length_px\":null,\"speed_px_s\":null,\"repetitions\":null,\"hand_shape\":null,"
         "\"gesture_confidence\":null}\n"
-        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
+        "{\"schema\":4,\"kind\":\"touch\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
         "\"track_id\":3,"
         "\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\",\"x\":null,\"y\":null,"
         "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,"
@@ -122,7 +124,7 @@ TEST_CASE("the one JSON escaper: invalid UTF-8 becomes U+FFFD, valid UTF-8 and D
   std::ostringstream json_out;
   JsonLinesSink json(json_out, {.source = "bad\xfe"});
   json.write(sample_frame());
-  CHECK(json_out.str().rfind("{\"schema\":3,\"kind\":\"touch\",\"source\":\"bad\\ufffd\",", 0) ==
+  CHECK(json_out.str().rfind("{\"schema\":4,\"kind\":\"touch\",\"source\":\"bad\\ufffd\",", 0) ==
         0);
 }
 
@@ -136,7 +138,7 @@ TEST_CASE("CsvSink quotes a source that needs it and can leave out the header") 
   f.events.resize(1);
   sink.write(f);
   CHECK(out.str() ==
-        "3,touch,\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
+        "4,touch,\"run \"\"7\"\", cam,0\",12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
   std::string field;
   detail::append_csv_field(field, " lead");
   CHECK(field == "\" lead\"");
@@ -159,11 +161,11 @@ TEST_CASE("JsonLinesSink writes one object per event per line, strings escaped")
       "\"phase\":null,\"start_ms\":null,\"end_ms\":null,\"length_px\":null,\"speed_px_s\":null,"
       "\"repetitions\":null,\"hand_shape\":null,\"gesture_confidence\":null}\n";
   CHECK(out.str() ==
-        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+        "{\"schema\":4,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
         "\"timestamp_ms\":396.5,\"track_id\":3,\"from\":\"none\",\"to\":\"appear\","
         "\"direction\":\"none\",\"x\":null,\"y\":null" +
             no_gesture +
-            "{\"schema\":3,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
+            "{\"schema\":4,\"kind\":\"touch\",\"source\":\"a\\\"b\\\\c\\n\\u0001\",\"frame\":12,"
             "\"timestamp_ms\":396.5,\"track_id\":4,\"from\":\"touch\",\"to\":\"move\","
             "\"direction\":\"left\",\"x\":101.5,\"y\":0.1" +
             no_gesture);
@@ -174,7 +176,7 @@ TEST_CASE("JsonLinesSink writes one object per event per line, strings escaped")
   f.events[0].event.timestamp_ms = std::numeric_limits<double>::quiet_NaN();
   no_source.write(f);
   CHECK(plain.str() ==
-        "{\"schema\":3,\"kind\":\"touch\",\"source\":\"\",\"frame\":12,\"timestamp_ms\":null,"
+        "{\"schema\":4,\"kind\":\"touch\",\"source\":\"\",\"frame\":12,\"timestamp_ms\":null,"
         "\"track_id\":3,\"from\":\"none\",\"to\":\"appear\",\"direction\":\"none\","
         "\"x\":null,\"y\":null" +
             no_gesture);
@@ -206,7 +208,7 @@ TEST_CASE("publish() writes one frame to a user-defined sink and the library's s
   CHECK(counter.events_per_frame == std::vector<std::size_t>{2, 0});
   const std::string text = out.str();
   CHECK(std::count(text.begin(), text.end(), '\n') == 2);
-  CHECK(text.rfind("3,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n") ==
+  CHECK(text.rfind("4,touch,,12,396.5,4,touch,move,left,101.5,0.1,,,,,,,,,,,,\n") ==
         text.find('\n') + 1);
 }
 
@@ -297,16 +299,16 @@ TEST_CASE("CsvSink and JsonLinesSink write temporal gestures as rows of kind ges
   csv.write(f);
   json.write(f);
   CHECK(csv_out.str() ==
-        "3,gesture,cam,30,900,3,,,none,100,50,,,,double_tap,revised,400,900,0,0,2,point,1\n"
-        "3,gesture,cam,30,920,4,,,right,100.5,80.25,,,,stroke,complete,500,920,200,476.5,1,"
+        "4,gesture,cam,30,900,3,,,none,100,50,,,,double_tap,revised,400,900,0,0,2,point,1\n"
+        "4,gesture,cam,30,920,4,,,right,100.5,80.25,,,,stroke,complete,500,920,200,476.5,1,"
         "\"pa,lm\",0.5\n");
   CHECK(json_out.str() ==
-        "{\"schema\":3,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":900,"
+        "{\"schema\":4,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":900,"
         "\"track_id\":3,\"from\":null,\"to\":null,\"direction\":\"none\",\"x\":100,\"y\":50,"
         "\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,\"touch_gesture\":"
         "\"double_tap\",\"phase\":\"revised\",\"start_ms\":400,\"end_ms\":900,\"length_px\":0,"
         "\"speed_px_s\":0,\"repetitions\":2,\"hand_shape\":\"point\",\"gesture_confidence\":1}\n"
-        "{\"schema\":3,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":920,"
+        "{\"schema\":4,\"kind\":\"gesture\",\"source\":\"cam\",\"frame\":30,\"timestamp_ms\":920,"
         "\"track_id\":4,\"from\":null,\"to\":null,\"direction\":\"right\",\"x\":100.5,"
         "\"y\":80.25,\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,"
         "\"touch_gesture\":\"stroke\",\"phase\":\"complete\",\"start_ms\":500,\"end_ms\":920,"
@@ -319,8 +321,8 @@ TEST_CASE("CsvSink and JsonLinesSink write temporal gestures as rows of kind ges
   g.events.resize(1);
   g.touch_gestures = {frame_with_touch_gestures().touch_gestures[0]};
   csv2.write(g);
-  CHECK(both.str() == "3,touch,,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
-                      "3,gesture,,12,900,3,,,none,100,50,palm,0.75,11,double_tap,revised,400,"
+  CHECK(both.str() == "4,touch,,12,396.5,3,none,appear,none,,,palm,0.75,11,,,,,,,,,\n"
+                      "4,gesture,,12,900,3,,,none,100,50,palm,0.75,11,double_tap,revised,400,"
                       "900,0,0,2,point,1\n");
 }
 
@@ -335,4 +337,43 @@ TEST_CASE("OutputFrameBuilder carries the temporal gestures and clears them with
   CHECK(a.touch_gestures[1].hand_shape.view() == "pa,lm");
   const OutputFrame& b = builder.build(pf, {10, 10});
   CHECK(b.touch_gestures.empty());
+}
+
+TEST_CASE("a camera fault change is one row of kind camera, before the frame's touch rows") {
+  std::ostringstream csv_out, json_out;
+  CsvSink csv(csv_out, {.source = "cam", .header = false});
+  JsonLinesSink json(json_out, {.source = "cam"});
+  OutputFrame f = sample_frame();
+  f.events.resize(1);
+  f.camera_before = CameraFault::none;
+  f.camera = CameraFault::dark;
+  csv.write(f);
+  json.write(f);
+  f.camera_before = CameraFault::dark; // still dark: no row; no events either: nothing at all
+  f.events.clear();
+  csv.write(f);
+  json.write(f);
+  CHECK(csv_out.str() == "4,camera,cam,12,396.5,0,none,dark,,,,,,,,,,,,,,,\n"
+                         "4,touch,cam,12,396.5,3,none,appear,none,,,,,,,,,,,,,,\n");
+  CHECK(json_out.str().substr(0, json_out.str().find('\n')) ==
+        "{\"schema\":4,\"kind\":\"camera\",\"source\":\"cam\",\"frame\":12,\"timestamp_ms\":396.5,"
+        "\"track_id\":0,\"from\":\"none\",\"to\":\"dark\",\"direction\":null,\"x\":null,"
+        "\"y\":null,\"gesture\":null,\"confidence\":null,\"gesture_frame\":null,"
+        "\"touch_gesture\":null,\"phase\":null,\"start_ms\":null,\"end_ms\":null,"
+        "\"length_px\":null,\"speed_px_s\":null,\"repetitions\":null,\"hand_shape\":null,"
+        "\"gesture_confidence\":null}");
+  const std::string json_text = json_out.str();
+  CHECK(std::count(json_text.begin(), json_text.end(), '\n') == 2);
+  // Every CSV row has the header's 23 fields.
+  std::istringstream rows(csv_out.str());
+  for (std::string row; std::getline(rows, row);)
+    CHECK(std::count(row.begin(), row.end(), ',') ==
+          std::count(event_csv_header, event_csv_header + std::strlen(event_csv_header), ','));
+  // The builder copies the state from a TouchPipeline frame, and leaves none without one.
+  OutputFrameBuilder builder;
+  TouchFrame tf;
+  tf.camera = CameraFault::frozen;
+  tf.camera_before = CameraFault::none;
+  CHECK(builder.build(tf, {10, 10}).camera == CameraFault::frozen);
+  CHECK(builder.build(PipelineFrame{}, {10, 10}).camera == CameraFault::none);
 }

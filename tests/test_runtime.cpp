@@ -393,3 +393,26 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
   CHECK(text.find(",gesture,") != std::string::npos);
   CHECK(text.find(",stroke,complete,") != std::string::npos);
 }
+
+TEST_CASE("Runtime: a lens cap is a camera fault - no shadow, no classification, no hug") {
+  // Before the camera check, the black frames were one whole-skin shadow: appear, and the
+  // shipped model read them as hug with p close to 1.
+  const cv::Mat sample = sequence().front();
+  Runtime sense(TouchPipeline(segmenter_from(calibration())), make_densenet_classifier(model()));
+  std::ostringstream csv_text;
+  CsvSink csv(csv_text, {.source = "", .header = false});
+  for (int i = 0; i < 8; ++i) {
+    const cv::Mat frame = i < 2 ? sample : cv::Mat(sample.size(), CV_8UC3, cv::Scalar::all(0));
+    const RuntimeFrame& r = sense.update(frame, 40.0 * (i + 1));
+    INFO("frame " << i + 1);
+    CHECK(r.touch.camera == (i < 2 ? CameraFault::none : CameraFault::dark));
+    if (i >= 2) {
+      CHECK_FALSE(r.classified);
+      CHECK(r.gesture.label.empty());
+      CHECK(r.touch.events.empty());
+      CHECK(r.touch_gestures.empty());
+    }
+    csv.write(sense.output());
+  }
+  CHECK(csv_text.str() == "4,camera,,3,120,0,none,dark,,,,,,,,,,,,,,,\n");
+}

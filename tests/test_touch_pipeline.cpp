@@ -240,3 +240,121 @@ TEST_CASE("the README's tracking loop is this compiled code, and it reports the 
   CHECK(logged[2].event.to == TouchState::lift);
   CHECK(logged[3].event.to == TouchState::none);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Camera faults (sense/camera_health.hpp): a lens cap, lights off, a clipped or a frozen camera
+// is a fault, never a touch. Before the check, a black frame was one whole-skin shadow: appear
+// on the first black frame, and the classifier read it as a hug.
+
+namespace {
+
+cv::Mat filled(cv::Size size, std::uint8_t v) {
+  return cv::Mat(size, CV_8UC3, cv::Scalar(v, v, v));
+}
+
+// The frame's events as "track from->to", in order.
+std::vector<std::string> events_of(const TouchFrame& f) {
+  std::vector<std::string> out;
+  for (const TrackEvent& e : f.events)
+    out.push_back(std::to_string(e.track_id) + " " + to_string(e.event.from) + "->" +
+                  to_string(e.event.to));
+  return out;
+}
+
+} // namespace
+
+TEST_CASE("CameraHealth: black, black with one bright pixel, white, frozen; a live camera none") {
+  const sim::Frame f = render({}, 7);
+  const cv::Size size = f.image.size();
+  CameraHealth health;
+  CHECK(health.update(filled(size, 0)) == CameraFault::dark);
+  cv::Mat speck = filled(size, 0);
+  speck.at<cv::Vec3b>(0, 0) = cv::Vec3b(255, 255, 255); // a sampled pixel
+  CHECK(health.update(speck) == CameraFault::dark);
+  CHECK(health.update(filled(size, 10)) == CameraFault::dark); // lights off, some offset
+  CHECK(health.update(filled(size, 255)) == CameraFault::saturated);
+  CHECK(health.update(filled(size, 128)) == CameraFault::none); // flat grey is not a fault...
+  // ...until it repeats: the 30th identical frame in a row is frozen (frozen_frames = 30).
+  CameraHealth frozen;
+  for (int i = 1; i <= 29; ++i) REQUIRE(frozen.update(f.image) == CameraFault::none);
+  CHECK(frozen.update(f.image) == CameraFault::frozen);
+  CHECK(frozen.repeated_frames() == 29);
+  CHECK(frozen.update(render({}, 8).image) == CameraFault::none); // noise changed: alive again
+  // A live camera (a new noise draw every frame), empty and with hands, dusk light: never.
+  CameraHealth live;
+  for (std::uint64_t i = 0; i < 40; ++i) {
+    const std::vector<sim::HandPose> hands =
+        i % 2 ? std::vector<sim::HandPose>{finger(0, 0, 0)} : std::vector<sim::HandPose>{};
+    REQUIRE(live.update(render(hands, 100 + i).image) == CameraFault::none);
+  }
+  // Frames it cannot judge are not faults (the segmenter refuses them).
+  CHECK(live.update(cv::Mat()) == CameraFault::none);
+  CHECK(live.update(cv::Mat(8, 8, CV_32FC3, cv::Scalar(0, 0, 0))) == CameraFault::none);
+  CHECK_THROWS_WITH_AS(CameraHealth(CameraHealthConfig{.fault_fraction = 0.3}),
+                       doctest::Contains("fault_fraction is 0.3"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(CameraHealth(CameraHealthConfig{.frozen_frames = 1}),
+                       doctest::Contains("frozen_frames is 1"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(CameraHealth(CameraHealthConfig{.dark_level = 200, .saturated_level = 100}),
+                       doctest::Contains("saturated_level is 100"), InvalidArgument);
+}
+
+TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen sequences") {
+  const cv::Size size = render({}, 1).image.size();
+  // From the first frame on: no appear, no track, the fault on every frame, the change once.
+  for (const std::uint8_t level : {std::uint8_t(0), std::uint8_t(255)}) {
+    CAPTURE(int(level));
+    TouchPipeline pipeline(segmenter_from(calibration()));
+    for (int i = 0; i < 10; ++i) {
+      const TouchFrame& r = pipeline.update(filled(size, level), 33.0 * (i + 1));
+      CHECK(r.events.empty());
+      CHECK(r.tracks.empty());
+      CHECK(r.shadow_boxes.empty());
+      CHECK(r.camera == (level == 0 ? CameraFault::dark : CameraFault::saturated));
+      CHECK(r.camera_before == (i == 0 ? CameraFault::none : r.camera));
+      CHECK(cv::countNonZero(pipeline.segmentation().shadow_mask) == 0);
+    }
+  }
+  // A touch, then the lens cap: the touch ends as when the hand leaves (lift, then disappear
+  // after the hysteresis), and nothing appears while the camera is dark.
+  {
+    TouchPipeline pipeline(segmenter_from(calibration()));
+    std::vector<std::string> seen;
+    double t = 0;
+    for (int i = 0; i < 4; ++i) {
+      const TouchFrame& r = pipeline.update(render({finger(0, 0, 0)}, 300 + i).image, t += 77);
+      CHECK(r.camera == CameraFault::none);
+      for (const std::string& e : events_of(r)) seen.push_back(e);
+    }
+    CHECK(seen == std::vector<std::string>{"1 none->appear", "1 appear->touch"});
+    seen.clear();
+    for (int i = 0; i < 6; ++i) {
+      const TouchFrame& r = pipeline.update(filled(size, 0), t += 77);
+      CHECK(r.camera == CameraFault::dark);
+      for (const std::string& e : events_of(r)) seen.push_back(e);
+    }
+    CHECK(seen == std::vector<std::string>{"1 touch->lift", "1 lift->none"});
+  }
+  // A driver that repeats its last buffer while a finger touches: frozen after 30 frames, then
+  // the touch ends; with the check off (enabled = false) the stale touch would go on for ever.
+  {
+    const sim::Frame touching = render({finger(0, 0, 0)}, 400);
+    TouchPipeline pipeline(segmenter_from(calibration()));
+    std::vector<std::string> seen;
+    int first_frozen = 0;
+    for (int i = 1; i <= 50; ++i) {
+      const TouchFrame& r = pipeline.update(touching.image, 33.0 * i);
+      if (r.camera == CameraFault::frozen && !first_frozen) first_frozen = i;
+      for (const std::string& e : events_of(r)) seen.push_back(e);
+    }
+    CHECK(first_frozen == 30);
+    CHECK(seen == std::vector<std::string>{"1 none->appear", "1 appear->touch", "1 touch->lift",
+                                           "1 lift->none"});
+    TouchPipeline unchecked(segmenter_from(calibration()), {}, {},
+                            CameraHealthConfig{.enabled = false});
+    std::vector<std::string> stale;
+    for (int i = 1; i <= 50; ++i)
+      for (const std::string& e : events_of(unchecked.update(touching.image, 33.0 * i)))
+        stale.push_back(e);
+    CHECK(stale == std::vector<std::string>{"1 none->appear", "1 appear->touch"});
+  }
+}

@@ -103,7 +103,7 @@ std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
                   "speed_px_s,repetitions,hand_shape,gesture_confidence\n";
   std::string gesture = ",,"; // label,confidence,frame of the current frame
   auto print = [&](std::size_t frame, const TrackEvent& e) {
-    o += "3,touch," + source + "," + std::to_string(frame) + ",";
+    o += "4,touch," + source + "," + std::to_string(frame) + ",";
     detail::append_number(o, e.event.timestamp_ms);
     o += "," + std::to_string(e.track_id) + "," + to_string(e.event.from) + "," +
          to_string(e.event.to) + "," + to_string(e.event.direction) + ",";
@@ -117,7 +117,7 @@ std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
     o += "," + gesture + ",,,,,,,,,\n";
   };
   auto print_gesture = [&](std::size_t frame, const GestureEvent& e) {
-    o += "3,gesture," + source + "," + std::to_string(frame) + ",";
+    o += "4,gesture," + source + "," + std::to_string(frame) + ",";
     detail::append_number(o, e.decided_ms);
     o += "," + std::to_string(e.track_id) + ",,," + to_string(e.direction) + ",";
     detail::append_number(o, e.position.x);
@@ -231,7 +231,7 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
   std::string touch_only;
   std::istringstream all(t.out);
   for (std::string line; std::getline(all, line);)
-    if (line.rfind("3,gesture,", 0) != 0) touch_only += line + "\n";
+    if (line.rfind("4,gesture,", 0) != 0) touch_only += line + "\n";
   CHECK(touch_only != t.out); // the slide's stroke was there
   CHECK(n.out == touch_only);
 }

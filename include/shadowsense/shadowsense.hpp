@@ -29,6 +29,7 @@
 #include <shadowsense/output/output.hpp>
 #include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/runtime/runtime.hpp>
+#include <shadowsense/sense/camera_health.hpp>
 #include <shadowsense/sense/gesture_event.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/temporal_gestures.hpp>

@@ -2,12 +2,14 @@
 // event.
 //
 // Columns (header row first unless Config::header is false): the project's event schema,
-// version 3 (docs/output.md; JsonLinesSink writes the same fields):
+// version 4 (docs/output.md; JsonLinesSink writes the same fields):
 //   schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,
 //   gesture_frame,touch_gesture,phase,start_ms,end_ms,length_px,speed_px_s,repetitions,
 //   hand_shape,gesture_confidence
-//   schema        3 (event_schema_version)
-//   kind          touch (a touch event: from, to) or gesture (a temporal gesture: the last nine)
+//   schema        4 (event_schema_version)
+//   kind          touch (a touch event: from, to), gesture (a temporal gesture: the last nine)
+//                 or camera (the camera's fault state changed: from, to are none, dark,
+//                 saturated or frozen; track_id 0; sense/camera_health.hpp)
 //   source        Config::source (e.g. the input file or camera name), quoted when it holds a
 //                 comma, quote, CR/LF or leading/trailing space
 //   frame         OutputFrame::frame_index
@@ -33,8 +35,8 @@
 //   requires: `out` outlives the sink.
 //   throws:   IoError if the stream is already failed or writing the header fails.
 // write(frame)
-//   ensures:  one row per frame.events entry, in order, then one per frame.touch_gestures entry;
-//             frames without either write nothing.
+//   ensures:  a camera row when frame.camera_changed(), then one row per frame.events entry, in
+//             order, then one per frame.touch_gestures entry; frames without any write nothing.
 //   throws:   IoError when the stream fails (e.g. disk full); the stream's state is left as is.
 // Threading: one thread per instance (and per stream). No allocation after warm-up: one line
 // buffer is reused.
@@ -47,6 +49,7 @@
 #include <cmath>
 #include <ostream>
 #include <string>
+#include <string_view>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
@@ -72,7 +75,15 @@ public:
   }
 
   void write(const OutputFrame& frame) {
-    if (frame.events.empty() && frame.touch_gestures.empty()) return;
+    if (frame.events.empty() && frame.touch_gestures.empty() && !frame.camera_changed()) return;
+    if (frame.camera_changed()) { // track 0: the camera, not a hand
+      begin_row("camera,", frame, frame.timestamp_ms, 0);
+      line_ += to_string(frame.camera_before);
+      line_ += ',';
+      line_ += to_string(frame.camera);
+      line_ += std::string_view(",,,,,,,,,,,,,,,\n"); // direction .. gesture_confidence: empty
+      out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+    }
     for (const OutputEvent& e : frame.events) {
       begin_row("touch,", frame, e.event.timestamp_ms, e.track_id);
       line_ += to_string(e.event.from);

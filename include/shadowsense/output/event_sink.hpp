@@ -14,6 +14,8 @@
 //   * touch_gestures the temporal gestures decided in this frame (GestureEvent,
 //                   sense/gesture_event.hpp; docs/temporal_gestures.md), empty when the run has
 //                   no recogniser,
+//   * camera        the camera's fault state (sense/camera_health.hpp; none = healthy) and
+//     camera_before the previous frame's: sinks report a change (a CSV / JSON `camera` row),
 //   * gesture       the hand-shape classifier's reading of the frame (OutputGesture):
 //                   `available` is false when the run has no classifier (sinks then write no
 //                   gesture); otherwise `label` is the class with the highest probability, or ""
@@ -37,7 +39,8 @@
 //     requires: touch_frame shaped like the TouchPipeline's TouchFrame (see TouchFrameLike:
 //               timestamp_ms; tracks with id, shadow_box, contact (optional point), state;
 //               events with track_id and event), a non-empty frame_size.
-//     ensures:  frame_index = previous + 1 (1 first); contacts: tracks in touch or move, at this
+//     ensures:  frame_index = previous + 1 (1 first); camera and camera_before copied when the
+//               touch frame has them (else none); contacts: tracks in touch or move, at this
 //               frame's contact point or, during the hysteresis before a lift (no contact seen
 //               yet the machine still touching), at the last contact point seen for that track;
 //               shadows: every track with its shadow box; events copied. The reference stays
@@ -51,6 +54,7 @@
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/camera_health.hpp>
 #include <shadowsense/sense/gesture_event.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 
@@ -67,7 +71,9 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // The version of the event schema the CSV and JSON-lines sinks write (docs/output.md): the
 // `schema` field of every row / object. 2: one schema for every program, frames counted from 1,
 // the gesture fields. 3: a `kind` per row (touch or gesture) and the temporal gestures' fields.
-inline constexpr int event_schema_version = 3;
+// 4: rows of kind `camera` when the camera's fault state changes (from, to: none, dark,
+// saturated, frozen).
+inline constexpr int event_schema_version = 4;
 // The CSV header of that schema (CsvSink writes it; JsonLinesSink uses the same names).
 inline constexpr const char* event_csv_header =
     "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,confidence,"
@@ -112,6 +118,9 @@ struct OutputFrame {
   std::vector<OutputEvent> events;
   OutputGesture gesture{};
   std::vector<GestureEvent> touch_gestures;
+  CameraFault camera = CameraFault::none;
+  CameraFault camera_before = CameraFault::none;
+  bool camera_changed() const { return camera != camera_before; }
 };
 
 template <class S>
@@ -186,6 +195,14 @@ public:
     frame_.frame_index = ++index_;
     frame_.timestamp_ms = touch_frame.timestamp_ms;
     frame_.frame_size = frame_size;
+    frame_.camera = frame_.camera_before = CameraFault::none;
+    if constexpr (requires {
+                    { touch_frame.camera } -> std::convertible_to<CameraFault>;
+                    { touch_frame.camera_before } -> std::convertible_to<CameraFault>;
+                  }) {
+      frame_.camera = touch_frame.camera;
+      frame_.camera_before = touch_frame.camera_before;
+    }
     frame_.contacts.clear();
     frame_.shadows.clear();
     frame_.events.clear();

@@ -1,16 +1,17 @@
 // JsonLinesSink: touch events and temporal gestures as JSON Lines (one JSON object per event per
 // line) on any std::ostream.
 //
-// Each line: the fields of CsvSink's columns (the event schema, version 3, docs/output.md), in
+// Each line: the fields of CsvSink's columns (the event schema, version 4, docs/output.md), in
 // the same order and with the same names:
-//   {"schema":3,"kind":"touch","source":"cam0","frame":12,"timestamp_ms":396,"track_id":1,
+//   {"schema":4,"kind":"touch","source":"cam0","frame":12,"timestamp_ms":396,"track_id":1,
 //    "from":"touch","to":"move","direction":"left","x":101.5,"y":80.25,"gesture":"palm",
 //    "confidence":0.97,"gesture_frame":12,"touch_gesture":null,...,"gesture_confidence":null}
 //   "source" is Config::source ("" when not set), escaped as a JSON string (RFC 8259, invalid
 //   UTF-8 as U+FFFD); x and y are null when the event has no contact position; gesture,
 //   confidence and gesture_frame are null when the run has no classifier or it was gated off;
 //   from and to are null on gesture lines, the temporal gesture's fields null on touch lines,
-//   hand_shape null when the gesture has none.
+//   hand_shape null when the gesture has none. A camera line (kind "camera", track_id 0) has
+//   from and to (the fault states, as CsvSink) and every other field null.
 //   Numbers are the shortest round-trip decimal, '.' whatever the locale; a non-finite number
 //   is written as null.
 //
@@ -18,7 +19,8 @@
 //   requires: `out` outlives the sink.
 //   throws:   IoError if the stream is already failed.
 // write(frame)
-//   ensures:  one line per frame.events entry, in order, then one per frame.touch_gestures entry.
+//   ensures:  a camera line when frame.camera_changed(), one line per frame.events entry, in
+//             order, then one per frame.touch_gestures entry.
 //   throws:   IoError when the stream fails.
 // Threading: one thread per instance (and per stream). No allocation after warm-up.
 #pragma once
@@ -53,7 +55,19 @@ public:
   }
 
   void write(const OutputFrame& frame) {
-    if (frame.events.empty() && frame.touch_gestures.empty()) return;
+    if (frame.events.empty() && frame.touch_gestures.empty() && !frame.camera_changed()) return;
+    if (frame.camera_changed()) { // track 0: the camera, not a hand
+      begin("camera", frame, frame.timestamp_ms, 0);
+      line_ += ",\"from\":\"";
+      line_ += to_string(frame.camera_before);
+      line_ += "\",\"to\":\"";
+      line_ += to_string(frame.camera);
+      line_ += "\",\"direction\":null,\"x\":null,\"y\":null,\"gesture\":null,\"confidence\":null,"
+               "\"gesture_frame\":null,\"touch_gesture\":null,\"phase\":null,\"start_ms\":null,"
+               "\"end_ms\":null,\"length_px\":null,\"speed_px_s\":null,\"repetitions\":null,"
+               "\"hand_shape\":null,\"gesture_confidence\":null}\n";
+      out_.write(line_.data(), static_cast<std::streamsize>(line_.size()));
+    }
     for (const OutputEvent& e : frame.events) {
       begin("touch", frame, e.event.timestamp_ms, e.track_id);
       line_ += ",\"from\":\"";
@@ -115,7 +129,7 @@ public:
   }
 
 private:
-  // {"schema":3,"kind":K,"source":S,"frame":F,"timestamp_ms":T,"track_id":I
+  // {"schema":4,"kind":K,"source":S,"frame":F,"timestamp_ms":T,"track_id":I
   void begin(const char* kind, const OutputFrame& frame, double t, int track_id) {
     line_.assign(prefix_);
     line_ += kind;

@@ -43,6 +43,7 @@
 //             the contact blobs' is a sharpness cue, docs/tracking_eval.md "Contact vs hover
 //             ROC").
 //   throws:   InvalidArgument for a bad image.
+// check_frame(bgr): throws what segment() would throw for this frame; changes nothing.
 // Threading: a Segmenter holds per-frame scratch and the model; use one instance per thread.
 // A cheap owner check (core/thread_owner.hpp) throws ConcurrentUseError when one instance is
 // entered from two threads at once (compiled out with SHADOWSENSE_NO_THREAD_CHECK). Copies are
@@ -225,9 +226,9 @@ public:
   // 255 where the empty-skin model shows skin (empty without a model).
   const cv::Mat& skin_area() const { return valid_; }
 
-  // Segments one BGR frame into `out` (buffers reused across calls).
-  void segment(const cv::Mat& bgr, Segmentation& out) {
-    const auto guard = owner_.enter("Segmenter");
+  // Throws InvalidArgument when segment() would refuse the frame (not 8-bit BGR, too large, or
+  // not the empty-skin model's size); changes nothing.
+  void check_frame(const cv::Mat& bgr) const {
     require_colour_image(bgr, "Segmenter::segment: image");
     require_size(bgr, "Segmenter::segment: image");
     if (!profile_.empty())
@@ -237,6 +238,12 @@ public:
                             std::to_string(bgr.rows) + " but the empty-skin model is " +
                             std::to_string(profile_.cols) + "x" + std::to_string(profile_.rows) +
                             "; expected the same size"));
+  }
+
+  // Segments one BGR frame into `out` (buffers reused across calls).
+  void segment(const cv::Mat& bgr, Segmentation& out) {
+    const auto guard = owner_.enter("Segmenter");
+    check_frame(bgr);
     if (config_.adaptive && profile_.empty()) set_empty_skin({bgr}); // first frame = empty skin
     smooth(bgr);
     classify(out);

@@ -13,7 +13,13 @@
 // increasing track id. After warm-up (buffers grown to the scene's number of blobs and
 // simultaneous tracks) update() makes no heap allocation.
 //
-// BasicTouchPipeline<Rule>(segmenter, tracker_config, touch_config)
+// A camera fault (sense/camera_health.hpp: a dark, saturated or frozen camera) is judged before
+// the segmenter: on such a frame nothing is segmented (no blobs, empty masks, the adaptive
+// empty-skin model untouched), so the tracks end with their lift and disappear as when the hands
+// leave, and TouchFrame::camera says which fault it is (camera_before: the previous frame's, so
+// a change is seen on the frame it happens).
+//
+// BasicTouchPipeline<Rule>(segmenter, tracker_config, touch_config, camera_config)
 //   requires: valid configs (see ContactTracker, TouchStateMachine). With the calibrated rule
 //             (TouchPipeline): a calibrated segmenter - an empty-skin model (a calibration file
 //             from ss_calibrate, or set_empty_skin), Config::adaptive (the first frame is taken
@@ -22,6 +28,8 @@
 //             against itself and reports phantom shadows on an empty skin: refused with
 //             InvalidArgument, unless the caller opts in by name with
 //             BasicTouchPipeline(uncalibrated, segmenter, ...).
+//             camera_config: see CameraHealthConfig (its validate(); enabled = false turns the
+//             check off).
 //   ensures:  the pipeline owns a copy of `segmenter` (with its empty-skin model).
 // update(frame, timestamp_ms) -> const TouchFrame&
 //   requires: a frame the segmenter accepts; a finite timestamp greater than the previous one.
@@ -43,6 +51,7 @@
 
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/thread_owner.hpp>
+#include <shadowsense/sense/camera_health.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 #include <shadowsense/sense/tracker.hpp>
@@ -84,6 +93,8 @@ struct TouchFrame {
   std::vector<TrackEvent> events;          // increasing track id, then order of occurrence
   std::size_t dropped_shadow_blobs = 0;    // see Segmentation
   std::size_t dropped_contact_blobs = 0;
+  CameraFault camera = CameraFault::none;        // this frame's camera fault (none: healthy)
+  CameraFault camera_before = CameraFault::none; // the previous frame's
 };
 
 // The opt-in, by name, to a TouchPipeline whose segmenter has no calibration.
@@ -97,8 +108,9 @@ class BasicTouchPipeline {
 public:
   explicit BasicTouchPipeline(BasicSegmenter<Rule> segmenter,
                               const ContactTracker::Config& tracker = {},
-                              const TouchStateMachine::Config& touch = {})
-      : BasicTouchPipeline(uncalibrated, std::move(segmenter), tracker, touch) {
+                              const TouchStateMachine::Config& touch = {},
+                              const CameraHealthConfig& camera = {})
+      : BasicTouchPipeline(uncalibrated, std::move(segmenter), tracker, touch, camera) {
     if constexpr (std::is_same_v<Rule, CalibratedRule>) {
       const SegmenterConfig& c = segmenter_.config();
       if (c.calibration.mode == SegmentMode::relative && !segmenter_.has_empty_skin() &&
@@ -114,8 +126,9 @@ public:
   }
   BasicTouchPipeline(Uncalibrated, BasicSegmenter<Rule> segmenter,
                      const ContactTracker::Config& tracker = {},
-                     const TouchStateMachine::Config& touch = {})
-      : segmenter_(std::move(segmenter)), tracker_(tracker), touch_config_(touch) {
+                     const TouchStateMachine::Config& touch = {},
+                     const CameraHealthConfig& camera = {})
+      : segmenter_(std::move(segmenter)), tracker_(tracker), touch_config_(touch), camera_(camera) {
     TouchStateMachine check(touch); // validates the config now
     (void)check;
     // Room for typical scenes up front; beyond this the buffers grow once and are kept.
@@ -134,8 +147,15 @@ public:
   const TouchFrame& update(const cv::Mat& frame, double timestamp_ms) {
     const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::update");
-    segmenter_.segment(frame, seg_);
+    segmenter_.check_frame(frame); // a bad frame is refused, not judged a camera fault
+    const CameraFault before = camera_.fault();
+    if (camera_.update(frame) == CameraFault::none)
+      segmenter_.segment(frame, seg_);
+    else
+      clear_segmentation(frame.size());
     reset_result(timestamp_ms); // keeps the vectors' storage: no allocation per frame
+    result_.camera = camera_.fault();
+    result_.camera_before = before;
     result_.dropped_shadow_blobs = seg_.dropped_shadow_blobs;
     result_.dropped_contact_blobs = seg_.dropped_contact_blobs;
     detections_.clear();
@@ -187,12 +207,15 @@ public:
       slot.live = false;
     }
     tracker_.clear_tracks(); // a new stream; ids keep growing
+    result_.camera = result_.camera_before = camera_.fault();
+    camera_.reset();
     last_t_ = timestamp_ms;
     return result_;
   }
 
-  // The last frame's segmentation (masks, blobs).
+  // The last frame's segmentation (masks, blobs; empty on a camera fault).
   const Segmentation& segmentation() const { return seg_; }
+  const CameraHealth& camera_health() const { return camera_; }
   BasicSegmenter<Rule>& segmenter() { return segmenter_; }
   const ContactTracker& tracker() const { return tracker_; }
 
@@ -206,6 +229,20 @@ private:
                                           " ms is not after the previous one (" +
                                           std::to_string(*last_t_) +
                                           " ms); timestamps must be strictly increasing"));
+  }
+
+  // A faulty frame: no blobs, all-zero masks of the frame's size (storage kept when it fits).
+  void clear_segmentation(cv::Size size) {
+    seg_.shadows.clear();
+    seg_.contacts.clear();
+    seg_.shadow_box.reset();
+    seg_.contact_box.reset();
+    seg_.contact_point.reset();
+    seg_.dropped_shadow_blobs = seg_.dropped_contact_blobs = 0;
+    for (cv::Mat* m : {&seg_.shadow_mask, &seg_.contact_mask}) {
+      m->create(size, CV_8UC1);
+      m->setTo(0);
+    }
   }
 
   void reset_result(double timestamp_ms) {
@@ -289,6 +326,7 @@ private:
   BasicSegmenter<Rule> segmenter_;
   ContactTracker tracker_;
   TouchStateMachine::Config touch_config_;
+  CameraHealth camera_;
   std::vector<Slot> slots_;
   std::vector<std::size_t> order_;
   Segmentation seg_;
