@@ -333,10 +333,9 @@ TEST_CASE("liblo decodes what TuioSink sends: same messages, types and values") 
   CHECK(capture.lines[17] == "/tuio/2Dblb s:fseq i:2");
 }
 #else
-TEST_CASE("liblo cross-check SKIPPED: this test was built without liblo") {
-  WARN_MESSAGE(false, "built without liblo (pkg-config liblo not found): the cross-check against "
-                      "a real OSC decoder did not run; apt-get install liblo-dev and reconfigure");
-}
+// Reported as skipped (not passed): built without liblo (pkg-config liblo not found), so the
+// cross-check against a real OSC decoder cannot run; apt-get install liblo-dev and reconfigure.
+TEST_CASE("liblo cross-check (built without liblo)" * doctest::skip()) {}
 #endif
 
 TEST_CASE("temporal gestures follow the TUIO bundles as /shadowsense/touch_gesture messages") {
