@@ -221,3 +221,44 @@ TEST_CASE("ThreadPool: every task of every call runs exactly once, across spins 
   CHECK_THROWS_AS(detail::ThreadPool(2, -1), InvalidArgument);
   CHECK_THROWS_AS(detail::ThreadPool(2, 100001), InvalidArgument);
 }
+
+namespace {
+
+// A pixel rule that holds the segmenter inside classify() until released, so that another
+// thread's read of the pipeline overlaps an update deterministically.
+struct HoldingRule {
+  std::atomic<int>* stage = nullptr; // 1: inside classify; 2: released
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    out.shadow_mask.setTo(0);
+    out.contact_mask.setTo(0);
+    out.darkness.release();
+    out.warmth.release();
+    (void)in;
+    if (!stage) return;
+    *stage = 1;
+    while (stage->load() != 2) std::this_thread::yield();
+  }
+};
+static_assert(PixelRule<HoldingRule>);
+
+} // namespace
+
+TEST_CASE("reading a TouchPipeline or Segmenter during another thread's update throws") {
+  // Before: segmentation() had no check, so this read was a silent data race (TSan).
+  std::atomic<int> stage{0};
+  BasicSegmenter<HoldingRule> segmenter(SegmenterConfig{}, HoldingRule{&stage});
+  BasicTouchPipeline<HoldingRule> pipeline(uncalibrated, segmenter);
+  const cv::Mat frame(40, 40, CV_8UC3, cv::Scalar(120, 130, 140));
+  std::thread a([&] { (void)pipeline.update(frame, 1.0); });
+  while (stage.load() != 1) std::this_thread::yield();
+  CHECK_THROWS_WITH_AS((void)pipeline.segmentation(),
+                       doctest::Contains("TouchPipeline: one instance is used from two threads"),
+                       ConcurrentUseError);
+  CHECK_THROWS_AS((void)pipeline.tracker(), ConcurrentUseError);
+  CHECK_THROWS_AS((void)pipeline.camera_health(), ConcurrentUseError);
+  stage = 2;
+  a.join();
+  // After the update, from any thread: fine.
+  std::thread b([&] { CHECK(pipeline.segmentation().shadows.empty()); });
+  b.join();
+}

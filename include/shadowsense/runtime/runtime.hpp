@@ -41,7 +41,8 @@
 //             frame (frame_index = previous + 1, the last frame's size, no gesture).
 // output() -> const OutputFrame&: the last update/flush as the event sinks take it.
 // Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
-// ConcurrentUseError when one instance is used from two threads at once. The classifier's own
+// ConcurrentUseError when one instance is used from two threads at once (update, flush and the
+// accessors: output(), last(), pipeline(), segmentation()). The classifier's own
 // thread pool (DenseNet::Config::threads) works inside update().
 #pragma once
 
@@ -176,16 +177,31 @@ public:
 
   // The last update/flush as the event sinks take it (requires: one update or flush before).
   const OutputFrame& output() const {
+    const auto guard = owner_.enter("Runtime");
     if (!output_)
       SHADOWSENSE_THROW(InvalidArgument("Runtime::output: no frame yet; call update() first"));
     return *output_;
   }
-  const RuntimeFrame& last() const { return result_; }
+  // The accessors take the owner check as update() does (a read during another thread's update
+  // is a data race): ConcurrentUseError instead.
+  const RuntimeFrame& last() const {
+    const auto guard = owner_.enter("Runtime");
+    return result_;
+  }
 
-  BasicTouchPipeline<Rule>& pipeline() { return pipeline_; }
-  const BasicTouchPipeline<Rule>& pipeline() const { return pipeline_; }
+  BasicTouchPipeline<Rule>& pipeline() {
+    const auto guard = owner_.enter("Runtime");
+    return pipeline_;
+  }
+  const BasicTouchPipeline<Rule>& pipeline() const {
+    const auto guard = owner_.enter("Runtime");
+    return pipeline_;
+  }
   // The last frame's segmentation (masks, blobs).
-  const Segmentation& segmentation() const { return pipeline_.segmentation(); }
+  const Segmentation& segmentation() const {
+    const auto guard = owner_.enter("Runtime");
+    return pipeline_.segmentation();
+  }
   bool has_classifier() const { return classifier_.has_value(); }
   // The classifier, or nullptr when the runtime has none.
   Classifier<Backend>* classifier() { return classifier_ ? &*classifier_ : nullptr; }
@@ -217,7 +233,7 @@ private:
   OutputFrameBuilder builder_;
   const OutputFrame* output_ = nullptr;
   std::int64_t frame_index_ = 0;
-  ThreadOwner owner_;
+  mutable ThreadOwner owner_; // mutable: the read accessors check too
 };
 
 SHADOWSENSE_NAMESPACE_END

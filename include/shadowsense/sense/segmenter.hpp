@@ -46,7 +46,8 @@
 // check_frame(bgr): throws what segment() would throw for this frame; changes nothing.
 // Threading: a Segmenter holds per-frame scratch and the model; use one instance per thread.
 // A cheap owner check (core/thread_owner.hpp) throws ConcurrentUseError when one instance is
-// entered from two threads at once (compiled out with SHADOWSENSE_NO_THREAD_CHECK). Copies are
+// entered from two threads at once - segment() and the read accessors (darkness(), warmth(),
+// skin_area()) alike (compiled out with SHADOWSENSE_NO_THREAD_CHECK). Copies are
 // independent.
 #pragma once
 
@@ -224,7 +225,10 @@ public:
   // (SegmenterCalibration::empty_skin). Empty without a model.
   const cv::Mat& empty_skin_model() const { return model_; }
   // 255 where the empty-skin model shows skin (empty without a model).
-  const cv::Mat& skin_area() const { return valid_; }
+  const cv::Mat& skin_area() const {
+    const auto guard = owner_.enter("Segmenter");
+    return valid_;
+  }
 
   // Throws InvalidArgument when segment() would refuse the frame (not 8-bit BGR, too large, or
   // not the empty-skin model's size); changes nothing.
@@ -264,8 +268,14 @@ public:
 
   // Per-pixel darkness and warmth of the last segmented frame, CV_32F (empty when the rule has
   // no such features, e.g. fixed ranges).
-  const cv::Mat& darkness() const { return darkness_; }
-  const cv::Mat& warmth() const { return warmth_; }
+  const cv::Mat& darkness() const {
+    const auto guard = owner_.enter("Segmenter");
+    return darkness_;
+  }
+  const cv::Mat& warmth() const {
+    const auto guard = owner_.enter("Segmenter");
+    return warmth_;
+  }
   // Reference colour (BGR) of the last segmented frame (rules that use it).
   cv::Vec3f last_reference() const { return gain_; }
 
@@ -512,7 +522,7 @@ private:
 
   Config config_;
   Rule rule_;
-  ThreadOwner owner_;
+  mutable ThreadOwner owner_; // mutable: the read accessors check too
   cv::Mat colour_blur_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat model_;                         // the model as set (unsmoothed)

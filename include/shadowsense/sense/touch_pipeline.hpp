@@ -46,7 +46,9 @@
 //             update starts a new stream (track ids continue to grow; the segmenter keeps its
 //             model).
 // Threading: one instance per thread; an owner check (core/thread_owner.hpp) throws
-// ConcurrentUseError when one instance is used from two threads at once.
+// ConcurrentUseError when one instance is used from two threads at once - update, flush and the
+// accessors (segmentation(), segmenter(), tracker(), camera_health()) alike. The references
+// they return are the owning thread's: read them in that thread, before its next update.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -214,10 +216,24 @@ public:
   }
 
   // The last frame's segmentation (masks, blobs; empty on a camera fault).
-  const Segmentation& segmentation() const { return seg_; }
-  const CameraHealth& camera_health() const { return camera_; }
-  BasicSegmenter<Rule>& segmenter() { return segmenter_; }
-  const ContactTracker& tracker() const { return tracker_; }
+  // The accessors take the owner check too: reading them while another thread is inside
+  // update() is the same misuse as two updates at once (a data race), so it throws.
+  const Segmentation& segmentation() const {
+    const auto guard = owner_.enter("TouchPipeline");
+    return seg_;
+  }
+  const CameraHealth& camera_health() const {
+    const auto guard = owner_.enter("TouchPipeline");
+    return camera_;
+  }
+  BasicSegmenter<Rule>& segmenter() {
+    const auto guard = owner_.enter("TouchPipeline");
+    return segmenter_;
+  }
+  const ContactTracker& tracker() const {
+    const auto guard = owner_.enter("TouchPipeline");
+    return tracker_;
+  }
 
 private:
   void require_time(double t, const char* where) const {
@@ -335,7 +351,7 @@ private:
   std::vector<double> sx_, sy_, sa_;
   std::vector<std::optional<cv::Point2f>> contact_of_;
   std::optional<double> last_t_;
-  ThreadOwner owner_;
+  mutable ThreadOwner owner_; // mutable: the read accessors check too
 };
 
 // The pipeline users have: with the Segmenter (calibrated rule).
