@@ -176,3 +176,43 @@ TEST_CASE("a full disk (RLIMIT_FSIZE in a child) fails with IoError; old file in
     CHECK(entries(dir) == std::vector<std::string>{"model.ssdn"});
   }
 }
+
+TEST_CASE("a writer killed mid-write leaves a temporary file that the next commit removes") {
+  // Before: kill -9 left ".skin.calib.tmp.PID.N" for ever.
+  const fs::path dir = fresh_dir("killed");
+  write_file_atomically(dir / "a.txt", std::string_view("old\n"));
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) { // child: half a new version, then killed before commit
+    AtomicFileWriter w(dir / "a.txt");
+    w.write("partial");
+    ::raise(SIGKILL);
+    ::_exit(0);
+  }
+  int status = 0;
+  REQUIRE(::waitpid(pid, &status, 0) == pid);
+  REQUIRE(WIFSIGNALED(status));
+  const std::vector<std::string> left = entries(dir);
+  REQUIRE(left.size() == 2);
+  CHECK(left[0].starts_with(".a.txt.tmp." + std::to_string(pid) + "."));
+  CHECK(left[1] == "a.txt");
+  CHECK(slurp(dir / "a.txt") == "old\n");
+  // Temporary files that must stay: this process's own (a writer still open), a live process's
+  // (pid 1), another target's, and names that only look similar.
+  AtomicFileWriter mine(dir / "a.txt");
+  const std::string own = mine.temporary_path().filename().string();
+  for (const std::string& keep :
+       {std::string(".a.txt.tmp.1.0"), ".b.txt.tmp." + std::to_string(pid) + ".0",
+        std::string(".a.txt.tmp.x1.0"), ".a.txt.tmp." + std::to_string(pid) + ".0.bak"})
+    write_plain(dir / keep, "keep");
+  write_file_atomically(dir / "a.txt", std::string_view("new\n"));
+  CHECK(slurp(dir / "a.txt") == "new\n");
+  std::vector<std::string> want{".a.txt.tmp." + std::to_string(pid) + ".0.bak",
+                                ".a.txt.tmp.1.0",
+                                ".a.txt.tmp.x1.0",
+                                ".b.txt.tmp." + std::to_string(pid) + ".0",
+                                own,
+                                "a.txt"};
+  std::sort(want.begin(), want.end());
+  CHECK(entries(dir) == want);
+}

@@ -13,7 +13,13 @@
 //        rename itself survives a power cut;
 //     5. on ANY failure before the rename (or an exception from the caller's callback, or the
 //        writer destroyed without commit()) the temporary file is removed and the target is
-//        untouched.
+//        untouched;
+//     6. a process killed mid-write (kill -9, a power cut) cannot remove its temporary file: a
+//        later commit with Sync::file removes the target's temporary files whose <pid> names no
+//        running process on this machine (kill(pid, 0) fails with ESRCH). Sync::deferred
+//        commits skip this scan (they write thousands of files into one folder). A folder
+//        shared with another machine may hold that machine's live temporary files under PIDs
+//        unknown here: do not point two machines' writers at one target.
 //   Errors are IoError (through SHADOWSENSE_THROW) naming the target path, the step that
 //   failed and the errno text, e.g. "out/score.json: writing failed: No space left on device".
 //   POSIX only (open/write/fsync/rename).
@@ -70,6 +76,7 @@
 #include <vector>
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -198,6 +205,7 @@ public:
       fail_now("cannot rename the temporary file into place", errno, true);
     committed_ = true;
     if (sync_ == Sync::deferred) return;
+    remove_stale_temporaries();
     // Make the rename durable. Some filesystems cannot fsync a folder (EINVAL): the file
     // itself is complete either way, so only real I/O errors are reported.
     const std::filesystem::path folder =
@@ -212,6 +220,32 @@ public:
   }
 
 private:
+  // Step 6: ".<name>.tmp.<pid>.<n>" of this target whose process is gone. Best effort: a file
+  // that vanished meanwhile or cannot be removed is left alone.
+  void remove_stale_temporaries() const {
+    const std::filesystem::path folder =
+        target_.parent_path().empty() ? std::filesystem::path(".") : target_.parent_path();
+    std::string prefix = ".";
+    prefix.append(target_.filename().string()).append(".tmp.");
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(folder, ec), end; !ec && it != end;
+         it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (!name.starts_with(prefix)) continue;
+      const std::string rest = name.substr(prefix.size()); // "<pid>.<n>"
+      const std::size_t dot = rest.find('.');
+      if (dot == 0 || dot == std::string::npos || rest.find_first_not_of("0123456789") != dot ||
+          rest.find_first_not_of("0123456789", dot + 1) != std::string::npos || dot > 9)
+        continue;
+      const long pid = std::stol(rest.substr(0, dot));
+      if (pid <= 0 || pid == static_cast<long>(::getpid())) continue;
+      if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH)
+        continue; // alive (or not ours)
+      std::error_code ignored;
+      std::filesystem::remove(it->path(), ignored);
+    }
+  }
+
   void require_open() const {
     detail::require(!committed_ && fd_ >= 0, "AtomicFileWriter: '" + target_.string() +
                                                  "' was already committed or has failed");
