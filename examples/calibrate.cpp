@@ -78,7 +78,7 @@ const char* kHelp =
     "                            contact; frames not listed are fitted unlabelled\n"
     "  --out FILE                the calibration file to write (atomically)\n"
     "  --preview PNG             the fitted segmentation on up to 8 frames, as a montage\n"
-    "  --max-empty N             frames taken from an empty-skin video (default 60)\n"
+    "  --max-empty N             empty-skin frames used, evenly spaced (default 60)\n"
     "  --max-touch N             unlabelled frames taken from a touch video (default 60)\n"
     "  --light-group-ratio R     luminance step that starts a new light level (default 1.25)\n"
     "  --max-side N              refuse images larger than N px per side (default 8192)\n"
@@ -96,7 +96,7 @@ Options parse(int argc, char** argv) {
   p.option("--labels", "CSV", "boxes for the touch frames", o.labels);
   p.option("--out", "FILE", "the calibration file to write", o.out);
   p.option("--preview", "PNG", "the fitted segmentation as a montage", o.preview);
-  p.option("--max-empty", "N", "frames taken from an empty-skin video", o.max_empty)
+  p.option("--max-empty", "N", "empty-skin frames used, evenly spaced", o.max_empty)
       .range(1, 100000);
   p.option("--max-touch", "N", "unlabelled frames taken from a touch video", o.max_touch)
       .range(1, 100000);
@@ -118,22 +118,39 @@ std::set<std::size_t> evenly_spaced(std::size_t count, long long max) {
   return keep;
 }
 
-// Frames of the empty skin: every image of a folder, or up to max_empty evenly spaced frames of
-// a video (every frame when the video does not tell its length, then evenly spaced).
+// Frames of the empty skin: up to max_empty evenly spaced frames of a folder or a video. Memory
+// is bounded by what is kept: only kept frames are decoded (folders) or copied (videos); a video
+// that does not tell its length keeps every stride-th frame, doubling the stride (and dropping
+// every other kept frame) whenever 2 x max_empty are held, then picks max_empty evenly spaced.
 std::vector<cv::Mat> read_empty(const Options& o) {
   frames::FrameSource src = frames::FrameSource::open(o.empty, o.max_side);
   if (src.is_camera())
     throw cli::UsageError("--empty: '" + o.empty +
                           "' is a camera; record a video or a folder of frames first");
   std::optional<std::set<std::size_t>> keep;
-  if (!src.is_folder() && src.count()) keep = evenly_spaced(*src.count(), o.max_empty);
+  if (src.count()) keep = evenly_spaced(*src.count(), o.max_empty);
+  const auto bound = static_cast<std::size_t>(2 * o.max_empty);
   std::vector<cv::Mat> all;
+  std::size_t stride = 1;
   cv::Mat f;
   std::string name;
-  for (std::size_t i = 0; src.next(f, name); ++i)
-    if (!keep || keep->count(i)) all.push_back(f.clone());
+  for (std::size_t i = 0;; ++i) {
+    const bool wanted = keep ? keep->count(i) > 0 : i % stride == 0;
+    if (!(wanted ? src.next(f, name) : src.skip())) break;
+    if (!wanted) continue;
+    all.push_back(f.clone());
+    if (!keep && all.size() >= bound) { // unknown length: thin out, keep every 2*stride-th
+      std::vector<cv::Mat> half;
+      for (std::size_t k = 0; k < all.size(); k += 2) half.push_back(all[k]);
+      all.swap(half);
+      stride *= 2;
+    }
+  }
+  if (const std::string short_read = src.ended_early(); !short_read.empty())
+    throw IoError("--empty '" + o.empty + "': " + short_read +
+                  "; a calibration from part of it would not say so");
   if (all.empty()) throw IoError("'" + o.empty + "' gave no frame");
-  if (src.is_folder() || static_cast<long long>(all.size()) <= o.max_empty) return all;
+  if (static_cast<long long>(all.size()) <= o.max_empty) return all;
   std::vector<cv::Mat> picked;
   for (std::size_t k : evenly_spaced(all.size(), o.max_empty)) picked.push_back(all[k]);
   return picked;
@@ -280,6 +297,9 @@ std::vector<BoxLabelledFrame> read_touch(const Options& o) {
     b.name = folder ? name : o.touch + "#" + std::to_string(i);
     touch.push_back(std::move(b));
   }
+  if (const std::string short_read = src.ended_early(); !short_read.empty())
+    throw IoError("--touch '" + o.touch + "': " + short_read +
+                  "; a calibration from part of it would not say so");
   if (!labels.empty())
     throw IoError("'" + o.labels + "' labels '" + labels.begin()->first + "', which is not " +
                   (folder ? "an image in '" + o.touch + "'"

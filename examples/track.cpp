@@ -258,6 +258,7 @@ int run(const Options& o) {
   std::string name;
   long long i = 0;
   double t = 0, last_t = 0;
+  bool stopped = false; // by the user (Esc): the input was not read to its end on purpose
   while ((o.max_frames < 0 || i < o.max_frames) && src.next(frame, name)) {
     if (stamps) {
       const auto it = stamps->find(name);
@@ -293,7 +294,10 @@ int run(const Options& o) {
 #ifdef SHADOWSENSE_HAVE_HIGHGUI
       if (o.show) {
         cv::imshow(kProgram, a);
-        if (cv::waitKey(1) == 27) break; // Esc stops
+        if (cv::waitKey(1) == 27) { // Esc stops
+          stopped = true;
+          break;
+        }
       }
 #endif
     }
@@ -311,6 +315,11 @@ int run(const Options& o) {
     std::cerr << kProgram << ": warning: " << sinks.tuio_failed << " of " << sinks.tuio_frames
               << " TUIO frames could not be sent to " << sinks.tuio->destination() << '\n';
   if (!std::cout) throw IoError("writing the events to stdout failed");
+  // The events so far are out (and end with their lifts), but the run did not see the input.
+  if (const std::string short_read = src.ended_early();
+      !short_read.empty() && o.max_frames < 0 && !stopped)
+    throw IoError("'" + o.input + "': " + short_read + "; the events above cover frames 1 to " +
+                  std::to_string(i));
   return 0;
 }
 

@@ -21,6 +21,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -369,6 +370,22 @@ TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame in
   bad = run(args + " --labels '" + (kDir / "bad_video_labels.csv").string() + "'");
   CHECK(bad.status == 2);
   CHECK(bad.err.find("must be a frame index (0 = the first frame)") != std::string::npos);
+
+  // A damaged video (its last two thirds cut off) that still declares its 60 frames: an error,
+  // not a calibration from the 20 it gave (before: exit 0 and a calibration file).
+  REQUIRE(write_video(kDir / "long_empty.avi", empty_frames(0, 60, 0xE5)).size() == 60);
+  {
+    std::ifstream in(kDir / "long_empty.avi", std::ios::binary);
+    const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    std::ofstream(kDir / "cut_empty.avi", std::ios::binary) << bytes.substr(0, bytes.size() / 3);
+  }
+  fs::remove(out);
+  const Run cut = run("--empty '" + (kDir / "cut_empty.avi").string() + "' --touch '" + video +
+                      "' --out '" + out + "'");
+  CHECK(cut.status == 2);
+  CHECK(cut.err.find("ended after") != std::string::npos);
+  CHECK(cut.err.find("of the 60 frames it declares") != std::string::npos);
+  CHECK_FALSE(fs::exists(out));
 }
 #endif
 

@@ -14,6 +14,11 @@
 //            folder with '/' separators (folders) or "frame_NNNNNN", NNNNNN the frame index from
 //            0 (videos, cameras).
 //   throws:  IoError naming the file for an unreadable image or one larger than max_side.
+// skip() -> false at the end: passes over one frame without decoding it (folders) or without
+//   converting it (videos: grab only), so a program that keeps a few frames of many reads only
+//   those.
+// ended_early() -> the message when a video stopped before the frame count it declares (a
+//   damaged or truncated file: OpenCV's read simply fails), else empty. Call after the end.
 // Decoding limit: the programs set OPENCV_IO_MAX_IMAGE_PIXELS (limit_decoder) before the first
 // imread, so OpenCV refuses oversized images from their header, before allocating them.
 // One instance per thread.
@@ -142,6 +147,31 @@ public:
 #else
     return false;
 #endif
+  }
+
+  bool skip() {
+    if (!files_.empty()) {
+      if (index_ >= files_.size()) return false;
+      ++index_;
+      return true;
+    }
+#ifdef SHADOWSENSE_HAVE_VIDEOIO
+    if (!video_ || !video_->grab()) return false;
+    ++index_;
+    return true;
+#else
+    return false;
+#endif
+  }
+
+  // Container frame counts can be estimates (duration x rate): a shortfall of up to 1% (at least
+  // 2 frames) is not reported.
+  std::string ended_early() const {
+    if (!files_.empty() || camera_ || !count_) return {};
+    const std::size_t slack = std::max<std::size_t>(2, *count_ / 100);
+    if (index_ + slack >= *count_) return {};
+    return "the video ended after " + std::to_string(index_) + " of the " +
+           std::to_string(*count_) + " frames it declares (damaged or truncated?)";
   }
 
   bool is_folder() const {
