@@ -182,7 +182,7 @@ std::map<std::string, double> read_timestamps(const std::string& path) {
 
 // The events of one frame (or the flush) through every sink. stdout is the run's result: a
 // failure there ends the run. TUIO is a live view for other programs: a frame it cannot send (a
-// lost route, a frame with more blobs than one packet holds) is counted, the first reason said
+// lost route) is counted, the first reason said
 // once, and tracking goes on.
 struct Sinks {
   std::optional<CsvSink> csv;
@@ -196,7 +196,7 @@ struct Sinks {
     ++tuio_frames;
     try {
       tuio->write(f);
-    } catch (const Error& e) { // IoError (socket), InvalidArgument (too many blobs)
+    } catch (const Error& e) { // IoError (socket)
       if (tuio_failed++ == 0)
         std::cerr << kProgram << ": warning: TUIO frame " << f.frame_index
                   << " not sent, tracking goes on: " << e.what() << '\n';
@@ -311,6 +311,10 @@ int run(const Options& o) {
   sinks.write(sense.output()); // the lifts reach the clients
   std::cout.flush();
   progress.finish(static_cast<std::size_t>(i));
+  if (sinks.tuio && sinks.tuio->ids_left_out())
+    std::cerr << kProgram << ": warning: " << sinks.tuio->ids_left_out()
+              << " TUIO ids were left out of alive lists too long for one packet (the oldest "
+                 "tracks were sent)\n";
   if (sinks.tuio_failed)
     std::cerr << kProgram << ": warning: " << sinks.tuio_failed << " of " << sinks.tuio_frames
               << " TUIO frames could not be sent to " << sinks.tuio->destination() << '\n';

@@ -193,8 +193,16 @@ TEST_CASE("the encoder refuses what TUIO cannot carry, naming it") {
   TuioEncoder tight(small);
   f = frame_at(1, 0, 10);
   for (int i = 2; i <= 40; ++i) f.contacts.push_back({i, cv::Point2f(1, 1)});
-  CHECK_THROWS_WITH_AS(encode(tight, f), doctest::Contains("more than max_packet_bytes"),
+  // 128 bytes: room for the alive and fseq messages but for no set message: no cursor or blob
+  // is sent, all are counted as left out; with a source too long for even that, an error.
+  CHECK(encode(tight, f).size() >= 1);
+  CHECK(f.contacts.size() == 40);
+  CHECK(tight.last_left_out() == f.contacts.size() + f.shadows.size()); // no set fits either
+  small.source = std::string(60, 's');
+  TuioEncoder tighter(small);
+  CHECK_THROWS_WITH_AS(encode(tighter, f), doctest::Contains("more than max_packet_bytes"),
                        InvalidArgument);
+  small.source.clear();
   small.max_packet_bytes = 64;
   CHECK_THROWS_AS(TuioEncoder{small}, InvalidArgument);
   // At the default 1472 bytes: 268 cursor ids fit with one set message, 269 do not.
@@ -211,9 +219,23 @@ TEST_CASE("the encoder refuses what TUIO cannot carry, naming it") {
   });
   CHECK(largest <= 1472);
   CHECK(bundles == 268);
-  many.contacts.push_back({269, cv::Point2f(1, 1)});
-  CHECK_THROWS_WITH_AS(encode(def, many), doctest::Contains("269 alive ids in /tuio/2Dcur"),
-                       InvalidArgument);
+  CHECK(def.last_left_out() == 0);
+  // More than one alive list can hold (before: InvalidArgument, and ss_track's TUIO frame lost):
+  // the first 268 are sent, the rest counted; 1,000 contacts, as the segmenter may report.
+  for (int i = 269; i <= 1000; ++i) many.contacts.push_back({i, cv::Point2f(1, 1)});
+  std::vector<Bytes> sent = encode(def, many);
+  CHECK(def.last_left_out() == 1000 - 268);
+  CHECK(def.ids_left_out() == 1000 - 268);
+  REQUIRE(sent.size() == 268);
+  std::vector<std::int32_t> alive;
+  for (const OscMessage& m : messages(sent.front()))
+    if (text(m).starts_with("/tuio/2Dcur s:alive"))
+      for (std::size_t a = 1; a < m.arguments.size(); ++a)
+        alive.push_back(std::get<std::int32_t>(m.arguments[a]));
+  REQUIRE(alive.size() == 268);
+  CHECK(alive.front() == 1);
+  CHECK(alive.back() == 268);
+  for (const Bytes& b : sent) CHECK(b.size() <= 1472);
 }
 
 TEST_CASE("host:port parsing and unresolvable hosts") {

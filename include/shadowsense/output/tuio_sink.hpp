@@ -45,6 +45,10 @@
 // Large frames: when a bundle would exceed Config::max_packet_bytes (default 1472, the UDP
 // payload of a 1500-byte Ethernet frame), the set messages are split over several bundles, each
 // with the full source + alive list and the same fseq (as the reference TUIO 1.1 server does).
+// The alive list itself cannot be split (TUIO takes every id not listed as gone): a profile with
+// more ids than one bundle can list (5 bytes per id: 268 cursors or 262 blobs at the default)
+// sends the first ones that fit, in frame order (the tracks' increasing ids: the oldest hands),
+// and counts the rest in ids_left_out() - tracking and the other outputs never stop for it.
 //
 // TuioEncoder(config = {})
 //   throws: InvalidArgument for max_packet_bytes < 128 or a source holding a NUL.
@@ -53,9 +57,10 @@
 //             and >= 0; finite positions; send callable as send(std::span<const uint8_t>).
 //   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles, then
 //             the touch-gesture bundles); the span is valid only during the call.
-//   throws:   InvalidArgument for a broken requirement or an alive list too long for one packet
-//             (5 bytes per id: 268 cursors or 262 blobs at the default); nothing is sent then.
-//             What send throws.
+//             Ids beyond one bundle's alive list are left out (see above), counted in
+//             ids_left_out() (the run's total) and last_left_out() (this frame's).
+//   throws:   InvalidArgument for a broken requirement, or a max_packet_bytes too small for even
+//             an empty bundle; nothing is sent then. What send throws.
 //   Threading: one thread per instance. No allocation after warm-up (buffers are reused).
 // TuioSink(host = "127.0.0.1", port = 3333, config = {}): an EventSink; write(frame) encodes
 //   the frame and sends each bundle as one UDP datagram.
@@ -106,12 +111,17 @@ public:
     const double w = frame.frame_size.width;
     const double h = frame.frame_size.height;
     const bool gesture_last = frame.gesture.available; // the gesture ends the last bundle
+    last_left_out_ = 0;
     if (config_.cursors) {
+      const std::size_t k = fitting(cursor_profile, frame.contacts.size(), 5,
+                                    gesture_last && !config_.blobs ? &frame : nullptr);
       ids_.clear();
-      for (const OutputContact& c : frame.contacts) ids_.push_back(c.id);
       cur_next_.clear();
-      for (const OutputContact& c : frame.contacts)
+      for (std::size_t i = 0; i < k; ++i) {
+        const OutputContact& c = frame.contacts[i];
+        ids_.push_back(c.id);
         cur_next_.push_back(motion(cur_prev_, c.id, c.position.x / w, c.position.y / h, t));
+      }
       emit(cursor_profile, frame, send, gesture_last && !config_.blobs, [&](std::size_t i) {
         const Motion& m = cur_next_[i];
         writer_.begin_message(cursor_profile);
@@ -123,10 +133,13 @@ public:
       cur_prev_.swap(cur_next_);
     }
     if (config_.blobs) {
+      const std::size_t k =
+          fitting(blob_profile, frame.shadows.size(), 11, gesture_last ? &frame : nullptr);
       ids_.clear();
-      for (const OutputShadow& s : frame.shadows) ids_.push_back(s.id);
       blb_next_.clear();
-      for (const OutputShadow& s : frame.shadows) {
+      for (std::size_t i = 0; i < k; ++i) {
+        const OutputShadow& s = frame.shadows[i];
+        ids_.push_back(s.id);
         const double cx = (s.box.x + 0.5 * s.box.width) / w;
         const double cy = (s.box.y + 0.5 * s.box.height) / h;
         blb_next_.push_back(motion(blb_prev_, s.id, cx, cy, t));
@@ -147,7 +160,13 @@ public:
       blb_prev_.swap(blb_next_);
     }
     emit_touch_gestures(frame, send);
+    left_out_ += last_left_out_;
   }
+
+  // Ids not listed because one bundle's alive list had no room for them: over the encoder's
+  // life, and in the last encode.
+  std::size_t ids_left_out() const { return left_out_; }
+  std::size_t last_left_out() const { return last_left_out_; }
 
   static constexpr std::string_view cursor_profile = "/tuio/2Dcur";
   static constexpr std::string_view gesture_address = "/shadowsense/gesture";
@@ -242,10 +261,8 @@ private:
         fail("a touch gesture message does not fit in max_packet_bytes");
     }
     const bool cursor_last = f.gesture.available && !config_.blobs;
-    if (config_.cursors)
-      check_fits(cursor_profile, f.contacts.size(), 5, cursor_last ? &f : nullptr);
-    if (config_.blobs)
-      check_fits(blob_profile, f.shadows.size(), 11, f.gesture.available ? &f : nullptr);
+    if (config_.cursors) check_fits(cursor_profile, 0, 5, cursor_last ? &f : nullptr);
+    if (config_.blobs) check_fits(blob_profile, 0, 11, f.gesture.available ? &f : nullptr);
   }
 
   // Bytes of the gesture message; with_pairs: with the (class, probability) pairs.
@@ -288,11 +305,22 @@ private:
   static std::size_t set_bytes(std::string_view profile, std::size_t floats) {
     return element_bytes(profile, 2 + floats, padded(4) + 4 + 4 * floats);
   }
+  std::size_t bundle_need(std::string_view profile, std::size_t alive, std::size_t floats,
+                          const OutputFrame* with_gesture) const {
+    return bundle_overhead(profile, alive) + (alive ? set_bytes(profile, floats) : 0) +
+           (with_gesture ? gesture_bytes_sent(profile, alive, with_gesture->gesture) : 0);
+  }
+  // How many of n ids one bundle of `profile` can list (at most n); the rest are left out.
+  std::size_t fitting(std::string_view profile, std::size_t n, std::size_t floats,
+                      const OutputFrame* with_gesture) {
+    std::size_t k = n;
+    while (k > 0 && bundle_need(profile, k, floats, with_gesture) > config_.max_packet_bytes) --k;
+    last_left_out_ += n - k;
+    return k;
+  }
   void check_fits(std::string_view profile, std::size_t alive, std::size_t floats,
                   const OutputFrame* with_gesture) const {
-    const std::size_t need =
-        bundle_overhead(profile, alive) + (alive ? set_bytes(profile, floats) : 0) +
-        (with_gesture ? gesture_bytes_sent(profile, alive, with_gesture->gesture) : 0);
+    const std::size_t need = bundle_need(profile, alive, floats, with_gesture);
     if (need > config_.max_packet_bytes)
       fail(std::to_string(alive) + " alive ids in " + std::string(profile) + " need a " +
            std::to_string(need) + "-byte bundle, more than max_packet_bytes (" +
@@ -383,6 +411,7 @@ private:
 
   Config config_;
   OscWriter writer_;
+  std::size_t left_out_ = 0, last_left_out_ = 0;
   std::vector<std::int32_t> ids_;
   std::vector<Motion> cur_prev_, cur_next_, blb_prev_, blb_next_;
 };
@@ -398,6 +427,8 @@ public:
   }
 
   const std::string& destination() const { return sender_.destination(); }
+  // Ids left out of full alive lists so far (TuioEncoder::ids_left_out).
+  std::size_t ids_left_out() const { return encoder_.ids_left_out(); }
 
 private:
   TuioEncoder encoder_;
