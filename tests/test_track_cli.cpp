@@ -457,6 +457,27 @@ TEST_CASE("ss_track --tuio takes [IPv6]:PORT, [IPv6], HOST and HOST:PORT") {
   }
 }
 
+TEST_CASE("ss_track keeps tracking when no TUIO frame can be sent (item 4 of the audit)") {
+  // A broadcast address without SO_BROADCAST: every sendto fails (EACCES), like a lost route.
+  // Before: exit 2 at the first frame, the track left without its lift.
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames_tuio_fail";
+  write_pngs(frames, folder);
+  const std::string base = "--input '" + folder.string() + "' --calibration '" +
+                           calibration_path() + "' --fps 13 --quiet --source cam0 --model none";
+  const Run plain = run(base);
+  const Run lost = run(base + " --no-realtime --tuio 255.255.255.255:3333");
+  INFO(lost.err);
+  REQUIRE(plain.status == 0);
+  CHECK(lost.status == 0);
+  CHECK(lost.out == plain.out); // every event, the lift included
+  CHECK(plain.out.find(",lift,none,") != std::string::npos);
+  CHECK(lost.err.find("warning: TUIO frame 1 not sent, tracking goes on") != std::string::npos);
+  CHECK(lost.err.find(std::to_string(frames.size() + 1) + " of " +
+                      std::to_string(frames.size() + 1) + " TUIO frames could not be sent") !=
+        std::string::npos);
+}
+
 TEST_CASE("ss_track refuses --show without a display, in one line with exit status 2") {
   const Run r = tests::run_program(
       "/usr/bin/env",
