@@ -169,13 +169,13 @@ private:
     const auto names = class_names();
     const std::size_t classes = names.size();
     c.probabilities.resize(classes);
-    try {
-      softmax(logits.subspan(i * classes, classes), c.probabilities);
-    } catch (const InvalidArgument&) {
-      SHADOWSENSE_THROW(Error("Classifier: the backend returned NaN or Inf logits for image " +
-                              std::to_string(i) + ", expected finite values"));
-    }
-    const auto row = logits.subspan(i * classes, classes); // argmax on logits: no ties
+    const auto row = logits.subspan(i * classes, classes);
+    for (const float v : row)
+      if (!std::isfinite(v))
+        SHADOWSENSE_THROW(Error("Classifier: the backend returned NaN or Inf logits for image " +
+                                std::to_string(i) + ", expected finite values"));
+    softmax(row, c.probabilities);
+    // argmax on logits: no ties
     c.index = static_cast<int>(std::max_element(row.begin(), row.end()) - row.begin());
     c.label = names[static_cast<std::size_t>(c.index)];
   }

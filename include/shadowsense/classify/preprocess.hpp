@@ -52,11 +52,8 @@ public:
 
   Preprocessor() : Preprocessor(Config{}) {}
   explicit Preprocessor(Config config) : config_(config) {
-    try {
-      config_.params.validate();
-    } catch (const InvalidArgument& e) {
-      SHADOWSENSE_THROW(InvalidArgument(std::string("Preprocessor config: ") + e.what()));
-    }
+    detail::add_context<InvalidArgument>("Preprocessor config: ",
+                                         [&] { config_.params.validate(); });
     detail::require(config_.input_order == ChannelOrder::rgb ||
                         config_.input_order == ChannelOrder::bgr,
                     "Preprocessor config: input_order must be rgb or bgr");

@@ -19,6 +19,11 @@
 //     - it is given an expression of one of the types below (always derived from Error);
 //       the argument is evaluated exactly once.
 //     - the same definition in every translation unit of a program (ODR).
+//   The runtime umbrella (<shadowsense/shadowsense.hpp>) has no try, catch or rethrow of its
+//   own: the few places that add context to an inner error (a model file's name, "Preprocessor
+//   config: ") go through detail::add_context, which without exceptions just runs the inner
+//   code, so the handler then receives the inner message without that prefix. CI compiles and
+//   runs a firmware program with -fno-exceptions (tests/firmware/no_exceptions.cpp).
 //
 // THREADING
 //   Stateless; the exception types are ordinary value types.
@@ -31,6 +36,12 @@
 
 #ifndef SHADOWSENSE_THROW
 #define SHADOWSENSE_THROW(exception) throw exception
+#endif
+
+#if defined(__cpp_exceptions) || defined(__EXCEPTIONS)
+#define SHADOWSENSE_HAS_EXCEPTIONS 1
+#else
+#define SHADOWSENSE_HAS_EXCEPTIONS 0
 #endif
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -87,6 +98,23 @@ inline void require(bool condition, const std::string& message) {
 template <class E = InvalidArgument>
 inline void require(bool condition, const char* message) {
   if (!condition) SHADOWSENSE_THROW(E(std::string(message)));
+}
+
+// add_context<Caught, Thrown = Caught>(prefix, body) -> body()
+//   ensures: returns what body() returns; a Caught that body throws is raised again as
+//            Thrown(prefix + what()) through SHADOWSENSE_THROW. Without exceptions body() is
+//            simply run (its own SHADOWSENSE_THROW reports, without the prefix).
+template <class Caught, class Thrown = Caught, class Body>
+inline decltype(auto) add_context([[maybe_unused]] const std::string& prefix, Body&& body) {
+#if SHADOWSENSE_HAS_EXCEPTIONS
+  try {
+    return body();
+  } catch (const Caught& e) {
+    SHADOWSENSE_THROW(Thrown(prefix + e.what()));
+  }
+#else
+  return body();
+#endif
 }
 } // namespace detail
 

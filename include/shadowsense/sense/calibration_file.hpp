@@ -40,6 +40,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -188,13 +189,10 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
     auto read_float = [&](float& v) {
       std::string tok;
       if (!(ls >> tok)) fail("key '" + key + "' needs a number");
-      try {
-        std::size_t used = 0;
-        v = std::stof(tok, &used);
-        if (used != tok.size() || !std::isfinite(v)) SHADOWSENSE_THROW(std::invalid_argument(tok));
-      } catch (const std::exception&) {
+      const char* end = tok.data() + tok.size();
+      const auto r = std::from_chars(tok.data(), end, v);
+      if (r.ec != std::errc() || r.ptr != end || !std::isfinite(v))
         fail("key '" + key + "': '" + tok + "' is not a finite number");
-      }
     };
     auto read_range = [&](ColourRange& r) {
       int v[6];
@@ -246,11 +244,8 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
                         "contact_darkness", "contact_warmth", "reference_percentile"})
     if (std::find(seen.begin(), seen.end(), k) == seen.end())
       SHADOWSENSE_THROW(ModelFileError(source + ": key '" + k + "' is missing"));
-  try {
-    detail::validate_calibration(c, source);
-  } catch (const InvalidArgument& e) {
-    SHADOWSENSE_THROW(ModelFileError(e.what()));
-  }
+  detail::add_context<InvalidArgument, ModelFileError>(
+      "", [&] { detail::validate_calibration(c, source); });
   return c;
 }
 

@@ -589,7 +589,7 @@ inline ModelFile ModelFile::load(const std::filesystem::path& path) {
                                 std::to_string(from + static_cast<std::size_t>(f.gcount())) +
                                 " of " + std::to_string(size) + " bytes"));
   };
-  try {
+  return detail::add_context<ModelFileError>(name + ": ", [&] {
     // The header alone first: a wrong magic, version or architecture, or a size no model of
     // this architecture can have, is rejected before the body is read.
     std::vector<std::uint8_t> bytes;
@@ -611,9 +611,7 @@ inline ModelFile ModelFile::load(const std::filesystem::path& path) {
     }
     read(bytes, head, static_cast<std::size_t>(size - head));
     return from_bytes(bytes);
-  } catch (const ModelFileError& e) {
-    SHADOWSENSE_THROW(ModelFileError(name + ": " + e.what()));
-  }
+  });
 }
 
 inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
