@@ -68,8 +68,12 @@ cv::Mat frame_view(const py::array& a, const char* what) {
                  const_cast<void*>(a.data()));
 }
 
-py::tuple rect_tuple(const cv::Rect& r) { return py::make_tuple(r.x, r.y, r.width, r.height); }
-py::tuple point_tuple(const cv::Point2f& p) { return py::make_tuple(p.x, p.y); }
+py::tuple rect_tuple(const cv::Rect& r) {
+  return py::make_tuple(r.x, r.y, r.width, r.height);
+}
+py::tuple point_tuple(const cv::Point2f& p) {
+  return py::make_tuple(p.x, p.y);
+}
 py::object optional_point(const std::optional<cv::Point2f>& p) {
   return p ? py::object(point_tuple(*p)) : py::object(py::none());
 }
@@ -184,9 +188,9 @@ void bind_exceptions(py::module_& m) {
       m, "ModelFileError",
       "A model or calibration file is malformed, truncated, of another version or inconsistent.",
       py::make_tuple(e.error));
-  e.dataset_error =
-      make_exception(m, "DatasetError", "A dataset folder or metadata file is missing or malformed.",
-                     py::make_tuple(e.error));
+  e.dataset_error = make_exception(m, "DatasetError",
+                                   "A dataset folder or metadata file is missing or malformed.",
+                                   py::make_tuple(e.error));
   e.io_error = make_exception(m, "IoError", "Reading or writing a file (or socket) failed.",
                               py::make_tuple(e.error, builtins.attr("OSError")));
   e.concurrent_use = make_exception(
@@ -217,8 +221,9 @@ void bind_exceptions(py::module_& m) {
 
 void bind_results(py::module_& m) {
   py::class_<ss::Blob>(m, "Blob", "A shadow or contact blob (sense/blobs.hpp).")
-      .def_property_readonly("box", [](const ss::Blob& b) { return rect_tuple(b.box); },
-                             "(x, y, width, height), image pixels")
+      .def_property_readonly(
+          "box", [](const ss::Blob& b) { return rect_tuple(b.box); },
+          "(x, y, width, height), image pixels")
       .def_property_readonly("centroid", [](const ss::Blob& b) { return point_tuple(b.centroid); })
       .def_readonly("area", &ss::Blob::area, "mask pixels in the blob")
       .def_readonly("darkness", &ss::Blob::darkness);
@@ -229,10 +234,11 @@ void bind_results(py::module_& m) {
       .def_readonly("contacts", &ss::Segmentation::contacts, "contact blobs, largest first")
       .def_property_readonly("shadow_box",
                              [](const ss::Segmentation& s) { return optional_rect(s.shadow_box); })
+      .def_property_readonly("contact_box",
+                             [](const ss::Segmentation& s) { return optional_rect(s.contact_box); })
       .def_property_readonly(
-          "contact_box", [](const ss::Segmentation& s) { return optional_rect(s.contact_box); })
-      .def_property_readonly(
-          "contact_point", [](const ss::Segmentation& s) { return optional_point(s.contact_point); })
+          "contact_point",
+          [](const ss::Segmentation& s) { return optional_point(s.contact_point); })
       .def_readonly("dropped_shadow_blobs", &ss::Segmentation::dropped_shadow_blobs)
       .def_readonly("dropped_contact_blobs", &ss::Segmentation::dropped_contact_blobs);
 
@@ -245,9 +251,9 @@ void bind_results(py::module_& m) {
                              [](const ss::TouchTrack& t) { return point_tuple(t.position); })
       .def_property_readonly("contact",
                              [](const ss::TouchTrack& t) { return optional_point(t.contact); })
-      .def_property_readonly("state",
-                             [](const ss::TouchTrack& t) { return ss::to_string(t.state); },
-                             "none|appear|touch|move|lift")
+      .def_property_readonly(
+          "state", [](const ss::TouchTrack& t) { return ss::to_string(t.state); },
+          "none|appear|touch|move|lift")
       .def_readonly("contact_area", &ss::TouchTrack::contact_area);
 
   py::class_<ss::TrackEvent>(m, "TrackEvent", "A touch event with its track.")
@@ -256,13 +262,13 @@ void bind_results(py::module_& m) {
                              [](const ss::TrackEvent& e) { return e.event.timestamp_ms; })
       .def_property_readonly("from_state",
                              [](const ss::TrackEvent& e) { return ss::to_string(e.event.from); })
-      .def_property_readonly("to_state",
-                             [](const ss::TrackEvent& e) { return ss::to_string(e.event.to); },
-                             "to_state 'none' is the paper's disappear")
+      .def_property_readonly(
+          "to_state", [](const ss::TrackEvent& e) { return ss::to_string(e.event.to); },
+          "to_state 'none' is the paper's disappear")
       .def_property_readonly(
           "direction", [](const ss::TrackEvent& e) { return ss::to_string(e.event.direction); })
-      .def_property_readonly("position",
-                             [](const ss::TrackEvent& e) { return optional_point(e.event.position); })
+      .def_property_readonly(
+          "position", [](const ss::TrackEvent& e) { return optional_point(e.event.position); })
       .def("__repr__", [](const ss::TrackEvent& e) {
         return "<TrackEvent track " + std::to_string(e.track_id) + " " +
                ss::to_string(e.event.from) + "->" + ss::to_string(e.event.to) + " at " +
@@ -290,12 +296,12 @@ void bind_results(py::module_& m) {
 
   py::class_<ss::GestureEvent>(m, "GestureEvent",
                                "A temporal touch gesture (sense/gesture_event.hpp).")
-      .def_property_readonly("gesture",
-                             [](const ss::GestureEvent& g) { return ss::to_string(g.gesture); },
-                             "tap|double_tap|pat|stroke|rub|hold|hit|hug|punch|two_hands")
-      .def_property_readonly("phase",
-                             [](const ss::GestureEvent& g) { return ss::to_string(g.phase); },
-                             "complete|began|ended|revised")
+      .def_property_readonly(
+          "gesture", [](const ss::GestureEvent& g) { return ss::to_string(g.gesture); },
+          "tap|double_tap|pat|stroke|rub|hold|hit|hug|punch|two_hands")
+      .def_property_readonly(
+          "phase", [](const ss::GestureEvent& g) { return ss::to_string(g.phase); },
+          "complete|began|ended|revised")
       .def_readonly("track_id", &ss::GestureEvent::track_id, "0: a whole-frame gesture")
       .def_readonly("start_ms", &ss::GestureEvent::start_ms)
       .def_readonly("end_ms", &ss::GestureEvent::end_ms)
@@ -344,8 +350,7 @@ void bind_results(py::module_& m) {
       .def_readonly("label", &ss::Classification::label)
       .def_readonly("index", &ss::Classification::index)
       .def_property_readonly(
-          "probabilities",
-          [](const ss::Classification& c) { return float_array(c.probabilities); },
+          "probabilities", [](const ss::Classification& c) { return float_array(c.probabilities); },
           "float32 array, one per class, in the model's class order");
 }
 
@@ -364,16 +369,17 @@ void bind_calibration(py::module_& m) {
       .def_readonly("shadow_darkness", &ss::SegmenterCalibration::shadow_darkness)
       .def_readonly("contact_darkness", &ss::SegmenterCalibration::contact_darkness)
       .def_readonly("contact_warmth", &ss::SegmenterCalibration::contact_warmth)
-      .def_property_readonly("empty_skin_size",
-                             [](const ss::SegmenterCalibration& c) -> py::object {
-                               if (c.empty_skin.empty()) return py::none();
-                               return py::make_tuple(c.empty_skin.cols, c.empty_skin.rows);
-                             },
-                             "(width, height) of the empty-skin model, or None");
+      .def_property_readonly(
+          "empty_skin_size",
+          [](const ss::SegmenterCalibration& c) -> py::object {
+            if (c.empty_skin.empty()) return py::none();
+            return py::make_tuple(c.empty_skin.cols, c.empty_skin.rows);
+          },
+          "(width, height) of the empty-skin model, or None");
 
   m.def(
-      "load_calibration",
-      [](const std::string& path) { return ss::load_calibration(path); }, py::arg("path"),
+      "load_calibration", [](const std::string& path) { return ss::load_calibration(path); },
+      py::arg("path"),
       "Load a calibration file (version 1 or 2; sense/calibration_file.hpp).\n\n"
       "Raises ModelFileError naming the file (and line) for anything malformed, cut or changed;\n"
       "IoError when the path cannot be read, is not a regular file or is over 512 MiB.");
@@ -388,11 +394,11 @@ void bind_calibration(py::module_& m) {
 
   py::class_<ss::CalibrationWarning>(m, "CalibrationWarning",
                                      "A degenerate part of a calibration (sense/calibration.hpp).")
-      .def_property_readonly("issue",
-                             [](const ss::CalibrationWarning& w) { return ss::to_string(w.issue); },
-                             "no_touch_frames|too_few_pixels|threshold_at_edge|shadow_near_noise|"
-                             "light_group_without_touch|touch_without_empty_light|"
-                             "contact_not_separated")
+      .def_property_readonly(
+          "issue", [](const ss::CalibrationWarning& w) { return ss::to_string(w.issue); },
+          "no_touch_frames|too_few_pixels|threshold_at_edge|shadow_near_noise|"
+          "light_group_without_touch|touch_without_empty_light|"
+          "contact_not_separated")
       .def_readonly("message", &ss::CalibrationWarning::message)
       .def("__repr__", [](const ss::CalibrationWarning& w) {
         return std::string("<CalibrationWarning ") + ss::to_string(w.issue) + ": " + w.message +
@@ -418,7 +424,8 @@ void bind_calibration(py::module_& m) {
         std::vector<ss::BoxLabelledFrame> touch_frames;
         for (const py::handle& h : empty) {
           keep.push_back(py::array::ensure(h));
-          if (!keep.back()) throw py::value_error("calibrate_from_frames: an empty frame is not an array");
+          if (!keep.back())
+            throw py::value_error("calibrate_from_frames: an empty frame is not an array");
           empty_frames.push_back(frame_view(keep.back(), "calibrate_from_frames (empty frame)"));
         }
         for (const py::handle& h : touch) {
@@ -437,7 +444,8 @@ void bind_calibration(py::module_& m) {
             f.labelled = false;
           }
           keep.push_back(py::array::ensure(image));
-          if (!keep.back()) throw py::value_error("calibrate_from_frames: a touch frame is not an array");
+          if (!keep.back())
+            throw py::value_error("calibrate_from_frames: a touch frame is not an array");
           f.image = frame_view(keep.back(), "calibrate_from_frames (touch frame)");
           touch_frames.push_back(std::move(f));
         }
@@ -652,7 +660,8 @@ void bind_file_sink(py::module_& m, const char* name, const char* doc) {
            py::arg("path"), py::kw_only(), py::arg("source") = "")
       .def("write", &S::write, py::arg("frame"), "Write one frame's events (OutputFrame).")
       .def("close", &S::close, "Write the file: it appears, complete, under its name.")
-      .def("__enter__", [](S& self) -> S& { return self; }, py::return_value_policy::reference)
+      .def(
+          "__enter__", [](S& self) -> S& { return self; }, py::return_value_policy::reference)
       .def("__exit__", [](S& self, const py::object& type, const py::object&, const py::object&) {
         if (type.is_none()) self.close(); // on an exception the file is not written
       });

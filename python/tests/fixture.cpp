@@ -36,7 +36,8 @@ void write_scenes(const ss::python_fixture::Scenes& s, const fs::path& dir) {
   ss::write_file_atomically(dir / "frames.u8", [&](std::ostream& out) {
     for (const cv::Mat& f : s.frames)
       for (int y = 0; y < f.rows; ++y)
-        out.write(reinterpret_cast<const char*>(f.ptr(y)), static_cast<std::streamsize>(f.cols) * 3);
+        out.write(reinterpret_cast<const char*>(f.ptr(y)),
+                  static_cast<std::streamsize>(f.cols) * 3);
   });
   std::ostringstream meta;
   meta.precision(17);
@@ -52,7 +53,9 @@ std::string num(double v) {
   std::snprintf(b, sizeof b, "%.17g", v);
   return b;
 }
-std::string word(const std::string& s) { return s.empty() ? "-" : s; }
+std::string word(const std::string& s) {
+  return s.empty() ? "-" : s;
+}
 
 // The format of results.py (format_frame): one line per frame, track, event and gesture.
 void format_frame(std::ostream& o, const ss::RuntimeFrame& r) {
@@ -85,9 +88,9 @@ void run_sequence(const fs::path& dir, const std::string& model) {
   const ss::python_fixture::Scenes s = ss::python_fixture::touch_sequence();
   write_scenes(s, dir);
   // As a user would: the calibration from its file, the classifier from the model file.
-  ss::Runtime sense{
-      ss::TouchPipeline{ss::Segmenter({.calibration = ss::load_calibration((dir / "skin.calib").string())})},
-      ss::make_densenet_classifier(ss::ModelFile::load(model))};
+  ss::Runtime sense{ss::TouchPipeline{ss::Segmenter(
+                        {.calibration = ss::load_calibration((dir / "skin.calib").string())})},
+                    ss::make_densenet_classifier(ss::ModelFile::load(model))};
   std::ostringstream results, csv_text, json_text;
   ss::CsvSink csv(csv_text);
   ss::JsonLinesSink json(json_text);

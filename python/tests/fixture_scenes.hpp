@@ -60,9 +60,9 @@ inline Scenes bench_frames(const sim::Rig& rig, std::uint64_t seed) {
   Scenes out;
   out.calibration = calibrate_on_sim(renderer, seed, 20).config.calibration;
   for (std::uint64_t i = 0; i < 40; ++i) {
-    out.frames.push_back(sim::render_random_tracking_frame(
-                             renderer, static_cast<sim::TrackCategory>(i % 5),
-                             sim::derive_seed(seed + 1, i))
+    out.frames.push_back(sim::render_random_tracking_frame(renderer,
+                                                           static_cast<sim::TrackCategory>(i % 5),
+                                                           sim::derive_seed(seed + 1, i))
                              .image);
     out.timestamps_ms.push_back(10.0 * static_cast<double>(i + 1));
   }
