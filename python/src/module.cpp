@@ -28,6 +28,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <climits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -60,6 +61,9 @@ cv::Mat frame_view(const py::array& a, const char* what) {
   if (a.shape(0) == 0 || a.shape(1) == 0)
     throw py::value_error(std::string(what) + ": the frame is empty, shape " + shape_text(a) +
                           expected);
+  if (a.shape(0) > INT_MAX || a.shape(1) > INT_MAX / 3)
+    throw py::value_error(std::string(what) + ": the frame has shape " + shape_text(a) +
+                          ", too large for an image");
   if (!(a.flags() & py::array::c_style))
     throw py::value_error(std::string(what) +
                           ": the frame is not C-contiguous (a slice or transpose?); pass "
