@@ -9,8 +9,9 @@
 include(${SOURCE_DIR}/tests/install/common.cmake)
 file(REMOVE_RECURSE ${WORK_DIR})
 set(prefix ${WORK_DIR}/prefix)
+# Installed without building: nothing compiled (no programs, no Python module).
 set(lib_args -G ${GENERATOR} -DSHADOWSENSE_BUILD_TESTS=OFF -DSHADOWSENSE_BUILD_EXAMPLES=OFF
-             -DSHADOWSENSE_BUILD_BENCH=OFF)
+             -DSHADOWSENSE_BUILD_BENCH=OFF -DSHADOWSENSE_BUILD_PYTHON=OFF)
 run(${CMAKE_COMMAND} -S ${SOURCE_DIR} -B ${WORK_DIR}/lib ${lib_args}
     -DCMAKE_INSTALL_PREFIX=${prefix})
 run(${CMAKE_COMMAND} --install ${WORK_DIR}/lib)
