@@ -21,6 +21,7 @@
 #include <shadowsense/classify/lighting_normalise.hpp>
 #include <shadowsense/classify/preprocess.hpp>
 #include <shadowsense/classify/preprocess_params.hpp>
+#include <shadowsense/core/crc32.hpp>
 #include <shadowsense/core/direction.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/image_check.hpp>

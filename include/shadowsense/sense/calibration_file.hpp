@@ -32,6 +32,7 @@
 #pragma once
 
 #include <shadowsense/core/atomic_file.hpp>
+#include <shadowsense/core/crc32.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/sense/pixel_rule.hpp>
 
@@ -56,21 +57,9 @@ namespace detail {
 
 constexpr std::uintmax_t kMaxCalibrationFileBytes = 512ull << 20;
 
-// CRC-32 (IEEE 802.3, as zlib.crc32).
+// The file's CRC-32 (core/crc32.hpp) over text.
 inline std::uint32_t calibration_crc32(const char* data, std::size_t n) {
-  static constexpr auto table = [] {
-    std::array<std::uint32_t, 256> t{};
-    for (std::uint32_t i = 0; i < 256; ++i) {
-      std::uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  std::uint32_t c = 0xFFFFFFFFu;
-  for (std::size_t i = 0; i < n; ++i)
-    c = table[(c ^ static_cast<unsigned char>(data[i])) & 0xFFu] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
+  return crc32(std::span(reinterpret_cast<const std::uint8_t*>(data), n));
 }
 
 inline std::string crc_hex(std::uint32_t v) {

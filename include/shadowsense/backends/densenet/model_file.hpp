@@ -36,6 +36,7 @@
 
 #include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/atomic_file.hpp>
+#include <shadowsense/core/crc32.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
@@ -237,23 +238,6 @@ struct ModelFile {
 };
 
 namespace detail {
-
-// CRC-32 (IEEE 802.3, as zlib.crc32): detects truncation and bit flips (not tampering), and
-// Python's zlib computes it at C speed for the converter.
-inline std::uint32_t crc32(std::span<const std::uint8_t> bytes) {
-  static constexpr auto table = [] {
-    std::array<std::uint32_t, 256> t{};
-    for (std::uint32_t i = 0; i < 256; ++i) {
-      std::uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1u) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  std::uint32_t c = 0xFFFFFFFFu;
-  for (std::uint8_t b : bytes) c = table[(c ^ b) & 0xFFu] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
-}
 
 inline constexpr std::size_t model_max_name_bytes = 1024;
 
