@@ -23,7 +23,8 @@
 // .../labels.csv reproduces it); the live view then switches to it.
 //
 // Safety: binds 127.0.0.1 unless --bind; a bind to any other address requires a random token
-// (printed at start) on every request (query "token" or header X-Studio-Token), else 401. On a
+// (printed at start) on every request (query "token", header X-Studio-Token, or the cookie the
+// page gets with ?token=), else 401. On a
 // loopback bind the Host header must name the loopback (a DNS-rebinding page is refused, 403).
 // Requests that change state are POSTs with the header "X-Studio: 1" (a cross-site form cannot
 // send it; 403 without). Bodies are limited to kMaxBody bytes (413), the URL by cpp-httplib.
@@ -80,11 +81,12 @@ using namespace shadowsense;
 namespace {
 
 constexpr const char* kProgram = "ss_studio";
-constexpr std::size_t kMaxRecorded = 240;  // empty frames and touch frames, each
-constexpr std::size_t kMaxEvents = 2000;   // event lines kept for the log
-constexpr std::size_t kMaxBody = 4096;     // request bodies (the page sends none larger)
-constexpr std::size_t kWorkers = 16;       // HTTP worker threads (keep-alive connections hold one)
-constexpr int kLongPollMs = 2000;          // /api/live waits this long for a new frame
+constexpr std::size_t kMaxRecorded = 240; // empty frames and touch frames, each
+constexpr std::size_t kMaxEvents = 2000;  // event lines kept for the log
+constexpr std::size_t kRecentFrames = 8;  // frames kept for recording the one the page shows
+constexpr std::size_t kMaxBody = 4096;    // request bodies (the page sends none larger)
+constexpr std::size_t kWorkers = 16;      // HTTP worker threads (keep-alive connections hold one)
+constexpr int kLongPollMs = 2000;         // /api/live waits this long for a new frame
 constexpr const char* kWebFiles[] = {"index.html", "app.js", "style.css"};
 
 struct Options {
@@ -102,8 +104,7 @@ Options parse(int argc, char** argv) {
                           "event log, recording, box labelling and calibration.");
   p.usage("ss_studio --input DIR|VIDEO|CAMERA [--calibration FILE] [--model FILE|none] "
           "[--out DIR] [--bind ADDR] [--port N]");
-  p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input)
-      .required();
+  p.option("--input", "SPEC", "folder of images, video file, or camera index", o.input).required();
   p.option("--calibration", "FILE", "calibration to start with (else: make one in the page)",
            o.calibration);
   p.option("--model", "FILE|none",
@@ -154,8 +155,7 @@ std::string random_token() {
 bool same_text(const std::string& a, const std::string& b) { // constant time for equal sizes
   if (a.size() != b.size()) return false;
   unsigned char d = 0;
-  for (std::size_t i = 0; i < a.size(); ++i)
-    d |= static_cast<unsigned char>(a[i] ^ b[i]);
+  for (std::size_t i = 0; i < a.size(); ++i) d |= static_cast<unsigned char>(a[i] ^ b[i]);
   return d == 0;
 }
 
@@ -180,9 +180,9 @@ std::string base64(const std::vector<uchar>& in) {
 
 std::vector<uchar> encode(const cv::Mat& image, const char* ext, int quality) {
   std::vector<uchar> bytes;
-  const std::vector<int> params =
-      std::string(ext) == ".jpg" ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, quality}
-                                 : std::vector<int>{};
+  const std::vector<int> params = std::string(ext) == ".jpg"
+                                      ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, quality}
+                                      : std::vector<int>{};
   if (!cv::imencode(ext, image, bytes, params))
     throw IoError(std::string("cannot encode a frame as ") + ext);
   return bytes;
@@ -209,14 +209,20 @@ struct Studio {
   std::condition_variable changed; // a new frame, a control request, stop
   bool stop = false;
   // live view
-  long long seq = 0;         // frames published
-  std::string frame_json;    // the last frame as the page takes it
-  cv::Mat raw;               // the last frame as read (never written after publishing)
-  std::string raw_name;
+  long long seq = 0;      // frames published
+  std::string frame_json; // the last frame as the page takes it
+  // The last frames as read, by their seq (never written after publishing): the page records
+  // the one it shows, also when newer ones were published since.
+  struct Raw {
+    long long seq;
+    cv::Mat image;
+    std::string name;
+  };
+  std::deque<Raw> recent;
   bool file_input = true;
   bool paused = false;
-  int steps = 0;             // frames to run while paused
-  std::string runner_error;  // the runner stopped on this error
+  int steps = 0;            // frames to run while paused
+  std::string runner_error; // the runner stopped on this error
   std::deque<std::string> events;
   long long events_total = 0; // event lines ever published (the last one's number)
   // calibration
@@ -240,8 +246,7 @@ struct Runner {
     SegmenterConfig sc;
     sc.calibration = cal;
     sc.max_image_side = o.max_side;
-    if (o.hover.size() == 3)
-      sc.hover_model = HoverHeightModel{o.hover[0], o.hover[1], o.hover[2]};
+    if (o.hover.size() == 3) sc.hover_model = HoverHeightModel{o.hover[0], o.hover[1], o.hover[2]};
     std::optional<Classifier<DenseNet>> classifier;
     if (!model_path.empty())
       classifier.emplace(
@@ -311,7 +316,8 @@ struct Runner {
       bool stepping = false;
       {
         std::unique_lock lock(s.m);
-        s.changed.wait(lock, [&] { return s.stop || !s.paused || s.steps > 0 || s.switch_to.has_value(); });
+        s.changed.wait(
+            lock, [&] { return s.stop || !s.paused || s.steps > 0 || s.switch_to.has_value(); });
         if (s.stop) return;
         if (s.switch_to) {
           const SegmenterCalibration cal = std::move(*s.switch_to);
@@ -338,7 +344,7 @@ struct Runner {
         i = 0;
         pace_origin = clock::now();
         pace_t0 = t_offset;
-        continue;
+        if (!src->next(frame, name)) throw IoError("'" + o.input + "' gave no frame");
       }
       const auto t_update = clock::now();
       t = camera ? std::chrono::duration<double, std::milli>(t_read - start).count()
@@ -402,8 +408,8 @@ struct Runner {
       {
         std::lock_guard lock(s.m);
         s.frame_json = j.str();
-        s.raw = frame.clone();
-        s.raw_name = source_name;
+        s.recent.push_back({s.seq + 1, frame.clone(), source_name});
+        if (s.recent.size() > kRecentFrames) s.recent.pop_front();
         s.file_input = !camera;
         ++s.seq;
         for (std::string& line : lines) {
@@ -503,8 +509,7 @@ std::optional<cv::Rect> parse_box(const std::string& text, const char* what) {
     p = r.ptr;
     if (k < 3) {
       if (p == end || *p != ',')
-        throw InvalidArgument(std::string(what) + ": expected x,y,w,h or none, got '" + text +
-                              "'");
+        throw InvalidArgument(std::string(what) + ": expected x,y,w,h or none, got '" + text + "'");
       ++p;
     }
   }
@@ -516,13 +521,14 @@ std::optional<cv::Rect> parse_box(const std::string& text, const char* what) {
 
 // The one file name the page may give: a plain name in the output folder.
 fs::path checked_out_path(const std::string& out, const std::string& name) {
-  const bool plain =
-      !name.empty() && name.size() <= 64 && name[0] != '.' &&
-      std::all_of(name.begin(), name.end(), [](char c) {
-        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-               c == '.' || c == '_' || c == '-';
-      }) &&
-      name.find("..") == std::string::npos;
+  const bool plain = !name.empty() && name.size() <= 64 && name[0] != '.' &&
+                     std::all_of(name.begin(), name.end(),
+                                 [](char c) {
+                                   return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') ||
+                                          (c >= '0' && c <= '9') || c == '.' || c == '_' ||
+                                          c == '-';
+                                 }) &&
+                     name.find("..") == std::string::npos;
   if (!plain)
     throw InvalidArgument("name '" + name +
                           "' refused: expected a plain file name of at most 64 letters, digits, "
@@ -558,8 +564,9 @@ struct Server {
     if (dir.empty()) {
       const fs::path installed = cli::program_folder(o.argv0) / SHADOWSENSE_STUDIO_INSTALLED_WEB;
       std::error_code ec;
-      dir = fs::is_regular_file(installed / "index.html", ec) ? installed
-                                                               : fs::path(SHADOWSENSE_STUDIO_SOURCE_WEB);
+      dir = fs::is_regular_file(installed / "index.html", ec)
+                ? installed
+                : fs::path(SHADOWSENSE_STUDIO_SOURCE_WEB);
     }
     for (const char* f : kWebFiles) {
       std::ifstream in(dir / f, std::ios::binary);
@@ -572,13 +579,23 @@ struct Server {
     }
   }
 
+  // The value of cookie `name` in the request, or "".
+  static std::string cookie(const httplib::Request& req, const std::string& name) {
+    const std::string all = "; " + req.get_header_value("Cookie");
+    const std::size_t at = all.find("; " + name + "=");
+    if (at == std::string::npos) return {};
+    const std::size_t start = at + name.size() + 3;
+    return all.substr(start, all.find(';', start) - start);
+  }
+
   // Refuses a request before routing: token, Host header, POST header.
   httplib::Server::HandlerResponse check(const httplib::Request& req, httplib::Response& res) {
     using H = httplib::Server::HandlerResponse;
     if (!token.empty()) {
       const std::string given = req.has_header("X-Studio-Token")
                                     ? req.get_header_value("X-Studio-Token")
-                                    : req.get_param_value("token");
+                                : req.has_param("token") ? req.get_param_value("token")
+                                                         : cookie(req, "ss_studio_token");
       if (!same_text(given, token)) {
         reply(res, 401, error_json("a token is required (printed by ss_studio at start)"));
         return H::Handled;
@@ -593,6 +610,11 @@ struct Server {
         return H::Handled;
       }
     }
+    // The page's own files (app.js, style.css) are fetched without the query: the cookie set
+    // with the page carries the token (HttpOnly, sent to this origin only).
+    if (!token.empty() && req.has_param("token"))
+      res.set_header("Set-Cookie",
+                     "ss_studio_token=" + token + "; Path=/; HttpOnly; SameSite=Strict");
     if (req.method == "POST" && req.get_header_value("X-Studio") != "1") {
       reply(res, 403, error_json("requests that change state need the header X-Studio: 1"));
       return H::Handled;
@@ -651,30 +673,29 @@ struct Server {
     });
     // The next frame after `after` (waits up to kLongPollMs) and the event lines after
     // `events_after`.
-    http.Get("/api/live", guarded([this](const httplib::Request& req, httplib::Response& res) {
-               const long long after = req.has_param("after") ? int_param(req, "after") : 0;
-               const long long ev = req.has_param("events_after") ? int_param(req, "events_after")
-                                                                  : 0;
-               std::unique_lock lock(s.m);
-               s.changed.wait_for(lock, std::chrono::milliseconds(kLongPollMs), [&] {
-                 return s.stop || s.seq > after || !s.runner_error.empty();
-               });
-               std::string out = "{\"seq\":" + std::to_string(s.seq) +
-                                 ",\"paused\":" + (s.paused ? "true" : "false") +
-                                 ",\"calibration\":" + cli_string(s.calibration_name) +
-                                 ",\"error\":" + cli_string(s.runner_error) + ",\"frame\":" +
-                                 (s.seq > after && !s.frame_json.empty() ? s.frame_json : "null");
-               out += ",\"events_total\":" + std::to_string(s.events_total) + ",\"events\":[";
-               const long long first = s.events_total - static_cast<long long>(s.events.size());
-               bool comma = false;
-               for (long long k = std::max(ev, first); k < s.events_total; ++k) {
-                 out += (comma ? "," : "") + s.events[static_cast<std::size_t>(k - first)];
-                 comma = true;
-               }
-               out += "]}";
-               lock.unlock();
-               reply(res, 200, out);
-             }));
+    http.Get(
+        "/api/live", guarded([this](const httplib::Request& req, httplib::Response& res) {
+          const long long after = req.has_param("after") ? int_param(req, "after") : 0;
+          const long long ev = req.has_param("events_after") ? int_param(req, "events_after") : 0;
+          std::unique_lock lock(s.m);
+          s.changed.wait_for(lock, std::chrono::milliseconds(kLongPollMs),
+                             [&] { return s.stop || s.seq > after || !s.runner_error.empty(); });
+          std::string out =
+              "{\"seq\":" + std::to_string(s.seq) + ",\"paused\":" + (s.paused ? "true" : "false") +
+              ",\"calibration\":" + cli_string(s.calibration_name) +
+              ",\"error\":" + cli_string(s.runner_error) +
+              ",\"frame\":" + (s.seq > after && !s.frame_json.empty() ? s.frame_json : "null");
+          out += ",\"events_total\":" + std::to_string(s.events_total) + ",\"events\":[";
+          const long long first = s.events_total - static_cast<long long>(s.events.size());
+          bool comma = false;
+          for (long long k = std::max(ev, first); k < s.events_total; ++k) {
+            out += (comma ? "," : "") + s.events[static_cast<std::size_t>(k - first)];
+            comma = true;
+          }
+          out += "]}";
+          lock.unlock();
+          reply(res, 200, out);
+        }));
     http.Post("/api/control", guarded([this](const httplib::Request& req, httplib::Response& res) {
                 const std::string a = req.get_param_value("action");
                 std::lock_guard lock(s.m);
@@ -696,17 +717,31 @@ struct Server {
                 if (kind != "empty" && kind != "touch")
                   throw InvalidArgument("kind: expected empty or touch, got '" + kind + "'");
                 std::lock_guard lock(s.m);
-                if (s.raw.empty()) throw InvalidArgument("no frame yet");
+                if (s.recent.empty()) throw InvalidArgument("no frame yet");
+                const Studio::Raw* raw = &s.recent.back();
+                if (req.has_param("seq")) {
+                  const long long seq = int_param(req, "seq");
+                  raw = nullptr;
+                  for (const Studio::Raw& f : s.recent)
+                    if (f.seq == seq) raw = &f;
+                  if (!raw) {
+                    reply(res, 409,
+                          error_json("frame " + std::to_string(seq) +
+                                     " is no longer kept; record again"));
+                    return;
+                  }
+                }
                 std::vector<Recorded>& v = kind == "empty" ? s.empty : s.touch;
                 if (v.size() >= kMaxRecorded) {
-                  reply(res, 409, error_json("at most " + std::to_string(kMaxRecorded) + " " +
-                                             kind + " frames; delete some first"));
+                  reply(res, 409,
+                        error_json("at most " + std::to_string(kMaxRecorded) + " " + kind +
+                                   " frames; delete some first"));
                   return;
                 }
                 Recorded r;
                 r.id = s.next_id++;
-                r.image = s.raw; // the runner never writes a published frame
-                r.source_name = s.raw_name;
+                r.image = raw->image; // the runner never writes a published frame
+                r.source_name = raw->name;
                 v.push_back(std::move(r));
                 reply(res, 200, recorded_json(s));
               }));
@@ -742,8 +777,7 @@ struct Server {
                 const std::optional<cv::Rect> shadow =
                     labelled ? parse_box(req.get_param_value("shadow"), "shadow") : std::nullopt;
                 const std::optional<cv::Rect> contact =
-                    labelled ? parse_box(req.get_param_value("contact"), "contact")
-                             : std::nullopt;
+                    labelled ? parse_box(req.get_param_value("contact"), "contact") : std::nullopt;
                 if (labelled && contact && !shadow)
                   throw InvalidArgument("a contact box needs a shadow box");
                 std::lock_guard lock(s.m);
@@ -940,10 +974,9 @@ int run(const Options& o) {
   http.set_keep_alive_timeout(3);
   http.set_read_timeout(5);
   http.set_write_timeout(5);
-  http.set_pre_routing_handler(
-      [&server](const httplib::Request& req, httplib::Response& res) {
-        return server.check(req, res);
-      });
+  http.set_pre_routing_handler([&server](const httplib::Request& req, httplib::Response& res) {
+    return server.check(req, res);
+  });
   server.routes();
   const int port = o.port == 0 ? http.bind_to_any_port(o.bind) : o.port;
   if (port <= 0 || (o.port != 0 && !http.bind_to_port(o.bind, o.port)))

@@ -24,7 +24,7 @@ for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].slice(2)] 
 for (const k of ['playwright', 'chromium', 'studio', 'work']) {
   if (!args[k]) { console.error(`browser_test: missing --${k}`); process.exit(2); }
 }
-const { chromium } = createRequire(path.join(args.playwright, 'x.js'))('playwright-core');
+const { chromium } = createRequire(path.resolve(args.playwright, 'x.js'))('playwright-core');
 const OVERLAY = [0, 255, 102]; // app.js OVERLAY, '#00ff66'
 
 let failures = 0;
@@ -235,15 +235,15 @@ async function main() {
     const bare = overlayPixels(await page.locator('#live-canvas').screenshot());
     check(bare === 0, `no overlay without a calibration (${bare} overlay pixels)`);
 
-    // Record: 4 empty frames, 5 touch frames (one hovering: no contact box -> X).
+    // Record: 4 empty frames, 4 touch frames (the last one labelled "no contact" with X).
     await page.click('#tab-calib');
     await page.click('#calib-pause');
+    await until('the pause', () => page.evaluate(() => window.studioStats.paused));
+    await sleep(300); // a frame in the making when the pause came is still published
     const files = [...meta.keys()].sort();
     const empty = files.filter((f) => meta.get(f).cls === 'nothing').slice(0, 4);
     const touch = files.filter((f) => meta.get(f).shadow && meta.get(f).contact).filter((_, i) => i % 3 === 0).slice(0, 4);
-    const hover = files.find((f) => meta.get(f).shadow && !meta.get(f).contact);
     const chosen = [...empty.map((f) => ['empty', f]), ...touch.map((f) => ['touch', f])];
-    if (hover) chosen.push(['touch', hover]);
     chosen.sort((a, b) => (a[1] < b[1] ? -1 : 1));
     for (const [kind, f] of chosen) {
       await stepTo(page, f);
@@ -273,7 +273,9 @@ async function main() {
     await until('next wraps to the first', async () => (await page.$eval('#label-pos', (e) => e.textContent)).startsWith('1 /'));
     for (let i = 0; i < touchFiles.length; i++) {
       const m = meta.get(touchFiles[i]);
-      await until(`touch frame ${i + 1}`, async () => (await labelState(page)).startsWith(touchFiles[i] + ':'));
+      await until(`touch frame ${i + 1}`, async () => (await labelState(page)).startsWith(touchFiles[i] + ':')).catch(async (e) => {
+        throw new Error(`${e.message} (${touchFiles[i]}): the page shows '${await labelState(page)}' at ${await page.$eval('#label-pos', (x) => x.textContent)}`);
+      });
       await drag(page, m.shadow);
       await until(`the shadow box ${m.shadow} of ${touchFiles[i]}`, async () => (await labelState(page)).includes(`shadow ${m.shadow.join(',')}`)).catch(async (e) => { throw new Error(e.message + ': the page shows ' + (await labelState(page))); });
       if (m.contact) {

@@ -179,6 +179,7 @@ function addEvents(lines) {
 }
 
 let lastCalibration = '';
+let shownSeq = 0; // the frame the page shows: the one a recording takes
 async function liveLoop() {
   let after = 0, eventsAfter = 0;
   for (;;) {
@@ -191,7 +192,7 @@ async function liveLoop() {
       $('pause').textContent = $('calib-pause').textContent = r.paused ? 'Play' : 'Pause';
       if (r.error) setStatus('live view stopped: ' + r.error, true);
       if (r.frame) {
-        after = r.seq;
+        after = shownSeq = r.seq;
         lastFrame = r.frame;
         $('pause').disabled = $('step').disabled = !r.frame.file;
         $('calib-pause').disabled = $('calib-step').disabled = !r.frame.file;
@@ -326,7 +327,7 @@ async function select(i) {
 }
 async function record(kind) {
   try {
-    await refreshCalib(await api('POST', `/api/record?kind=${kind}`));
+    await refreshCalib(await api('POST', `/api/record?kind=${kind}&seq=${shownSeq}`));
     if (kind === 'touch') await select(calib.touch.length - 1);
     setStatus(`recorded a${kind === 'empty' ? 'n empty-skin' : ' touch'} frame`);
   } catch (e) { setStatus(e.message, true); }
