@@ -11,8 +11,9 @@
 //   * bound to a non-loopback address, a request without the token is refused.
 // Usage: node browser_test.mjs --playwright DIR --chromium BIN --studio BIN --calibrate BIN
 //        --data DATASET --work DIR [--screenshots DIR] [--measure VIDEO]
-// --measure VIDEO: instead of the test, play VIDEO (ss_studio on one core via taskset) for 10 s
-// and print the frames shown per second and the frame-to-screen latency.
+// --measure VIDEO [--measure-calibration FILE] [--measure-model FILE|none]: instead of the test,
+// play VIDEO (ss_studio on one core via taskset) for 10 s and print the frames shown per second
+// and the frame-to-screen latency.
 import { spawn, execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
@@ -200,7 +201,8 @@ async function labelState(page) {
 }
 
 async function measure(browser) {
-  const s = await startStudio(['--input', args.measure, '--model', 'none', '--port', '0'], ['taskset', '-c', '0']);
+  const extra = args['measure-calibration'] ? ['--calibration', args['measure-calibration']] : [];
+  const s = await startStudio(['--input', args.measure, '--model', args['measure-model'] || 'none', '--port', '0', ...extra], ['taskset', '-c', '0']);
   const page = await openPage(browser, `http://127.0.0.1:${s.port}/`);
   await until('frames', () => page.evaluate(() => window.studioStats.shown > 30));
   const t0 = Date.now();
