@@ -3,7 +3,7 @@
 # Usage: tools/install-debian-deps.sh [--python]   (--python adds python3-torch and
 # python3-opencv for tools/ and the torchvision golden tests)
 set -euo pipefail
-packages=(cmake g++ make libopencv-dev libopencv-videoio-dev libopencv-highgui-dev libeigen3-dev doctest-dev catch2 pkg-config liblo-dev liblo-tools python3-dev pybind11-dev python3-numpy python3-pytest)
+packages=(cmake g++ make libopencv-dev libopencv-videoio-dev libopencv-highgui-dev libeigen3-dev doctest-dev catch2 pkg-config liblo-dev liblo-tools python3-dev pybind11-dev python3-numpy python3-pytest libcpp-httplib-dev)
 if [[ "${1:-}" == "--python" ]]; then packages+=(python3 python3-numpy python3-torch python3-torchvision python3-opencv); fi
 missing=()
 for p in "${packages[@]}"; do
