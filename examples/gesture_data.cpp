@@ -140,8 +140,8 @@ int main(int argc, char** argv) {
           char name[64];
           std::snprintf(name, sizeof name, "%s_%05d.png", session.name().c_str(), f);
           const std::string rel = std::string(ss::sim::to_string(info.gesture)) + "/" + name;
-          if (!cv::imwrite((fs::path(out) / rel).string(), frame.image))
-            throw ss::IoError("cannot write " + (fs::path(out) / rel).string());
+          // Atomic (temp + rename): a kill or a full disk never leaves a truncated PNG.
+          ss::sim::internal::write_png(fs::path(out) / rel, frame.image);
           const auto& gt = frame.gt;
           csv << rel << ',' << ss::sim::to_string(info.gesture) << ',' << info.user << ','
               << ss::sim::to_string(session.light().label) << ',' << session.light().level << ','
@@ -157,7 +157,8 @@ int main(int argc, char** argv) {
       }
       std::cout << "user " << u << ": " << written << " frames\n" << std::flush;
     }
-    csv_file.commit(); // complete only once every image exists
+    ss::sync_filesystem(out); // the frames' deferred writes reach the disk before the csv
+    csv_file.commit();        // complete only once every image exists
     std::cout << "wrote " << written << " frames to " << out << "\n";
     return 0;
   });

@@ -296,7 +296,15 @@ void bind_results(py::module_& m) {
                              })
       .def_readonly("events", &ss::TouchFrame::events, "increasing track id, then in order")
       .def_readonly("dropped_shadow_blobs", &ss::TouchFrame::dropped_shadow_blobs)
-      .def_readonly("dropped_contact_blobs", &ss::TouchFrame::dropped_contact_blobs);
+      .def_readonly("dropped_contact_blobs", &ss::TouchFrame::dropped_contact_blobs)
+      .def_property_readonly(
+          "camera", [](const ss::TouchFrame& f) { return std::string(ss::to_string(f.camera)); },
+          "this frame's camera fault: 'none', 'dark', 'saturated' or 'frozen' "
+          "(sense/camera_health.hpp)")
+      .def_property_readonly(
+          "camera_before",
+          [](const ss::TouchFrame& f) { return std::string(ss::to_string(f.camera_before)); },
+          "the previous frame's camera fault");
 
   py::class_<ss::GestureEvent>(m, "GestureEvent",
                                "A temporal touch gesture (sense/gesture_event.hpp).")

@@ -69,3 +69,13 @@ def test_the_messages_name_what_is_wrong(sequence, runtime):
         runtime.update(f[::2], 1.0)
     with pytest.raises(ValueError, match=r"empty"):
         runtime.update(np.zeros((0, 635, 3), np.uint8), 1.0)
+
+
+def test_a_black_frame_is_a_camera_fault_not_a_touch(sequence):
+    pipeline = ss.TouchPipeline(ss.Segmenter(ss.load_calibration(sequence.calibration_path)))
+    first = pipeline.update(sequence.images[0], 1.0)
+    assert first.camera == "none"
+    black = np.zeros_like(sequence.images[0])
+    frame = pipeline.update(black, 2.0)
+    assert (frame.camera, frame.camera_before) == ("dark", "none")
+    assert frame.shadow_boxes == [] and frame.events == []

@@ -8,7 +8,7 @@ import shadowsense as ss
 
 def test_version():
     assert ss.__version__ == "0.1.0"
-    assert ss.event_schema_version == 3
+    assert ss.event_schema_version == 4
 
 
 def test_the_stub_lists_every_public_name():
