@@ -1,6 +1,6 @@
 #!/bin/sh
 # Reproduces models/candidates/c2.ssm, candidate C2 of issue 21 ("hands we have never seen"):
-# the shipped model's recipe (models/make_default.sh: same users, seeds, frames, architecture
+# the C0 recipe (models/make_c0.sh: same users, seeds, frames, architecture
 # and training) with the body drawn at a pixel scale log-uniform in [0.6, 2] per gesture block
 # (ss_gesture_data --scale-range 0.6,2: Scene::zoom about the gesture's anchor, the hands,
 # arms, shadow shifts and penumbrae seen 0.6x to 2x as large; docs/scene_generator.md) - that

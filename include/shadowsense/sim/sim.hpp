@@ -1,5 +1,6 @@
-// The scene generator (core only: OpenCV core + imgproc). Dataset writers are in
-// <shadowsense/io/dataset.hpp> (needs imgcodecs).
+// The scene generator (core only: OpenCV core + imgproc). Its dataset writers are in
+// <shadowsense/sim/dataset_writer.hpp> (needs imgcodecs); the dataset reader in
+// <shadowsense/io/dataset.hpp>.
 #pragma once
 
 #include <shadowsense/sim/body.hpp>
