@@ -69,11 +69,62 @@ def python_means(ss, frames, samples, model):
     return means
 
 
+def in_process(ss, frames, samples, model):
+    """Python calls against the module's own C++ loops (_update_loop, _classify_loop) on the same
+    frames, alternating pass by pass in one process, so both see the same load at almost the
+    same moment; returns {benchmark: (C++ ns, Python ns, median of the paired overheads in %)}."""
+    from shadowsense import _shadowsense as native
+    out = {}
+    for size, rig in RIGS:
+        images, calibration = frames[rig]
+        seg = ss.Segmenter(ss.load_calibration(calibration))
+        py_pipe, cpp_pipe = ss.TouchPipeline(seg), ss.TouchPipeline(seg)
+        classifier = ss.Classifier(model)
+        ten = images[:10]
+        state = {"t_py": 0.0, "t_cpp": 0.0}
+
+        def py_track():
+            for f in images:
+                state["t_py"] += 10
+                py_pipe.update(f, state["t_py"])
+
+        def cpp_track():
+            state["t_cpp"] = native._update_loop(cpp_pipe, images, state["t_cpp"] + 10, 10) - 10
+
+        def py_classify():
+            for f in ten:
+                classifier.classify(f)
+
+        def cpp_classify():
+            native._classify_loop(classifier, ten)
+
+        for name, n, py_fn, cpp_fn in (("TouchPipeline.update", len(images), py_track, cpp_track),
+                                       ("Classifier.classify", len(ten), py_classify, cpp_classify)):
+            py_fn(), cpp_fn()  # warm-up
+            pairs = []
+            for k in range(samples):
+                order = (cpp_fn, py_fn) if k % 2 else (py_fn, cpp_fn)
+                took = {}
+                for fn in order:
+                    t0 = time.perf_counter_ns()
+                    fn()
+                    took[fn] = (time.perf_counter_ns() - t0) / n
+                pairs.append((took[cpp_fn], took[py_fn]))
+            c = statistics.median(p[0] for p in pairs)
+            q = statistics.median(p[1] for p in pairs)
+            over = statistics.median((p[1] - p[0]) / p[0] * 100 for p in pairs)
+            out[f"{name} {size}"] = (c, q, over)
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--build", default=str(ROOT / "build"))
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--samples", type=int, default=20)
+    parser.add_argument("--in-process", action="store_true",
+                        help="compare against the module's own C++ loops in this process, pass "
+                             "by pass (less disturbed by other load than separate programs)")
     args = parser.parse_args()
     build = pathlib.Path(args.build).resolve()
     sys.path.insert(0, str(build / "python"))
@@ -89,6 +140,14 @@ def main():
         for _, rig in RIGS:
             f = Frames(pathlib.Path(tmp) / rig)
             frames[rig] = ([np.ascontiguousarray(i) for i in f.images], f.calibration_path)
+        if args.in_process:
+            print(f"{'benchmark (in process)':34} {'C++ ms/frame':>13} {'Python ms/frame':>16} "
+                  f"{'overhead (median of pairs)':>27}")
+            for name, (c, q, over) in in_process(ss, frames, args.samples, model).items():
+                print(f"{name:34} {c / 1e6:13.3f} {q / 1e6:16.3f} {over:26.1f}%")
+            print(f"({os.cpu_count()} cores; {args.samples} alternating pass pairs; the target is "
+                  "<= 5%)")
+            return
         rounds = []
         for r in range(args.rounds):
             cpp = cpp_means(build, args.samples)

@@ -733,4 +733,32 @@ PYBIND11_MODULE(_shadowsense, m) {
         return reinterpret_cast<std::uintptr_t>(frame_view(frame, "_frame_address").data);
       },
       py::arg("frame"));
+  // The C++ side of bench/python_overhead.py's in-process comparison: the same calls on the
+  // same frames in a C++ loop (no Python call, no result object per frame).
+  m.def(
+      "_update_loop",
+      [](PyTouchPipeline& self, const std::vector<py::array>& frames, double t0, double dt) {
+        const auto guard = self.owner.enter("TouchPipeline");
+        std::vector<cv::Mat> images;
+        for (const py::array& f : frames) images.push_back(frame_view(f, "_update_loop"));
+        py::gil_scoped_release release;
+        double t = t0;
+        for (const cv::Mat& image : images) {
+          self.pipeline.update(image, t);
+          t += dt;
+        }
+        return t;
+      },
+      py::arg("pipeline"), py::arg("frames"), py::arg("t0"), py::arg("dt"));
+  m.def(
+      "_classify_loop",
+      [](PyClassifier& self, const std::vector<py::array>& frames) {
+        const auto guard = self.owner.enter("Classifier");
+        ss::Classifier<ss::DenseNet>& classifier = self.get();
+        std::vector<cv::Mat> images;
+        for (const py::array& f : frames) images.push_back(frame_view(f, "_classify_loop"));
+        py::gil_scoped_release release;
+        for (const cv::Mat& image : images) classifier.classify(image, self.result);
+      },
+      py::arg("classifier"), py::arg("frames"));
 }
