@@ -70,8 +70,8 @@ TEST_CASE("pipeline -> OutputFrameBuilder -> CSV rows and TUIO alive lists follo
     REQUIRE(out.events.size() == r.events.size());
     for (const TrackEvent& e : r.events) {
       for (const std::string& field :
-           {std::to_string(event_schema_version), std::string("touch"), std::string(), std::to_string(i + 1),
-            std::to_string(77 * i), std::to_string(e.track_id),
+           {std::to_string(event_schema_version), std::string("touch"), std::string(),
+            std::to_string(i + 1), std::to_string(77 * i), std::to_string(e.track_id),
             std::string(to_string(e.event.from)), std::string(to_string(e.event.to)),
             std::string(to_string(e.event.direction))}) {
         expected_csv += field;
