@@ -2,8 +2,11 @@
 # CI: ss_studio in a real browser (tests/studio/browser_test.mjs). Installs Debian's chromium
 # (and nodejs/npm when missing) and cpp-httplib, playwright-core (pinned) from npm into the build
 # folder, builds only ss_studio, ss_calibrate and ss_gesture_data in the existing build folder,
-# and drives the page headless: frames advance, overlay drawn, recording, boxes drawn with the
-# mouse, calibration equal to ss_calibrate's, path traversal refused, the token enforced.
+# makes a 640x480 MJPG video of a small generated dataset (tests/studio/video_frames.py, OpenCV
+# in Python), and drives the page headless on it: frames advance, overlay drawn, recording from
+# the video, boxes drawn with the mouse, calibration equal to ss_calibrate's on the same frames
+# and boxes, a phone-sized screen, path traversal refused, the token enforced. Prints the frames
+# shown per second and the frame-to-screen latency (not asserted).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 export DEBIAN_FRONTEND=noninteractive
@@ -37,6 +40,7 @@ fi
 
 "$build/examples/ss_gesture_data" --out "$work/data" --users 1 --frames 6 --lightings daylight \
   --overwrite > /dev/null
+/usr/bin/python3 tests/studio/video_frames.py write "$work/data" "$work/skin.avi" > /dev/null
 timeout 600 node tests/studio/browser_test.mjs --playwright "$npm_dir" --chromium /usr/bin/chromium \
   --studio "$build/examples/ss_studio" --calibrate "$build/examples/ss_calibrate" \
-  --data "$work/data" --work "$work/run"
+  --data "$work/data" --video "$work/skin.avi" --python /usr/bin/python3 --work "$work/run"

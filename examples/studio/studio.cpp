@@ -11,16 +11,21 @@
 // ss_track: segmenter, tracker, touch state machines, classifier gated by the shadow, temporal
 // gestures), draws the masks (common/runner.hpp annotate) into a JPEG and publishes it with the
 // tracks (id, state, box, contact point, contact area, hover opacity and height), the gesture
-// and its probabilities, per-stage milliseconds and the frame rate. Events are the JSON lines of
-// the library's JsonLinesSink (the ss_track schema, docs/output.md). Without a calibration the
-// frames are shown bare until one is made in the page.
+// and its probabilities, per-stage milliseconds (read, segment, blobs+track+touch, classify,
+// draw, encode; timed by the studio around the library's rule and backend, see StageClock) and
+// the frame rate. The page long-polls GET /api/frame: the frame's JPEG bytes after a small JSON
+// (its metadata, the server's read and publish times, the new event lines), one request per
+// frame, no base64. Events are the JSON lines of the library's JsonLinesSink (the ss_track
+// schema, docs/output.md). Without a calibration the frames are shown bare until one is made in
+// the page.
 // Calibration: the page records the current frame as an empty-skin or a touch frame (at most
 // kMaxRecorded of each), labels the touch frames with two boxes, runs calibrate_from_frames
 // with ss_calibrate's defaults (so the file equals ss_calibrate's on the same frames and boxes),
 // shows the warnings by frame and a preview, and saves the file atomically as OUT/NAME (NAME one
 // plain file name: letters, digits, '.', '_', '-'; no folder, no "..") with the frames and a
 // labels CSV under OUT/NAME.frames/ (ss_calibrate --empty .../empty --touch .../touch --labels
-// .../labels.csv reproduces it); the live view then switches to it.
+// .../labels.csv reproduces it: recorded from a video or a camera, these are the only copy of
+// the frames, written atomically); the live view then switches to it.
 //
 // Safety: binds 127.0.0.1 unless --bind; a bind to any other address requires a random token
 // (printed at start) on every request (query "token", header X-Studio-Token, or the cookie the
@@ -194,6 +199,54 @@ double epoch_ms() {
       .count();
 }
 
+// Stage clocks of the live view, kept by the studio (the library has no clock in its hot path):
+// the pixel rule and the classifier backend are the library's extension points
+// (sense/pixel_rule.hpp, classify/backend.hpp), so wrapping the calibrated rule and DenseNet
+// times the segmentation's per-pixel work and the network's inference without an edit of the
+// library. The rest of Runtime::update (mask clean-up, blobs, tracker, touch machines, the
+// classifier's input encoding, temporal gestures) is the update's time minus these two.
+// Owned by the runner thread; the rule and backend below write it from inside update().
+struct StageClock {
+  using clock = std::chrono::steady_clock;
+  clock::time_point rule_end{};
+  double classify_ms = 0;
+};
+
+class TimedRule {
+public:
+  TimedRule(const SegmenterCalibration& cal, StageClock* clock) : rule_(cal), clock_(clock) {}
+  bool uses_reference() const { return rule_.uses_reference(); }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    rule_.classify(in, out);
+    clock_->rule_end = StageClock::clock::now();
+  }
+
+private:
+  CalibratedRule rule_;
+  StageClock* clock_;
+};
+static_assert(PixelRule<TimedRule>);
+
+class TimedBackend {
+public:
+  TimedBackend(DenseNet net, StageClock* clock) : net_(std::move(net)), clock_(clock) {}
+  std::span<const std::string> class_names() const { return net_.class_names(); }
+  std::span<const float> logits(const Tensor& input) {
+    const auto t0 = StageClock::clock::now();
+    const std::span<const float> out = net_.logits(input);
+    clock_->classify_ms +=
+        std::chrono::duration<double, std::milli>(StageClock::clock::now() - t0).count();
+    return out;
+  }
+
+private:
+  DenseNet net_;
+  StageClock* clock_;
+};
+static_assert(ClassifierBackend<TimedBackend>);
+
+using StudioRuntime = BasicRuntime<TimedRule, TimedBackend>;
+
 // One recorded frame of the calibration workflow.
 struct Recorded {
   long long id = 0;
@@ -209,8 +262,10 @@ struct Studio {
   std::condition_variable changed; // a new frame, a control request, stop
   bool stop = false;
   // live view
-  long long seq = 0;      // frames published
-  std::string frame_json; // the last frame as the page takes it
+  long long seq = 0;          // frames published
+  std::string frame_json;     // the last frame's metadata (tracks, gesture, stage times)
+  std::string frame_jpeg;     // and its picture, as JPEG bytes
+  double published_epoch = 0; // when it was published (ms since the epoch)
   // The last frames as read, by their seq (never written after publishing): the page records
   // the one it shows, also when newer ones were published since.
   struct Raw {
@@ -242,17 +297,25 @@ struct Runner {
   Studio& s;
   fs::path model_path;
 
-  std::optional<Runtime> make_runtime(const SegmenterCalibration& cal) const {
+  StageClock stage_clock; // the runtime's rule and backend write it (runner thread only)
+
+  // The library's Runtime with the studio's timed rule and backend (ss_track's Runtime
+  // otherwise: the same rule, network, pipeline and configuration).
+  std::optional<StudioRuntime> make_runtime(const SegmenterCalibration& cal) {
     SegmenterConfig sc;
     sc.calibration = cal;
     sc.max_image_side = o.max_side;
     if (o.hover.size() == 3) sc.hover_model = HoverHeightModel{o.hover[0], o.hover[1], o.hover[2]};
-    std::optional<Classifier<DenseNet>> classifier;
-    if (!model_path.empty())
-      classifier.emplace(
-          make_densenet_classifier(ModelFile::load(model_path), {.threads = o.threads}));
-    return std::optional<Runtime>(std::in_place, TouchPipeline{Segmenter(sc)},
-                                  std::move(classifier), RuntimeConfig{});
+    std::optional<Classifier<TimedBackend>> classifier;
+    if (!model_path.empty()) {
+      const ModelFile model = ModelFile::load(model_path);
+      classifier.emplace(TimedBackend(DenseNet(model, {.threads = o.threads}), &stage_clock),
+                         Classifier<TimedBackend>::Config{model.preprocess, ChannelOrder::bgr});
+    }
+    return std::optional<StudioRuntime>(
+        std::in_place,
+        BasicTouchPipeline<TimedRule>{BasicSegmenter<TimedRule>(sc, TimedRule(cal, &stage_clock))},
+        std::move(classifier), RuntimeConfig{});
   }
 
   static void track_json(cli::JsonWriter& j, const TouchTrack& t, const Segmentation& seg) {
@@ -296,7 +359,7 @@ struct Runner {
   }
 
   void loop() {
-    std::optional<Runtime> sense;
+    std::optional<StudioRuntime> sense;
     if (!o.calibration.empty()) sense = make_runtime(load_calibration(o.calibration));
     std::optional<frames::FrameSource> src = frames::FrameSource::open(o.input, o.max_side);
     const bool camera = src->is_camera();
@@ -304,9 +367,9 @@ struct Runner {
     using clock = std::chrono::steady_clock;
     const auto start = clock::now();
     auto pace_origin = start;
-    double pace_t0 = 0, t = 0, t_offset = 0, rate = 0;
+    double pace_t0 = 0, t = 0, t_offset = 0;
     long long i = 0;
-    auto last_shown = start;
+    std::deque<clock::time_point> done; // when the frames of the last 2 s were published
     std::stringstream event_text;
     std::optional<JsonLinesSink> sink;
     sink.emplace(event_text, JsonLinesSink::Config{.source = o.input, .flush = false});
@@ -353,6 +416,8 @@ struct Runner {
       std::string source_name = name;
       cv::Mat shown;
       const RuntimeFrame* r = nullptr;
+      stage_clock.rule_end = t_update;
+      stage_clock.classify_ms = 0;
       if (sense) {
         r = &sense->update(frame, t);
         sink->write(sense->output());
@@ -365,9 +430,12 @@ struct Runner {
       const auto ms = [](clock::time_point a, clock::time_point b) {
         return std::chrono::duration<double, std::milli>(b - a).count();
       };
-      const double gap = ms(last_shown, t_done);
-      last_shown = t_done;
-      if (gap > 0) rate = rate == 0 ? 1000.0 / gap : 0.9 * rate + 0.1 * (1000.0 / gap);
+      // Frames processed per second: those of the last 2 s over their span.
+      done.push_back(t_done);
+      while (ms(done.front(), t_done) > 2000) done.pop_front();
+      const double rate =
+          done.size() > 1 ? 1000.0 * static_cast<double>(done.size() - 1) / ms(done.front(), t_done)
+                          : 0;
 
       cli::JsonWriter j;
       j.begin_object(cli::JsonWriter::compact);
@@ -376,8 +444,14 @@ struct Runner {
       j.field("width", frame.cols).field("height", frame.rows);
       j.field("calibrated", sense.has_value()).field("classifier", !model_path.empty());
       j.field("file", !camera).field("input_fps", fps).field("processed_fps", rate);
+      // segment: up to the pixel rule's end (camera check, blur, reference, rule); track: the
+      // rest of the update but the network's inference (mask clean-up, blobs, tracker, touch
+      // machines, the classifier's input, temporal gestures, the event line).
+      const double segment = sense ? ms(t_update, stage_clock.rule_end) : 0;
       j.key("stage_ms").begin_object();
-      j.field("read", ms(t_read, t_update)).field("runtime", ms(t_update, t_draw));
+      j.field("read", ms(t_read, t_update)).field("segment", segment);
+      j.field("track", std::max(0.0, ms(t_update, t_draw) - segment - stage_clock.classify_ms));
+      j.field("classify", stage_clock.classify_ms).field("runtime", ms(t_update, t_draw));
       j.field("draw", ms(t_draw, t_encode)).field("encode", ms(t_encode, t_done)).end_object();
       j.key("tracks").begin_array();
       if (r)
@@ -397,7 +471,6 @@ struct Runner {
       if (r)
         for (const GestureEvent& g : r->touch_gestures) j.value(std::string(to_string(g.gesture)));
       j.end_array();
-      j.field("jpeg", base64(jpeg));
       j.end_object();
 
       std::vector<std::string> lines;
@@ -408,6 +481,8 @@ struct Runner {
       {
         std::lock_guard lock(s.m);
         s.frame_json = j.str();
+        s.frame_jpeg.assign(jpeg.begin(), jpeg.end());
+        s.published_epoch = epoch_ms();
         s.recent.push_back({s.seq + 1, frame.clone(), source_name});
         if (s.recent.size() > kRecentFrames) s.recent.pop_front();
         s.file_input = !camera;
@@ -649,6 +724,33 @@ struct Server {
     return x;
   }
 
+  // The /api/live reply for the request's `after` and `events_after`, waiting up to kLongPollMs
+  // for a frame after `after`; with `jpeg`, that frame's JPEG goes there (else nothing).
+  std::string live(const httplib::Request& req, std::string* jpeg) {
+    const long long after = req.has_param("after") ? int_param(req, "after") : 0;
+    const long long ev = req.has_param("events_after") ? int_param(req, "events_after") : 0;
+    std::unique_lock lock(s.m);
+    s.changed.wait_for(lock, std::chrono::milliseconds(kLongPollMs),
+                       [&] { return s.stop || s.seq > after || !s.runner_error.empty(); });
+    const bool fresh = s.seq > after && !s.frame_json.empty();
+    std::string out = "{\"seq\":" + std::to_string(s.seq) +
+                      ",\"paused\":" + (s.paused ? "true" : "false") +
+                      ",\"calibration\":" + cli_string(s.calibration_name) +
+                      ",\"error\":" + cli_string(s.runner_error) +
+                      ",\"frame\":" + (fresh ? s.frame_json : "null");
+    out += ",\"published_epoch_ms\":" + std::to_string(s.published_epoch);
+    out += ",\"events_total\":" + std::to_string(s.events_total) + ",\"events\":[";
+    const long long first = s.events_total - static_cast<long long>(s.events.size());
+    bool comma = false;
+    for (long long k = std::max(ev, first); k < s.events_total; ++k) {
+      out += (comma ? "," : "") + s.events[static_cast<std::size_t>(k - first)];
+      comma = true;
+    }
+    out += "]}";
+    if (jpeg && fresh) *jpeg = s.frame_jpeg;
+    return out;
+  }
+
   void routes() {
     for (const char* f : kWebFiles) {
       const std::string name = f;
@@ -672,30 +774,24 @@ struct Server {
       reply(res, 200, j.str());
     });
     // The next frame after `after` (waits up to kLongPollMs) and the event lines after
-    // `events_after`.
-    http.Get(
-        "/api/live", guarded([this](const httplib::Request& req, httplib::Response& res) {
-          const long long after = req.has_param("after") ? int_param(req, "after") : 0;
-          const long long ev = req.has_param("events_after") ? int_param(req, "events_after") : 0;
-          std::unique_lock lock(s.m);
-          s.changed.wait_for(lock, std::chrono::milliseconds(kLongPollMs),
-                             [&] { return s.stop || s.seq > after || !s.runner_error.empty(); });
-          std::string out =
-              "{\"seq\":" + std::to_string(s.seq) + ",\"paused\":" + (s.paused ? "true" : "false") +
-              ",\"calibration\":" + cli_string(s.calibration_name) +
-              ",\"error\":" + cli_string(s.runner_error) +
-              ",\"frame\":" + (s.seq > after && !s.frame_json.empty() ? s.frame_json : "null");
-          out += ",\"events_total\":" + std::to_string(s.events_total) + ",\"events\":[";
-          const long long first = s.events_total - static_cast<long long>(s.events.size());
-          bool comma = false;
-          for (long long k = std::max(ev, first); k < s.events_total; ++k) {
-            out += (comma ? "," : "") + s.events[static_cast<std::size_t>(k - first)];
-            comma = true;
-          }
-          out += "]}";
-          lock.unlock();
-          reply(res, 200, out);
-        }));
+    // `events_after`: /api/live as JSON (the frame's metadata, no picture), /api/frame as
+    // binary - a 4-byte big-endian length, that JSON, then the frame's JPEG (absent when no
+    // newer frame came). The page uses /api/frame: no base64, one request per frame.
+    http.Get("/api/live", guarded([this](const httplib::Request& req, httplib::Response& res) {
+               reply(res, 200, live(req, nullptr));
+             }));
+    http.Get("/api/frame", guarded([this](const httplib::Request& req, httplib::Response& res) {
+               std::string jpeg;
+               const std::string json = live(req, &jpeg);
+               std::string body(4, '\0');
+               for (int k = 0; k < 4; ++k)
+                 body[static_cast<std::size_t>(k)] =
+                     static_cast<char>((json.size() >> (24 - 8 * k)) & 255u);
+               body += json;
+               body += jpeg;
+               res.set_header("Cache-Control", "no-store");
+               res.set_content(std::move(body), "application/octet-stream");
+             }));
     http.Post("/api/control", guarded([this](const httplib::Request& req, httplib::Response& res) {
                 const std::string a = req.get_param_value("action");
                 std::lock_guard lock(s.m);
@@ -956,7 +1052,7 @@ int run(const Options& o) {
     (void)load_calibration(o.calibration); // a bad file is a start-up error, not a runner one
     studio.calibration_name = fs::path(o.calibration).filename().string();
   }
-  Runner runner{o, studio, {}};
+  Runner runner{o, studio, {}, {}};
   if (o.model != "none")
     runner.model_path = o.model.empty() ? runner::find_default_model(o.argv0) : fs::path(o.model);
   if (!runner.model_path.empty()) (void)ModelFile::load(runner.model_path);
@@ -971,6 +1067,9 @@ int run(const Options& o) {
   httplib::Server& http = server.http;
   http.new_task_queue = [] { return new httplib::ThreadPool(kWorkers); };
   http.set_payload_max_length(kMaxBody);
+  // A frame is a small header write then the body: with Nagle's algorithm the body waits for
+  // the browser's delayed ACK (tens of ms per frame).
+  http.set_tcp_nodelay(true);
   http.set_keep_alive_timeout(3);
   http.set_read_timeout(5);
   http.set_write_timeout(5);

@@ -1,24 +1,30 @@
 // The browser test of ss_studio (run by .ci/steps/studio_browser.sh): headless Chromium driven
-// by playwright-core opens the page on a generated gesture dataset, sees frames advance, records
-// empty-skin and touch frames, draws their boxes with the mouse (keyboard for previous / next /
-// no contact), calibrates, saves, and checks
-//   * the saved file equals ss_calibrate's on the same frames and boxes (thresholds within 1e-6,
-//     the empty-skin model byte for byte);
+// by playwright-core opens the page on a VIDEO made from a generated gesture dataset
+// (video_frames.py: its images in name order, padded to 640x480, MJPG), sees frames advance,
+// records empty-skin and touch frames from the video, draws their boxes with the mouse
+// (keyboard for previous / next / no contact), calibrates, saves, and checks
+//   * the saved file equals ss_calibrate's on the same frames (decoded from the video
+//     independently, by OpenCV in Python) and the same boxes (the dataset's), thresholds within
+//     1e-6 and the empty-skin model byte for byte; and equals ss_calibrate's on the frames and
+//     labels the studio saved beside it (OUT/NAME.frames, for the user to re-run);
 //   * the live view draws the track overlay after the switch to the new calibration (pixels of
-//     the overlay colour in a screenshot; none before, without a calibration);
+//     the overlay colour in a screenshot; none before, without a calibration); the frames shown
+//     per second, the frame-to-screen latency and the stage times are printed, not asserted;
 //   * a second tab sees the same recorded frames;
+//   * on a phone-sized screen (390x844) nothing overflows sideways and the main controls show;
 //   * a path traversal attempt is refused and writes nothing;
 //   * bound to a non-loopback address, a request without the token is refused.
 // Usage: node browser_test.mjs --playwright DIR --chromium BIN --studio BIN --calibrate BIN
-//        --data DATASET --work DIR [--screenshots DIR] [--measure VIDEO]
-// --measure VIDEO [--measure-calibration FILE] [--measure-model FILE|none]: instead of the test,
-// play VIDEO (ss_studio on one core via taskset) for 10 s and print the frames shown per second
-// and the frame-to-screen latency.
+//        --data DATASET --video VIDEO --work DIR [--python BIN] [--screenshots DIR]
+// --measure VIDEO [--measure-calibration FILE] [--measure-model FILE|none] [--measure-seconds S]:
+// instead of the test, play VIDEO (ss_studio on one core via taskset) for S seconds (default 10)
+// and print the frames shown per second, the frame-to-screen latency and the stage times.
 import { spawn, execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import zlib from 'node:zlib';
 import { createRequire } from 'node:module';
+import { fileURLToPath } from 'node:url';
 
 const args = {};
 for (let i = 2; i < process.argv.length; i += 2) args[process.argv[i].slice(2)] = process.argv[i + 1];
@@ -200,32 +206,70 @@ async function labelState(page) {
   return page.$eval('#label-state', (e) => e.textContent);
 }
 
+// Frames shown per second, frame-to-screen latency and the server's frame rate over `ms`.
+async function measureLive(page, ms) {
+  const start = await page.evaluate(() => { const s = window.studioStats; s.latencies.length = 0; s.delivery.length = 0; return { shown: s.shown, received: s.received, skipped: s.skipped, t: Date.now() }; });
+  await sleep(ms);
+  return page.evaluate((start) => {
+    const s = window.studioStats, l = s.latencies.slice().sort((a, b) => a - b), d = s.delivery.slice().sort((a, b) => a - b);
+    const q = (f) => (l.length ? l[Math.floor(f * (l.length - 1))] : NaN);
+    const seconds = (Date.now() - start.t) / 1000;
+    const rows = Object.fromEntries([...document.querySelectorAll('#speed tr')].map((tr) => [tr.cells[0].textContent, tr.cells[1].textContent]));
+    return { shown_fps: (s.shown - start.shown) / seconds, received_fps: (s.received - start.received) / seconds, skipped: s.skipped - start.skipped, p50: q(0.5), p90: q(0.9), n: l.length, delivery_p50: d.length ? d[d.length >> 1] : NaN, rows };
+  }, start);
+}
+function printLive(what, m) {
+  const stages = ['read', 'segment', 'blobs · track · touch', 'classify', 'draw', 'encode'].map((k) => `${k} ${m.rows[k]}`).join(', ');
+  console.log(`${what}: ${m.shown_fps.toFixed(1)} frames shown per second (${m.received_fps.toFixed(1)} received, ${m.skipped} skipped); frame to screen ${m.p50.toFixed(0)} ms median, ${m.p90.toFixed(0)} ms p90 over ${m.n} frames (publish to screen ${m.delivery_p50.toFixed(0)} ms median); server ${m.rows.processed}; stages: ${stages}`);
+}
+
 async function measure(browser) {
   const extra = args['measure-calibration'] ? ['--calibration', args['measure-calibration']] : [];
   const s = await startStudio(['--input', args.measure, '--model', args['measure-model'] || 'none', '--port', '0', ...extra], ['taskset', '-c', '0']);
   const page = await openPage(browser, `http://127.0.0.1:${s.port}/`);
   await until('frames', () => page.evaluate(() => window.studioStats.shown > 30));
-  const t0 = Date.now();
-  const n0 = await page.evaluate(() => { window.studioStats.latencies.length = 0; return window.studioStats.shown; });
-  await sleep(10000);
-  const r = await page.evaluate(() => {
-    const l = window.studioStats.latencies.slice().sort((a, b) => a - b);
-    return { shown: window.studioStats.shown, mean: l.reduce((a, b) => a + b, 0) / l.length, p50: l[l.length >> 1], p95: l[Math.floor(0.95 * (l.length - 1))], speed: document.getElementById('speed').innerText };
-  });
-  const fps = ((r.shown - n0) * 1000) / (Date.now() - t0);
-  console.log(`measure: ${fps.toFixed(1)} frames shown per second; frame to screen ${r.mean.toFixed(1)} ms mean, ${r.p50} ms median, ${r.p95} ms p95`);
-  console.log(r.speed);
+  printLive(`measure (${args.measure}, ss_studio on one core)`, await measureLive(page, Number(args['measure-seconds'] || 10) * 1000));
+}
+
+const frameOfVideo = (k) => `frame_${String(k).padStart(6, '0')}`; // ss_studio's names
+
+// The page at 390x844: no sideways overflow, the main controls on screen, on both tabs.
+async function phoneChecks(browser, url) {
+  const page = await browser.newPage({ viewport: { width: 390, height: 844 }, deviceScaleFactor: 2, isMobile: true, hasTouch: true });
+  page.on('pageerror', (e) => { console.log(`FAIL page error: ${e.message}`); failures++; });
+  await page.goto(url);
+  await until('frames on the phone', () => page.evaluate(() => window.studioStats.shown > 3));
+  await sleep(300); // the tables, drawn a few times a second
+  const fits = async (ids) => page.evaluate((ids) => {
+    const out = { scroll: document.documentElement.scrollWidth, inner: window.innerWidth, hidden: [] };
+    for (const id of ids) {
+      const e = document.getElementById(id), r = e.getBoundingClientRect();
+      if (!(r.width > 0 && r.height > 0 && r.left >= 0 && r.right <= window.innerWidth + 0.5)) out.hidden.push(`${id} at ${r.left.toFixed(0)}..${r.right.toFixed(0)}`);
+    }
+    return out;
+  }, ids);
+  const live = await fits(['tab-live', 'tab-calib', 'live-canvas', 'pause', 'step', 'speed', 'events']);
+  check(live.scroll <= live.inner && !live.hidden.length, `phone, live view: width ${live.scroll} <= ${live.inner}, main controls on screen${live.hidden.length ? ': not ' + live.hidden.join(', ') : ''}`);
+  if (args.screenshots) await page.screenshot({ path: path.join(args.screenshots, 'studio_phone.png') });
+  await page.click('#tab-calib');
+  const calib = await fits(['calib-pause', 'rec-empty', 'rec-touch', 'prev', 'next', 'no-contact', 'label-canvas', 'run-calib', 'save-name', 'save']);
+  check(calib.scroll <= calib.inner && !calib.hidden.length, `phone, calibration screen: width ${calib.scroll} <= ${calib.inner}, main controls on screen${calib.hidden.length ? ': not ' + calib.hidden.join(', ') : ''}`);
+  await page.close();
 }
 
 async function main() {
   const browser = await chromium.launch({ executablePath: args.chromium, headless: true, args: ['--no-sandbox', '--no-proxy-server', '--disable-gpu'] });
   try {
     if (args.measure) return await measure(browser);
+    for (const k of ['calibrate', 'data', 'video']) if (!args[k]) throw new Error(`missing --${k}`);
+    const python = args.python || 'python3';
+    const videoTool = fileURLToPath(new URL('./video_frames.py', import.meta.url));
     const work = args.work, out = path.join(work, 'out');
     fs.rmSync(work, { recursive: true, force: true });
     fs.mkdirSync(work, { recursive: true });
     const meta = readMetadata(args.data);
-    const s = await startStudio(['--input', args.data, '--model', 'none', '--out', out, '--port', '0']);
+    const files = [...meta.keys()].sort(); // the video's frames, in order
+    const s = await startStudio(['--input', args.video, '--model', 'none', '--out', out, '--port', '0']);
     const base = `http://127.0.0.1:${s.port}`;
     const page = await openPage(browser, base + '/');
 
@@ -236,36 +280,38 @@ async function main() {
     check(f2.frame !== f1.frame, `frames advance (frame ${f1.frame} then ${f2.frame})`);
     const bare = overlayPixels(await page.locator('#live-canvas').screenshot());
     check(bare === 0, `no overlay without a calibration (${bare} overlay pixels)`);
+    printLive('live view, no calibration', await measureLive(page, 2000));
 
-    // Record: 4 empty frames, 4 touch frames (the last one labelled "no contact" with X).
+    // Record from the video: 4 empty frames, 4 touch frames (the last one "no contact" by X).
     await page.click('#tab-calib');
     await page.click('#calib-pause');
     await until('the pause', () => page.evaluate(() => window.studioStats.paused));
     await sleep(300); // a frame in the making when the pause came is still published
-    const files = [...meta.keys()].sort();
     const empty = files.filter((f) => meta.get(f).cls === 'nothing').slice(0, 4);
     const touch = files.filter((f) => meta.get(f).shadow && meta.get(f).contact).filter((_, i) => i % 3 === 0).slice(0, 4);
-    const chosen = [...empty.map((f) => ['empty', f]), ...touch.map((f) => ['touch', f])];
-    chosen.sort((a, b) => (a[1] < b[1] ? -1 : 1));
-    for (const [kind, f] of chosen) {
-      await stepTo(page, f);
+    // [kind, dataset file, video frame index], in the video's order (recorded stepping forward)
+    const chosen = [...empty.map((f) => ['empty', f]), ...touch.map((f) => ['touch', f])]
+      .map(([kind, f]) => [kind, f, files.indexOf(f)]).sort((a, b) => a[2] - b[2]);
+    for (const [kind, , k] of chosen) {
+      await stepTo(page, frameOfVideo(k));
       const n = (await page.evaluate(() => document.getElementById('rec-counts').textContent)) || '';
       await page.click(kind === 'empty' ? '#rec-empty' : '#rec-touch');
-      await until(`recording ${f}`, async () => (await page.$eval('#rec-counts', (e) => e.textContent)) !== n);
+      await until(`recording ${frameOfVideo(k)}`, async () => (await page.$eval('#rec-counts', (e) => e.textContent)) !== n);
     }
+    const emptyChosen = chosen.filter((c) => c[0] === 'empty'), touchChosen = chosen.filter((c) => c[0] === 'touch');
     const state = await (await fetch(base + '/api/calib')).json();
-    check(state.empty.map((r) => r.source).join() === chosen.filter((c) => c[0] === 'empty').map((c) => c[1]).join(), 'the empty frames recorded are the ones stepped to');
-    const touchFiles = chosen.filter((c) => c[0] === 'touch').map((c) => c[1]);
-    check(state.touch.map((r) => r.source).join() === touchFiles.join(), 'the touch frames recorded are the ones stepped to');
+    check(state.empty.map((r) => r.source).join() === emptyChosen.map((c) => frameOfVideo(c[2])).join(), 'the empty frames recorded are the ones stepped to');
+    check(state.touch.map((r) => r.source).join() === touchChosen.map((c) => frameOfVideo(c[2])).join(), 'the touch frames recorded are the ones stepped to');
 
     // A second tab sees the same recorded frames.
     const page2 = await openPage(browser, base + '/');
     await page2.click('#tab-calib');
-    await until('the second tab', async () => (await page2.$eval('#rec-counts', (e) => e.textContent)).startsWith(`${empty.length} empty · ${touchFiles.length} touch`));
+    await until('the second tab', async () => (await page2.$eval('#rec-counts', (e) => e.textContent)).startsWith(`${emptyChosen.length} empty · ${touchChosen.length} touch`));
     check(true, 'a second tab sees the same recorded frames');
     await page2.close();
 
     // Label with the mouse: go to the first frame with P (wrapping from the last), then N.
+    const touchFiles = touchChosen.map((c) => c[1]);
     await page.click('#label-canvas', { position: { x: 1, y: 1 } }); // focus; a 0-size drag draws nothing
     await page.keyboard.press('n'); // from the last touch frame to the first (wraps)
     await until('the first touch frame', async () => (await page.$eval('#label-pos', (e) => e.textContent)).startsWith('1 /'));
@@ -274,20 +320,20 @@ async function main() {
     await page.keyboard.press('n');
     await until('next wraps to the first', async () => (await page.$eval('#label-pos', (e) => e.textContent)).startsWith('1 /'));
     for (let i = 0; i < touchFiles.length; i++) {
-      const m = meta.get(touchFiles[i]);
-      await until(`touch frame ${i + 1}`, async () => (await labelState(page)).startsWith(touchFiles[i] + ':')).catch(async (e) => {
-        throw new Error(`${e.message} (${touchFiles[i]}): the page shows '${await labelState(page)}' at ${await page.$eval('#label-pos', (x) => x.textContent)}`);
+      const m = meta.get(touchFiles[i]), source = frameOfVideo(touchChosen[i][2]);
+      await until(`touch frame ${i + 1}`, async () => (await labelState(page)).startsWith(source + ':')).catch(async (e) => {
+        throw new Error(`${e.message} (${source}): the page shows '${await labelState(page)}' at ${await page.$eval('#label-pos', (x) => x.textContent)}`);
       });
       await drag(page, m.shadow);
-      await until(`the shadow box ${m.shadow} of ${touchFiles[i]}`, async () => (await labelState(page)).includes(`shadow ${m.shadow.join(',')}`)).catch(async (e) => { throw new Error(e.message + ': the page shows ' + (await labelState(page))); });
+      await until(`the shadow box ${m.shadow} of ${source}`, async () => (await labelState(page)).includes(`shadow ${m.shadow.join(',')}`)).catch(async (e) => { throw new Error(e.message + ': the page shows ' + (await labelState(page))); });
       if (m.contact) {
         await drag(page, m.contact);
-        await until(`the contact box of ${touchFiles[i]}`, async () => (await labelState(page)).includes(`contact ${m.contact.join(',')}`));
+        await until(`the contact box of ${source}`, async () => (await labelState(page)).includes(`contact ${m.contact.join(',')}`));
       }
       if (i === touchFiles.length - 1) { // the last one: its contact box taken back with X
         m.contact = null;
         await page.keyboard.press('x');
-        await until(`no contact on ${touchFiles[i]}`, async () => (await labelState(page)).includes('contact none'));
+        await until(`no contact on ${source}`, async () => (await labelState(page)).includes('contact none'));
       }
       if (i + 1 < touchFiles.length) await page.keyboard.press('n');
     }
@@ -308,32 +354,46 @@ async function main() {
     const saved = path.join(out, 'skin.calib');
     check(fs.existsSync(saved), `the calibration was saved as ${saved}`);
 
-    // ss_calibrate on the same frames (the dataset's files) and boxes (the dataset's).
+    // ss_calibrate on the same frames (decoded from the video here, independently of the
+    // studio) and the same boxes (the dataset's).
     const ref = path.join(work, 'ref');
-    for (const kind of ['empty', 'touch']) fs.mkdirSync(path.join(ref, kind), { recursive: true });
     const name = (k) => String(k).padStart(4, '0') + '.png';
-    chosen.filter((c) => c[0] === 'empty').forEach((c, k) => fs.copyFileSync(path.join(args.data, c[1]), path.join(ref, 'empty', name(k))));
+    for (const [kind, list] of [['empty', emptyChosen], ['touch', touchChosen]])
+      execFileSync(python, [videoTool, 'read', args.video, path.join(ref, kind), ...list.map((c) => String(c[2]))], { stdio: ['ignore', 'ignore', 'inherit'] });
     let csv = 'file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n';
     touchFiles.forEach((f, k) => {
-      fs.copyFileSync(path.join(args.data, f), path.join(ref, 'touch', name(k)));
       const m = meta.get(f);
       csv += `${name(k)},${m.shadow.join(',')},${m.contact ? m.contact.join(',') : ',,,'}\n`;
     });
     fs.writeFileSync(path.join(ref, 'labels.csv'), csv);
-    execFileSync(args.calibrate, ['--empty', path.join(ref, 'empty'), '--touch', path.join(ref, 'touch'), '--labels', path.join(ref, 'labels.csv'), '--out', path.join(ref, 'ref.calib')], { stdio: ['ignore', 'ignore', 'inherit'] });
+    const calibrate = (dir, file) => execFileSync(args.calibrate, ['--empty', path.join(dir, 'empty'), '--touch', path.join(dir, 'touch'), '--labels', path.join(dir, 'labels.csv'), '--out', file], { stdio: ['ignore', 'ignore', 'inherit'] });
+    calibrate(ref, path.join(work, 'ref.calib'));
+    // and on what the studio saved beside the file (what a user re-runs ss_calibrate on)
+    const framesDir = path.join(out, 'skin.calib.frames');
+    check(fs.readFileSync(path.join(framesDir, 'labels.csv'), 'utf8') === csv, 'the studio saved the labels CSV ss_calibrate reads (the boxes drawn)');
+    calibrate(framesDir, path.join(work, 'resaved.calib'));
     if (fs.existsSync(saved)) {
-      const problems = sameCalibration(readCalibration(saved), readCalibration(path.join(ref, 'ref.calib')));
-      check(problems.length === 0, `the saved calibration equals ss_calibrate's (thresholds within 1e-6, same empty-skin model)${problems.length ? ': ' + problems.join('; ') : ''}`);
+      for (const [what, file] of [['on the frames decoded from the video', 'ref.calib'], ['on the frames and labels the studio saved', 'resaved.calib']]) {
+        const problems = sameCalibration(readCalibration(saved), readCalibration(path.join(work, file)));
+        check(problems.length === 0, `the saved calibration equals ss_calibrate's ${what} (thresholds within 1e-6, same empty-skin model)${problems.length ? ': ' + problems.join('; ') : ''}`);
+      }
     }
 
     // The live view switched to it: the overlay is drawn on a frame with a hand.
     await page.click('#tab-live');
-    await stepTo(page, touchFiles[0], '#step');
+    await stepTo(page, frameOfVideo(touchChosen[0][2]), '#step');
     await until('a frame with a track', () => page.evaluate(() => window.studioStats.last && window.studioStats.last.tracks > 0), 5000).catch(() => false);
     const drawn = overlayPixels(await page.locator('#live-canvas').screenshot());
     check(drawn > 200, `the overlay is drawn after the switch (${drawn} overlay pixels)`);
+    const stages = await page.$eval('#speed', (e) => e.innerText);
+    check(/segment\s+\d+\.\d ms/.test(stages) && /blobs · track · touch\s+\d+\.\d ms/.test(stages) && /encode\s+\d+\.\d ms/.test(stages), 'the live view shows per-stage milliseconds (segment, blobs · track · touch, classify, draw, encode)');
     if (args.screenshots) await page.screenshot({ path: path.join(args.screenshots, 'studio_live.png') });
     await page.click('#pause'); // play again
+    const shownBefore = await page.evaluate(() => window.studioStats.shown);
+    printLive('live view, calibrated', await measureLive(page, 3000));
+    check((await page.evaluate(() => window.studioStats.shown)) > shownBefore, 'frames advance after the switch');
+
+    await phoneChecks(browser, base + '/');
 
     // Path traversal: refused, nothing written.
     const before = fs.readdirSync(out).sort().join();
@@ -346,11 +406,11 @@ async function main() {
     check(noHeader.status === 403, `a POST without X-Studio is refused (${noHeader.status})`);
 
     // Bound to a non-loopback address: every request needs the token.
-    const t = await startStudio(['--input', args.data, '--model', 'none', '--bind', '0.0.0.0', '--port', '0']);
+    const t = await startStudio(['--input', args.video, '--model', 'none', '--bind', '0.0.0.0', '--port', '0']);
     const tb = `http://127.0.0.1:${t.port}`;
     check(t.token.length === 32, 'a token is printed for a non-loopback bind');
     for (const [what, url, init] of [
-      ['the page', '/', {}], ['the live frames', '/api/live', {}],
+      ['the page', '/', {}], ['the live frames', '/api/live', {}], ['the frame pictures', '/api/frame', {}],
       ['a recording', '/api/record?kind=empty', { method: 'POST', headers: { 'X-Studio': '1' } }],
       ['a wrong token', '/api/info?token=' + '0'.repeat(32), {}],
     ]) {

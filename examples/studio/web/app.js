@@ -1,5 +1,6 @@
-// ss_studio's page: the live view (frames long-polled from /api/live, the tracks drawn over
-// them), the event log and plot, and the calibration workflow. Plain JavaScript, no library.
+// ss_studio's page: the live view (frames long-polled from /api/frame as JPEG bytes, the
+// tracks drawn over them), the event log and plot, and the calibration workflow. Plain
+// JavaScript, no library.
 'use strict';
 
 // The token (a non-loopback ss_studio prints it) comes in the page's address and goes with
@@ -36,25 +37,29 @@ function showTab(name) {
 // The colour of the track boxes drawn by the page (the browser test looks for it).
 const OVERLAY = '#00ff66';
 const PALETTE = ['#ff6b6b', '#4dabf7', '#ffd43b', '#b197fc', '#63e6be', '#ffa94d'];
-const stats = { shown: 0, overlay_frames: 0, latencies: [], times: [], last: null, paused: false };
+// shown: frames drawn; latencies: ms from the server reading the frame to the page drawing it
+// (delivery: from the server publishing it, encoded, to the page drawing it);
+// times: when the last frames were drawn (the shown frame rate); skipped: frames the server
+// published that the page never drew (it asked or drew too late).
+const stats = { shown: 0, received: 0, skipped: 0, overlay_frames: 0, latencies: [], delivery: [], times: [], last: null, paused: false };
 window.studioStats = stats; // read by the browser test and the measurement
 const history = new Map(); // track id -> [{t, area, hover}]
-let lastFrame = null;
 
+function percentile(sorted, q) { return sorted.length ? sorted[Math.floor(q * (sorted.length - 1))] : 0; }
 function latencySummary() {
   const l = stats.latencies.slice().sort((a, b) => a - b);
-  if (!l.length) return { mean: 0, p95: 0 };
-  return { mean: l.reduce((a, b) => a + b, 0) / l.length, p95: l[Math.floor(0.95 * (l.length - 1))] };
+  return { p50: percentile(l, 0.5), p90: percentile(l, 0.9) };
+}
+function shownFps() {
+  const t = stats.times;
+  return t.length > 1 ? (1000 * (t.length - 1)) / (t[t.length - 1] - t[0]) : 0;
 }
 
-async function drawFrame(f) {
-  const img = new Image();
-  img.src = 'data:image/jpeg;base64,' + f.jpeg;
-  await img.decode();
+function drawFrame(f, bitmap) {
   const c = $('live-canvas');
   if (c.width !== f.width || c.height !== f.height) { c.width = f.width; c.height = f.height; }
   const g = c.getContext('2d');
-  g.drawImage(img, 0, 0);
+  g.drawImage(bitmap, 0, 0);
   g.lineWidth = 2;
   g.font = '13px sans-serif';
   for (const t of f.tracks) {
@@ -72,8 +77,6 @@ async function drawFrame(f) {
       g.stroke();
     }
   }
-  // Shown once the browser has painted it: the latency is from the server's read to here.
-  await new Promise((r) => requestAnimationFrame(() => r()));
   const now = Date.now();
   stats.shown++;
   if (f.tracks.length) stats.overlay_frames++;
@@ -84,14 +87,15 @@ async function drawFrame(f) {
   stats.last = { frame: f.frame, name: f.name, tracks: f.tracks.length };
 }
 
+const STAGES = [['read', 'read'], ['segment', 'segment'], ['track', 'blobs · track · touch'],
+  ['classify', 'classify'], ['draw', 'draw'], ['encode', 'encode']];
 function showInfo(f) {
-  const fps = stats.times.length > 1 ? (1000 * (stats.times.length - 1)) / (stats.times[stats.times.length - 1] - stats.times[0]) : 0;
   const lat = latencySummary();
   const rows = [
-    ['shown', `${fps.toFixed(1)} fps`],
+    ['shown', `${shownFps().toFixed(1)} fps`],
     ['processed', `${f.processed_fps.toFixed(1)} fps (input ${f.input_fps.toFixed(1)})`],
-    ['frame to screen', `${lat.mean.toFixed(0)} ms mean, ${lat.p95.toFixed(0)} ms p95`],
-    ['read · runtime · draw · encode', ['read', 'runtime', 'draw', 'encode'].map((k) => f.stage_ms[k].toFixed(1)).join(' · ') + ' ms'],
+    ['frame to screen', `${lat.p50.toFixed(0)} ms median, ${lat.p90.toFixed(0)} ms p90`],
+    ...STAGES.map(([k, name]) => [name, `${f.stage_ms[k].toFixed(1)} ms`]),
     ['calibration', f.calibrated ? (lastCalibration || 'from the command line') : 'none yet (Calibrate tab)'],
   ];
   $('speed').innerHTML = '';
@@ -122,12 +126,14 @@ function showInfo(f) {
       pb.appendChild(d);
     });
   }
+  drawPlot(f.t_ms);
+}
+function addHistory(f) {
   for (const t of f.tracks) {
     if (!history.has(t.id)) history.set(t.id, []);
     const hover = t.hover_cm != null ? t.hover_cm : t.opacity != null ? 10 * t.opacity : null;
     history.get(t.id).push({ t: f.t_ms, area: t.contact_area, hover });
   }
-  drawPlot(f.t_ms);
 }
 
 function drawPlot(now) {
@@ -180,11 +186,59 @@ function addEvents(lines) {
 
 let lastCalibration = '';
 let shownSeq = 0; // the frame the page shows: the one a recording takes
+
+// One long-polled frame: /api/frame is a 4-byte big-endian length, the JSON of /api/live, then
+// the frame's JPEG (r.jpeg, a Blob).
+async function fetchFrame(after, eventsAfter) {
+  const headers = token ? { 'X-Studio-Token': token } : {};
+  const res = await fetch(`/api/frame?after=${after}&events_after=${eventsAfter}`, { headers, cache: 'no-store' });
+  if (!res.ok) {
+    const body = await res.json().catch(() => null);
+    throw new Error((body && body.error) || `GET /api/frame: ${res.status}`);
+  }
+  const buf = await res.arrayBuffer();
+  const n = new DataView(buf).getUint32(0);
+  const r = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
+  if (r.frame) r.jpeg = new Blob([new Uint8Array(buf, 4 + n)], { type: 'image/jpeg' });
+  return r;
+}
+
+// The fetch loop asks for the next frame as soon as the bytes of one are in: decoding
+// (createImageBitmap, off the main thread) and drawing overlap the wait for the next frame.
+// Decoded frames are taken in order; the newest waits in `pending` for the next animation
+// frame, so a page that draws slower than the input shows the newest frame, never a queue.
+let pending = null, drawQueued = false, lastInfo = 0;
+function present() {
+  drawQueued = false;
+  const r = pending;
+  pending = null;
+  if (!r) return;
+  shownSeq = r.seq;
+  const f = r.frame;
+  $('pause').disabled = $('step').disabled = !f.file;
+  $('calib-pause').disabled = $('calib-step').disabled = !f.file;
+  $('calib-frame').textContent = $('frame-name').textContent = `#${f.frame} ${f.name}`;
+  if (tab === 'live') {
+    drawFrame(f, r.bitmap);
+    stats.delivery.push(Date.now() - r.published_epoch_ms);
+    while (stats.delivery.length > 300) stats.delivery.shift();
+    // The tables and the plot at most 5 times a second: they are read, not watched.
+    const now = performance.now();
+    if (now - lastInfo > 200 || r.paused) { showInfo(f); lastInfo = now; }
+  }
+  r.bitmap.close();
+  if (!r.error) setStatus(r.paused ? 'paused' : 'live');
+}
+function decoded(r) {
+  if (pending) { pending.bitmap.close(); stats.skipped++; }
+  pending = r;
+  if (!drawQueued) { drawQueued = true; requestAnimationFrame(present); }
+}
 async function liveLoop() {
-  let after = 0, eventsAfter = 0;
+  let after = 0, eventsAfter = 0, decoding = Promise.resolve();
   for (;;) {
     try {
-      const r = await api('GET', `/api/live?after=${after}&events_after=${eventsAfter}`);
+      const r = await fetchFrame(after, eventsAfter);
       addEvents(r.events);
       eventsAfter = r.events_total;
       lastCalibration = r.calibration;
@@ -192,17 +246,16 @@ async function liveLoop() {
       $('pause').textContent = $('calib-pause').textContent = r.paused ? 'Play' : 'Pause';
       if (r.error) setStatus('live view stopped: ' + r.error, true);
       if (r.frame) {
-        after = shownSeq = r.seq;
-        lastFrame = r.frame;
-        $('pause').disabled = $('step').disabled = !r.frame.file;
-        $('calib-pause').disabled = $('calib-step').disabled = !r.frame.file;
-        $('calib-frame').textContent = $('frame-name').textContent = `#${r.frame.frame} ${r.frame.name}`;
-        if (tab === 'live') { await drawFrame(r.frame); showInfo(r.frame); }
-        if (!r.error) setStatus(r.paused ? 'paused' : 'live');
+        if (after && r.seq > after + 1) stats.skipped += r.seq - after - 1;
+        after = r.seq;
+        stats.received++;
+        addHistory(r.frame);
+        const bitmap = createImageBitmap(r.jpeg);
+        decoding = decoding.then(async () => { r.bitmap = await bitmap; decoded(r); }).catch((e) => setStatus(String(e.message || e), true));
       }
     } catch (e) {
       setStatus(String(e.message || e), true);
-      await new Promise((r) => setTimeout(r, 500));
+      await new Promise((res) => setTimeout(res, 500));
     }
   }
 }
