@@ -208,19 +208,20 @@ async function labelState(page) {
 
 // Frames shown per second, frame-to-screen latency and the server's frame rate over `ms`.
 async function measureLive(page, ms) {
-  const start = await page.evaluate(() => { const s = window.studioStats; s.latencies.length = 0; s.delivery.length = 0; return { shown: s.shown, received: s.received, skipped: s.skipped, t: Date.now() }; });
+  const start = await page.evaluate(() => { const s = window.studioStats; s.latencies.length = 0; s.delivery.length = 0; return { shown: s.shown, received: s.received, skipped: s.skipped, stage_sum: { ...s.stage_sum }, t: Date.now() }; });
   await sleep(ms);
   return page.evaluate((start) => {
     const s = window.studioStats, l = s.latencies.slice().sort((a, b) => a - b), d = s.delivery.slice().sort((a, b) => a - b);
     const q = (f) => (l.length ? l[Math.floor(f * (l.length - 1))] : NaN);
     const seconds = (Date.now() - start.t) / 1000;
     const rows = Object.fromEntries([...document.querySelectorAll('#speed tr')].map((tr) => [tr.cells[0].textContent, tr.cells[1].textContent]));
-    return { shown_fps: (s.shown - start.shown) / seconds, received_fps: (s.received - start.received) / seconds, skipped: s.skipped - start.skipped, p50: q(0.5), p90: q(0.9), n: l.length, delivery_p50: d.length ? d[d.length >> 1] : NaN, rows };
+    return { shown_fps: (s.shown - start.shown) / seconds, received_fps: (s.received - start.received) / seconds, skipped: s.skipped - start.skipped, p50: q(0.5), p90: q(0.9), n: l.length, delivery_p50: d.length ? d[d.length >> 1] : NaN, rows,
+      stages: Object.fromEntries(Object.keys(s.stage_sum).map((k) => [k, (s.stage_sum[k] - (start.stage_sum[k] || 0)) / Math.max(1, s.received - start.received)])) };
   }, start);
 }
 function printLive(what, m) {
-  const stages = ['read', 'segment', 'blobs · track · touch', 'classify', 'draw', 'encode'].map((k) => `${k} ${m.rows[k]}`).join(', ');
-  console.log(`${what}: ${m.shown_fps.toFixed(1)} frames shown per second (${m.received_fps.toFixed(1)} received, ${m.skipped} skipped); frame to screen ${m.p50.toFixed(0)} ms median, ${m.p90.toFixed(0)} ms p90 over ${m.n} frames (publish to screen ${m.delivery_p50.toFixed(0)} ms median); server ${m.rows.processed}; stages: ${stages}`);
+  const stages = [['read', 'read'], ['segment', 'segment'], ['track', 'blobs+track+touch'], ['classify', 'classify'], ['draw', 'draw'], ['encode', 'encode']].map(([k, name]) => `${name} ${(m.stages[k] || 0).toFixed(1)}`).join(', ');
+  console.log(`${what}: ${m.shown_fps.toFixed(1)} frames shown per second (${m.received_fps.toFixed(1)} received, ${m.skipped} skipped); frame to screen ${m.p50.toFixed(0)} ms median, ${m.p90.toFixed(0)} ms p90 over ${m.n} frames (publish to screen ${m.delivery_p50.toFixed(0)} ms median); server ${m.rows.processed}; mean ms per frame on the server: ${stages}`);
 }
 
 async function measure(browser) {
@@ -387,10 +388,13 @@ async function main() {
     check(drawn > 200, `the overlay is drawn after the switch (${drawn} overlay pixels)`);
     const stages = await page.$eval('#speed', (e) => e.innerText);
     check(/segment\s+\d+\.\d ms/.test(stages) && /blobs · track · touch\s+\d+\.\d ms/.test(stages) && /encode\s+\d+\.\d ms/.test(stages), 'the live view shows per-stage milliseconds (segment, blobs · track · touch, classify, draw, encode)');
-    if (args.screenshots) await page.screenshot({ path: path.join(args.screenshots, 'studio_live.png') });
     await page.click('#pause'); // play again
     const shownBefore = await page.evaluate(() => window.studioStats.shown);
     printLive('live view, calibrated', await measureLive(page, 3000));
+    if (args.screenshots) { // on a frame with a hand, as the README shows it
+      await until('a frame with a track to show', () => page.evaluate(() => window.studioStats.last.tracks > 0), 5000).catch(() => false);
+      await page.screenshot({ path: path.join(args.screenshots, 'studio_live.png') });
+    }
     check((await page.evaluate(() => window.studioStats.shown)) > shownBefore, 'frames advance after the switch');
 
     await phoneChecks(browser, base + '/');

@@ -40,8 +40,9 @@ const PALETTE = ['#ff6b6b', '#4dabf7', '#ffd43b', '#b197fc', '#63e6be', '#ffa94d
 // shown: frames drawn; latencies: ms from the server reading the frame to the page drawing it
 // (delivery: from the server publishing it, encoded, to the page drawing it);
 // times: when the last frames were drawn (the shown frame rate); skipped: frames the server
-// published that the page never drew (it asked or drew too late).
-const stats = { shown: 0, received: 0, skipped: 0, overlay_frames: 0, latencies: [], delivery: [], times: [], last: null, paused: false };
+// published that the page never drew (it asked or drew too late); stage_sum: the server's stage
+// milliseconds summed over the frames received.
+const stats = { shown: 0, received: 0, skipped: 0, overlay_frames: 0, latencies: [], delivery: [], times: [], stage_sum: {}, last: null, paused: false };
 window.studioStats = stats; // read by the browser test and the measurement
 const history = new Map(); // track id -> [{t, area, hover}]
 
@@ -89,11 +90,12 @@ function drawFrame(f, bitmap) {
 
 const STAGES = [['read', 'read'], ['segment', 'segment'], ['track', 'blobs · track · touch'],
   ['classify', 'classify'], ['draw', 'draw'], ['encode', 'encode']];
+// The speed table and the plot (a few times a second: they are read, not watched).
 function showInfo(f) {
   const lat = latencySummary();
   const rows = [
-    ['shown', `${shownFps().toFixed(1)} fps`],
-    ['processed', `${f.processed_fps.toFixed(1)} fps (input ${f.input_fps.toFixed(1)})`],
+    ['shown', stats.paused ? 'paused' : `${shownFps().toFixed(1)} fps`],
+    ['processed', stats.paused ? `paused (input ${f.input_fps.toFixed(1)} fps)` : `${f.processed_fps.toFixed(1)} fps (input ${f.input_fps.toFixed(1)})`],
     ['frame to screen', `${lat.p50.toFixed(0)} ms median, ${lat.p90.toFixed(0)} ms p90`],
     ...STAGES.map(([k, name]) => [name, `${f.stage_ms[k].toFixed(1)} ms`]),
     ['calibration', f.calibrated ? (lastCalibration || 'from the command line') : 'none yet (Calibrate tab)'],
@@ -104,6 +106,10 @@ function showInfo(f) {
     tr.insertCell().textContent = k;
     tr.insertCell().textContent = v;
   }
+  drawPlot(f.t_ms);
+}
+// The tracks and the gesture of the frame drawn (every frame: they name what the canvas shows).
+function showTracks(f) {
   const tb = $('tracks').tBodies[0];
   tb.innerHTML = '';
   for (const t of f.tracks) {
@@ -126,7 +132,6 @@ function showInfo(f) {
       pb.appendChild(d);
     });
   }
-  drawPlot(f.t_ms);
 }
 function addHistory(f) {
   for (const t of f.tracks) {
@@ -148,6 +153,7 @@ function drawPlot(now) {
     for (const p of h) { maxArea = Math.max(maxArea, p.area); if (p.hover != null) maxHover = Math.max(maxHover, p.hover); }
   }
   const X = (t) => c.width * (1 - (now - t) / span);
+  let row = 0; // the legend: one line per track in the plot
   for (const [id, h] of history) {
     const colour = PALETTE[id % PALETTE.length];
     g.strokeStyle = colour;
@@ -167,7 +173,7 @@ function drawPlot(now) {
     g.stroke();
     g.setLineDash([]);
     g.fillStyle = colour;
-    g.fillText(`track ${id}`, 4, 12 + 12 * (id % 12));
+    g.fillText(`track ${id}`, 4, 12 + 12 * row++);
   }
   g.fillStyle = '#9aa5b1';
   g.fillText(`${Math.round(maxArea)} px`, c.width - 60, 12);
@@ -220,9 +226,9 @@ function present() {
   $('calib-frame').textContent = $('frame-name').textContent = `#${f.frame} ${f.name}`;
   if (tab === 'live') {
     drawFrame(f, r.bitmap);
+    showTracks(f);
     stats.delivery.push(Date.now() - r.published_epoch_ms);
     while (stats.delivery.length > 300) stats.delivery.shift();
-    // The tables and the plot at most 5 times a second: they are read, not watched.
     const now = performance.now();
     if (now - lastInfo > 200 || r.paused) { showInfo(f); lastInfo = now; }
   }
@@ -249,6 +255,7 @@ async function liveLoop() {
         if (after && r.seq > after + 1) stats.skipped += r.seq - after - 1;
         after = r.seq;
         stats.received++;
+        for (const [k, v] of Object.entries(r.frame.stage_ms)) stats.stage_sum[k] = (stats.stage_sum[k] || 0) + v;
         addHistory(r.frame);
         const bitmap = createImageBitmap(r.jpeg);
         decoding = decoding.then(async () => { r.bitmap = await bitmap; decoded(r); }).catch((e) => setStatus(String(e.message || e), true));
