@@ -257,6 +257,7 @@ async function liveLoop() {
       stats.paused = r.paused;
       $('pause').textContent = $('calib-pause').textContent = r.paused ? 'Play' : 'Pause';
       if (r.error) setStatus('live view stopped: ' + r.error, true);
+      if (r.seq < after) after = 0; // ss_studio was restarted: its frames count from 1 again
       if (r.frame) {
         if (after && r.seq > after + 1) stats.skipped += r.seq - after - 1;
         after = r.seq;
