@@ -3,15 +3,15 @@
 //   ss_demo [--out DIR] [--model FILE] [--no-lighting-normalise] [--threads N] [--save-frames]
 //           [--source NAME]
 //
-// A person approaches the robot, touches it with a palm, slides, lifts, punches and hugs while
-// the light fades from daylight to dusk and towards night. Every frame is rendered by the scene
-// generator on the robot rig; the segmenter is calibrated on a few generated frames (as a robot
-// would calibrate at start-up; the calibration is written to DIR/skin.calib); the library's
+// A person approaches the robot, touches it with a palm, slides, pats twice, lifts, punches and
+// hugs while the light fades from daylight to dusk and towards night. Every frame is rendered by
+// the scene generator on the robot rig; the segmenter is calibrated on a few generated frames (as a
+// robot would calibrate at start-up; the calibration is written to DIR/skin.calib); the library's
 // Runtime (runtime/runtime.hpp: touch pipeline + classifier gated by the shadow) does the rest,
 // exactly as ss_track does on a robot's frames. Prints an event log (time, track, state,
 // position in cm, gesture, confidence; and a `gesture` line per temporal touch gesture: the
-// palm's hold, its stroke to the right, the punch, the hug - docs/temporal_gestures.md) and
-// writes DIR/demo_strip.png (annotated frames) and
+// palm's hold, its stroke to the right, its pat (revised to two pats), the punch, the hug -
+// docs/temporal_gestures.md) and writes DIR/demo_strip.png (annotated frames) and
 // DIR/events.csv (the project's event schema, docs/output.md). With --save-frames the rendered
 // frames go to DIR/frames/ (frame_000001.png, ...): `ss_track --input DIR/frames --calibration
 // DIR/skin.calib --fps 10` then prints the same event lines.
@@ -80,28 +80,35 @@ sim::Scene scene_at(double t, const sim::User& user, std::string& what) {
     what = "palm slides right";
     const double a = smooth(0, 1, (t - 4.0) / 1.5);
     hand(sim::HandShape::open, palm_start + (palm_end - palm_start) * a, 0);
-  } else if (t < 6.0) {
+  } else if (t < 6.6) {
+    // Two pats where the slide ended: 0.2 s on the skin each, the palm hovering 3 cm above it
+    // for 0.3 s and 0.4 s around them (docs/temporal_gestures.md: pat <= 350 ms of contact,
+    // <= 600 ms between).
+    const bool down = (t >= 5.8 && t < 6.0) || (t >= 6.4 && t < 6.6);
+    what = down ? "pat" : "palm hovers";
+    hand(sim::HandShape::open, palm_end, down ? 0 : 3);
+  } else if (t < 7.0) {
     what = "lift";
-    hand(sim::HandShape::open, palm_end, smooth(0.5, 20, (t - 5.5) / 0.5));
-  } else if (t < 6.8) {
+    hand(sim::HandShape::open, palm_end, smooth(3, 20, (t - 6.6) / 0.4));
+  } else if (t < 7.8) {
     what = "nothing near";
-  } else if (t < 7.2) {
-    what = "fist comes down";
-    hand(sim::HandShape::fist, fist, smooth(10, 0.5, (t - 6.8) / 0.4), -100);
   } else if (t < 8.2) {
+    what = "fist comes down";
+    hand(sim::HandShape::fist, fist, smooth(10, 0.5, (t - 7.8) / 0.4), -100);
+  } else if (t < 9.2) {
     what = "punch";
     hand(sim::HandShape::fist, fist, 0, -100);
-  } else if (t < 8.6) {
+  } else if (t < 9.6) {
     what = "lift";
-    hand(sim::HandShape::fist, fist, smooth(0.5, 20, (t - 8.2) / 0.4), -100);
-  } else if (t < 9.4) {
+    hand(sim::HandShape::fist, fist, smooth(0.5, 20, (t - 9.2) / 0.4), -100);
+  } else if (t < 10.4) {
     what = "nothing near";
-  } else if (t < 11.4) {
+  } else if (t < 12.4) {
     what = "hug";
     sim::GesturePose p;
     p.rotation_deg = 90;
     p.position_cm = {0, 19};
-    p.hug_reach = smooth(0.8, 1.1, (t - 9.4) / 2.0);
+    p.hug_reach = smooth(0.8, 1.1, (t - 10.4) / 2.0);
     return sim::gesture_scene(sim::Gesture::hug, user, p);
   } else {
     what = "person leaves";
@@ -109,9 +116,9 @@ sim::Scene scene_at(double t, const sim::User& user, std::string& what) {
   return s;
 }
 
-// Light: daylight for 3 s, fading to dusk by 8 s and to a dim evening (level 0.15) by 12 s.
+// Light: daylight for 3 s, fading to dusk by 9 s and to a dim evening (level 0.15) by 13 s.
 double light_level_at(double t) {
-  return t < 3 ? 1.0 : t < 8 ? smooth(1.0, 0.5, (t - 3) / 5) : smooth(0.5, 0.15, (t - 8) / 4);
+  return t < 3 ? 1.0 : t < 9 ? smooth(1.0, 0.5, (t - 3) / 6) : smooth(0.5, 0.15, (t - 9) / 4);
 }
 
 // The calibration from a few generated frames (empty skin + labelled touches, three light
@@ -207,10 +214,11 @@ int main(int argc, char** argv) {
     std::string source = "ss_demo";
     bool normalise = true, save_frames = false;
     int threads = 1;
-    cli::Parser p("ss_demo",
-                  "The whole pipeline on a generated 12.6 s sequence (approach, palm touch, "
-                  "slide, punch, hug while the light fades): prints an event log and writes "
-                  "DIR/demo_strip.png, DIR/events.csv and DIR/skin.calib.");
+    cli::Parser p(
+        "ss_demo",
+        "The whole pipeline on a generated 13.6 s sequence (approach, palm touch, "
+        "slide, two pats, punch, hug while the light fades): prints an event log and writes "
+        "DIR/demo_strip.png, DIR/events.csv and DIR/skin.calib.");
     p.option("--out", "DIR", "output folder", out);
     p.option("--model", "FILE", "model file", model_path)
         .default_text("the installed model: " + runner::default_model_text(argv[0]));
@@ -236,7 +244,7 @@ int main(int argc, char** argv) {
 
     sim::Rng urng(2024);
     const sim::User user = sim::User::random(42, urng);
-    const double fps = 10, duration_s = 12.6;
+    const double fps = 10, duration_s = 13.6;
     const int frames = static_cast<int>(duration_s * fps);
     sim::Frame frame;
     std::ostringstream csv;
@@ -273,11 +281,11 @@ int main(int argc, char** argv) {
         ++gated; // nothing near: no inference
       for (const ss::TrackEvent& e : r.touch.events) log_event(e, r, scale, scene);
       for (const ss::GestureEvent& g : r.touch_gestures) log_gesture(g, scene);
-      // One annotated frame per scripted phase, in the middle of it.
       if (scene != last_scene) shot_for_scene[scene] = i;
       last_scene = scene;
-      if ((i - shot_for_scene[scene]) == 4 && shots.size() < 8 && scene != "empty skin" &&
-          scene != "nothing near") {
+      // One annotated frame per scripted phase, in the middle of it (the second of a pat's two).
+      if ((i - shot_for_scene[scene]) == (scene == "pat" ? 1 : 4) && shots.size() < 8 &&
+          scene != "empty skin" && scene != "nothing near") {
         char cap[160];
         std::snprintf(cap, sizeof cap, "t=%.1fs %s", t_s, scene.c_str());
         shots.push_back({runner::annotate(frame.image, sense.segmentation(), r), cap});

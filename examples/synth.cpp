@@ -2,11 +2,16 @@
 //   OUT/gestures  six gesture classes on the robot rig (635x350), per-user per-lighting sessions
 //   OUT/tracking  five tracking categories on the test box (200x205) with shadow/contact boxes
 //   OUT/slides    slide sequences (13 fps, 8-80 frames, 10-26 cm, four directions, palm/finger)
+//   OUT/temporal  temporal gesture sequences (taps, pats, strokes, rubs, holds, hits, hugs,
+//                 punches, two hands) rendered on the robot rig at 15, 30 and 60 fps with
+//                 dropped and duplicated frames (only with --dataset temporal; not in `all`)
 //
 //   ss_synth --out DIR [--dataset gestures|tracking|slides|all] [--seed N] [--paper-sizes]
 //            [--users N] [--frames-per-gesture N] [--tracking-per-category N]
 //            [--slides-per-combination N] [--lighting-level L] [--overwrite]
 //            [--threads N] [--preview FILE.png]
+//            [--temporal-users N] [--temporal-first-user K] [--temporal-gestures N]
+//            [--temporal-fps F,...]
 //
 // Defaults are small (a few hundred frames in a few seconds); --paper-sizes gives the paper's
 // 6,120 gesture frames, 500 tracking frames and 160 slide sequences. --lighting-level L in
@@ -14,6 +19,7 @@
 // on unseen lighting conditions. --preview writes one annotated montage (ground-truth shadow
 // box blue, contact box white, contact point red) of all classes; alone it writes nothing else.
 #include <shadowsense/eval.hpp>
+#include <shadowsense/sim/touch_sequence_writer.hpp>
 
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
@@ -123,7 +129,8 @@ int main(int argc, char** argv) {
     p.usage("ss_synth --preview FILE.png [--seed N]");
     p.option("--out", "DIR", "output folder", out);
     p.option("--dataset", "NAME", "which dataset to write", dataset)
-        .choices({"gestures", "tracking", "slides", "all"});
+        .choices({"gestures", "tracking", "slides", "all", "temporal"})
+        .default_text("all (gestures, tracking and slides; temporal only when named)");
     p.option("--seed", "N", "random seed", seed);
     p.flag("--paper-sizes",
            "the paper's sizes (6,120 gesture frames, 500 tracking frames, 160 "
@@ -146,6 +153,16 @@ int main(int argc, char** argv) {
              lighting_level)
         .range(0.0, 1.0)
         .default_text("the datasets' own lightings");
+    sim::TouchSequenceDatasetConfig q;
+    std::uint64_t temporal_first_user = 1000;
+    p.option("--temporal-users", "N",
+             "temporal: generated users (one sequence each per frame rate; user seeds K..K+N-1)",
+             q.users)
+        .range(1, 10000);
+    p.option("--temporal-first-user", "K", "temporal: the first user seed", temporal_first_user);
+    p.option("--temporal-gestures", "N", "temporal: gestures per sequence", q.sequence.gestures)
+        .range(1, 100000);
+    p.list("--temporal-fps", "F", "temporal: frame rates", q.fps).range(5.0, 240.0);
     p.flag("--overwrite", "replace existing dataset folders", overwrite);
     p.option("--threads", "N", "rendering threads", threads).range(1, 256);
     p.option("--preview", "FILE.png",
@@ -171,14 +188,15 @@ int main(int argc, char** argv) {
       g.lighting_levels = {lighting_level};
       t.sample.lighting_level = s.slide.variety.lighting_level = lighting_level;
     }
-    g.overwrite = t.overwrite = s.overwrite = overwrite;
-    g.threads = t.threads = s.threads = threads;
+    g.overwrite = t.overwrite = s.overwrite = q.overwrite = overwrite;
+    g.threads = t.threads = s.threads = q.threads = threads;
 
     {
       // Validate everything before writing anything.
       g.validate();
       t.validate();
       s.validate();
+      q.validate();
       const std::filesystem::path root(out);
       const auto run = [&](const char* name, auto&& write) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -195,6 +213,10 @@ int main(int argc, char** argv) {
         run("tracking", [&](const auto& p) { return sim::write_tracking_dataset(p, seed, t); });
       if (all || dataset == "slides")
         run("slides", [&](const auto& p) { return sim::write_slide_dataset(p, seed, s); });
+      if (dataset == "temporal")
+        run("temporal", [&](const auto& p) {
+          return sim::write_touch_sequence_dataset(p, temporal_first_user, q);
+        });
     }
     return 0;
   });

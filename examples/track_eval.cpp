@@ -12,12 +12,24 @@
 // detector's gate is picked on generator frames (--roc-pick-frames, another seed), never on the
 // evaluated frames, unless --roc-gate gives it.
 //
+// --temporal DIR: the temporal touch gestures (docs/temporal_gestures.md) on a temporal gesture
+// dataset (docs/dataset_format.md; ss_synth --dataset temporal writes one): every frame goes
+// through the segmenter, the touch pipeline and the temporal gesture recogniser, with the
+// frame's hand-shape reading from frames.csv standing in for the classifier (--temporal-shapes
+// none: no reading); the events are scored against gestures.csv by eval/temporal_eval.hpp
+// (score_temporal, tracks matched with TemporalTrackMatch::any_track: the tracker numbers the
+// hands itself). Per frame rate: per-gesture precision, recall, F1, the confusion matrix (text;
+// a PNG per rate with --temporal-confusion DIR), latency p50/p90/max, repetition errors and
+// the milliseconds per frame. Nothing else is evaluated in this mode.
+//
 // The segmenter is calibrated on frames rendered by the scene generator with --calib-seed, never
 // on the evaluated frames.
 #include <shadowsense/core/atomic_file.hpp>
 #include <shadowsense/eval.hpp>
+#include <shadowsense/eval/temporal_eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/io/dataset.hpp>
+#include <shadowsense/io/temporal_dataset.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 
@@ -29,6 +41,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -55,6 +68,9 @@ struct Options {
   fs::path roc;
   double roc_gate = 0; // 0: picked on generator frames
   int roc_pick_frames = 120;
+  fs::path temporal, temporal_confusion;
+  bool temporal_shapes = true;
+  double px_per_cm = 0; // 0: each sequence's own
 };
 
 Options parse(int argc, char** argv) {
@@ -68,6 +84,8 @@ Options parse(int argc, char** argv) {
                 "the evaluated ones.");
   p.usage("ss_track_eval --input DIR [options]");
   p.usage("ss_track_eval --tracking DIR --slides DIR [options]");
+  p.usage("ss_track_eval --temporal DIR [--temporal-confusion DIR] [--temporal-shapes file|none] "
+          "[--px-per-cm X] [calibration options]");
   p.option("--input", "DIR", "folder holding tracking/ and slides/", data);
   p.alias("--data", "--input");
   p.option("--tracking", "DIR", "tracking dataset (instead of DIR/tracking)", o.tracking);
@@ -96,7 +114,36 @@ Options parse(int argc, char** argv) {
   p.option("--roc-pick-frames", "N", "generator frames (half hover) the edge gate is picked on",
            o.roc_pick_frames)
       .range(2, 100000);
+  std::string shapes = "file";
+  p.option("--temporal", "DIR",
+           "evaluate the temporal touch gestures on a temporal gesture dataset (docs/"
+           "dataset_format.md; ss_synth --dataset temporal): per frame rate P/R/F1, confusion, "
+           "latency, repetition errors, ms per frame; nothing else is evaluated",
+           o.temporal);
+  p.option("--temporal-confusion", "DIR",
+           "--temporal: write the confusion matrix per frame rate as "
+           "DIR/temporal_confusion_<F>fps.png",
+           o.temporal_confusion);
+  p.option("--temporal-shapes", "SOURCE",
+           "--temporal: the hand-shape reading per frame: the dataset's shape column (file) or "
+           "none (palm vs finger from the contact area; no hug, punch or two_hands)",
+           shapes)
+      .choices({"file", "none"});
+  p.option("--px-per-cm", "X", "--temporal: image scale at the skin for the recogniser",
+           o.px_per_cm)
+      .range(0.01, 1000.0)
+      .default_text("each sequence's px_per_cm in sequences.csv");
   p.parse(argc, argv);
+  o.temporal_shapes = shapes == "file";
+  if (!o.temporal.empty()) {
+    if (!data.empty() || p.given("--tracking") || p.given("--slides"))
+      throw cli::UsageError("--temporal evaluates only the temporal dataset; leave out --input, "
+                            "--tracking and --slides");
+    return o;
+  }
+  if (p.given("--temporal-confusion") || p.given("--temporal-shapes") || p.given("--px-per-cm"))
+    throw cli::UsageError(
+        "--temporal-confusion, --temporal-shapes and --px-per-cm need --temporal");
   if (!data.empty()) { // --tracking / --slides override one of the two
     if (!p.given("--tracking")) o.tracking = data / "tracking";
     if (!p.given("--slides")) o.slides = data / "slides";
@@ -344,6 +391,145 @@ void print_roc(const RocResult& r) {
 }
 
 // ----------------------------------------------------------------------------------------------
+// Temporal touch gestures
+
+struct TemporalRate {
+  TemporalEvalResult result;
+  int sequences = 0;
+  double pipeline_ms = 0, decode_ms = 0; // summed over the frames
+};
+
+cv::Mat read_temporal_frame(const TemporalSequence& seq, const TemporalFrameRow& f) {
+  const std::string at = seq.frames_csv.string() + ":" + std::to_string(f.line) + ": ";
+  const fs::path p = detail::inside_folder(seq.folder, f.file_name, at + "column 2 'file_name': ");
+  return detail::image_file(p, cv::IMREAD_COLOR, {}, at + "cannot read image: ", true);
+}
+
+std::map<double, TemporalRate>
+evaluate_temporal_dataset(const Options& o, const std::vector<TemporalSequenceRow>& rows,
+                          const SimCalibration& cal) {
+  using clock = std::chrono::steady_clock;
+  auto ms = [](clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
+  std::map<double, TemporalRate> rates;
+  for (const TemporalSequenceRow& row : rows) {
+    const TemporalSequence seq = read_temporal_sequence(o.temporal, row);
+    TemporalRate& rate = rates[row.fps];
+    TouchPipeline pipeline(segmenter_from(cal));
+    TemporalGestureConfig tc;
+    tc.px_per_cm = o.px_per_cm > 0 ? o.px_per_cm : row.px_per_cm;
+    TemporalGestureRecogniser recogniser(tc);
+    TemporalEventLog log;
+    OutputGesture shape;
+    for (const TemporalFrameRow& f : seq.frames) {
+      const auto t0 = clock::now();
+      const cv::Mat img = read_temporal_frame(seq, f);
+      const auto t1 = clock::now();
+      const TouchFrame& touch = pipeline.update(img, f.timestamp_ms);
+      shape.available = o.temporal_shapes && !f.shape.empty();
+      shape.label = shape.available ? f.shape : std::string();
+      shape.confidence = static_cast<float>(f.shape_confidence);
+      log.add(recogniser.update(touch, shape));
+      const auto t2 = clock::now();
+      rate.decode_ms += ms(t1 - t0);
+      rate.pipeline_ms += ms(t2 - t1);
+    }
+    log.add(recogniser.flush(seq.frames.back().timestamp_ms + 1000.0 / row.fps));
+    std::vector<sim::TouchGestureTruth> truth;
+    for (const TemporalGestureRow& g : seq.gestures)
+      truth.push_back({g.gesture, g.track_id, g.start_ms, g.end_ms, g.repetitions, g.direction});
+    score_temporal(truth, log.last(), 1000.0 / row.fps, TemporalTrackMatch::any_track, rate.result);
+    rate.result.frames += seq.frames.size();
+    ++rate.result.users;
+    ++rate.sequences;
+  }
+  return rates;
+}
+
+// The confusion matrix of one frame rate as an image: rows truth, columns predicted (the last
+// row and column: none), cells shaded by the row-normalised rate, counts written in.
+void write_temporal_confusion_png(const fs::path& path, const TemporalEvalResult& r,
+                                  const std::string& title) {
+  const int n = static_cast<int>(TemporalEvalResult::n) + 1, cell = 56, left = 100, top = 70;
+  cv::Mat img(top + n * cell + 20, left + n * cell + 20, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::putText(img, title, {10, 22}, cv::FONT_HERSHEY_SIMPLEX, 0.55, {0, 0, 0}, 1, cv::LINE_AA);
+  auto name = [](int i) {
+    return i < static_cast<int>(TemporalEvalResult::n)
+               ? std::string(to_string(all_touch_gestures[static_cast<std::size_t>(i)]))
+               : std::string("none");
+  };
+  for (int i = 0; i < n; ++i) {
+    const auto& row = r.confusion[static_cast<std::size_t>(i)];
+    int total = 0;
+    for (int v : row) total += v;
+    cv::putText(img, name(i), {5, top + i * cell + cell / 2 + 5}, cv::FONT_HERSHEY_SIMPLEX, 0.42,
+                {0, 0, 0}, 1, cv::LINE_AA);
+    cv::putText(img, name(i).substr(0, 7), {left + i * cell + 2, top - 8}, cv::FONT_HERSHEY_SIMPLEX,
+                0.36, {0, 0, 0}, 1, cv::LINE_AA);
+    for (int j = 0; j < n; ++j) {
+      const int v = row[static_cast<std::size_t>(j)];
+      const double f = total ? static_cast<double>(v) / total : 0;
+      const cv::Rect box(left + j * cell, top + i * cell, cell - 2, cell - 2);
+      cv::rectangle(img, box, cv::Scalar(255 - 40 * f, 255 - 120 * f, 255 - 200 * f), cv::FILLED);
+      const cv::Scalar ink = f > 0.6 ? cv::Scalar(255, 255, 255) : cv::Scalar(0, 0, 0);
+      cv::putText(img, std::to_string(v), {box.x + 6, box.y + 32}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                  ink, 1, cv::LINE_AA);
+    }
+  }
+  frames::write_png_atomically(path, img); // temp + rename, checked
+}
+
+int run_temporal(const Options& o) {
+  // Refuse a missing or bad dataset before the calibration's rendering.
+  const std::vector<TemporalSequenceRow> rows = read_temporal_sequences(o.temporal);
+  detail::require<DatasetError>(!rows.empty(),
+                                (o.temporal / "sequences.csv").string() + ": lists no sequence");
+  const TemporalSequence first = read_temporal_sequence(o.temporal, rows.front());
+  const cv::Size size = read_temporal_frame(first, first.frames.front()).size();
+  const sim::Rig rig =
+      size == sim::Rig::robot().image_size ? sim::Rig::robot() : sim::Rig::tracking_box();
+  if (!o.temporal_confusion.empty()) fs::create_directories(o.temporal_confusion);
+  sim::Renderer renderer(rig);
+  Segmenter::Config base;
+  base.calibration.mode = o.mode;
+  SimCalibration cal = calibrate_on_sim(renderer, o.calib_seed, o.calib_frames, base);
+  if (!o.calibration_in.empty())
+    cal.config.calibration = load_calibration(o.calibration_in.string());
+  cal.config.calibration.mode = o.mode;
+  if (!o.calibration_out.empty())
+    save_calibration(cal.config.calibration, o.calibration_out.string());
+  std::cout << "calibration: " << o.calib_frames << " generator frames (" << rig.name
+            << " rig), seed " << o.calib_seed
+            << (o.calibration_in.empty() ? ""
+                                         : " (thresholds from " + o.calibration_in.string() + ")")
+            << "\nhand-shape reading: "
+            << (o.temporal_shapes ? "the dataset's shape column" : "none (contact area)") << "\n";
+  const std::map<double, TemporalRate> rates = evaluate_temporal_dataset(o, rows, cal);
+  for (const auto& [fps, rate] : rates) {
+    const TemporalEvalResult& r = rate.result;
+    std::printf("\n== temporal gestures at %g fps: %d sequences (rendered frames)\n", fps,
+                rate.sequences);
+    std::cout << format_temporal_eval(r);
+    const double frames = static_cast<double>(std::max<std::size_t>(1, r.frames));
+    std::printf("summary %g fps: macro-F1 %.4f, latency p50 %.0f ms, p90 %.0f ms, max %.0f ms, "
+                "repetition errors %d; %.3f ms per frame (segmenter + touch pipeline + "
+                "recogniser), %.3f ms per frame decoding the image\n",
+                fps, r.macro_f1(), r.latency_quantile(TemporalEvalResult::n, 0.5),
+                r.latency_quantile(TemporalEvalResult::n, 0.9),
+                r.latency_quantile(TemporalEvalResult::n, 1.0), r.repetition_errors,
+                rate.pipeline_ms / frames, rate.decode_ms / frames);
+    if (!o.temporal_confusion.empty()) {
+      char name[64], title[128];
+      std::snprintf(name, sizeof name, "temporal_confusion_%gfps.png", fps);
+      std::snprintf(title, sizeof title,
+                    "temporal gestures at %g fps, %d sequences: rows truth, columns predicted", fps,
+                    rate.sequences);
+      write_temporal_confusion_png(o.temporal_confusion / name, r, title);
+    }
+  }
+  return 0;
+}
+
+// ----------------------------------------------------------------------------------------------
 // Output
 
 std::string num(double v, int decimals = 4) {
@@ -519,6 +705,7 @@ void write_json(const Options& o, const SegmenterCalibration& cal,
 int main(int argc, char** argv) {
   return cli::run("ss_track_eval", [&] {
     const Options o = parse(argc, argv);
+    if (!o.temporal.empty()) return run_temporal(o);
     // The calibration frames are rendered with the rig whose frame size matches the data
     // (tracking box 200x205 or robot 635x350), taken from the first image.
     sim::Rig rig = sim::Rig::tracking_box();

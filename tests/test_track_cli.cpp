@@ -513,6 +513,15 @@ TEST_CASE("ss_demo's events and ss_track's on the demo's frames and calibration 
   CHECK(events.find(",palm,") != std::string::npos);
   CHECK(events.find(",punch,") != std::string::npos);
   CHECK(events.find(",hug,") != std::string::npos);
+  // The temporal gestures of the script: the palm's hold, its stroke to the right and its two
+  // pats (a pat, then revised to two), the punch and the hug.
+  CHECK(events.find(",hold,began,") != std::string::npos);
+  CHECK(events.find(",right,") != std::string::npos);
+  CHECK(events.find(",stroke,complete,") != std::string::npos);
+  CHECK(events.find(",pat,complete,") != std::string::npos);
+  CHECK(events.find(",pat,revised,") != std::string::npos);
+  CHECK(events.find(",punch,began,") != std::string::npos);
+  CHECK(events.find(",hug,ended,") != std::string::npos);
 }
 #endif
 

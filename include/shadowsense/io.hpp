@@ -5,4 +5,5 @@
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/io/image_file.hpp>
 #include <shadowsense/io/image_folder.hpp>
+#include <shadowsense/io/temporal_dataset.hpp>
 #include <shadowsense/shadowsense.hpp>

@@ -16,6 +16,10 @@
 //             another gesture counts in the confusion matrix, as a miss of the truth and a false
 //             positive of the prediction; no prediction is a miss (column `none`). Predictions
 //             left over are false positives (row `none`).
+// TemporalEventLog: the last word per (track_id, start_ms) of a stream of events.
+// score_temporal(truth, predictions, widen_ms, match, result): the matching above for one
+//   sequence, added into result (ss_track_eval --temporal scores rendered frames with it,
+//   matching tracks with TemporalTrackMatch::any_track).
 // format_temporal_eval(result) -> text: the per-gesture table, macro-F1, the confusion matrix
 //   and the latency quantiles.
 // Plain values; no shared state (any thread).
@@ -72,75 +76,104 @@ struct TemporalEvalResult {
   }
 };
 
+// Keeps the last word per (track_id, start_ms) of a recogniser's events: a revision replaces
+// the tap, an `ended` the `began`.
+class TemporalEventLog {
+public:
+  template <class Events>
+  void add(const Events& events) {
+    for (const GestureEvent& e : events) {
+      auto it = std::find_if(last_.begin(), last_.end(), [&](const GestureEvent& x) {
+        return x.track_id == e.track_id && x.start_ms == e.start_ms;
+      });
+      if (it == last_.end())
+        last_.push_back(e);
+      else
+        *it = e;
+    }
+  }
+  const std::vector<GestureEvent>& last() const { return last_; }
+
+private:
+  std::vector<GestureEvent> last_;
+};
+
+// How a truth finds its prediction's track: the same id (the generator's tracks are fed to the
+// recogniser as they are), or any track gesture for a track truth (track_id > 0) and track 0
+// for track 0 (rendered frames: the runtime's tracker numbers the hands itself; the generated
+// hands never overlap in time).
+enum class TemporalTrackMatch { same_id, any_track };
+
+// Scores one sequence's collapsed predictions against its truth into `out` (as
+// evaluate_temporal says), widening each truth interval by widen_ms on each side.
+inline void score_temporal(const std::vector<sim::TouchGestureTruth>& truth,
+                           const std::vector<GestureEvent>& predictions, double widen_ms,
+                           TemporalTrackMatch match, TemporalEvalResult& out) {
+  const std::size_t none = TemporalEvalResult::n;
+  const std::vector<GestureEvent>& last = predictions;
+  std::vector<bool> used(last.size(), false);
+  auto same_track = [&](int truth_id, int predicted_id) {
+    return match == TemporalTrackMatch::same_id ? truth_id == predicted_id
+                                                : (truth_id > 0) == (predicted_id > 0);
+  };
+  for (const sim::TouchGestureTruth& t : truth) {
+    const auto tg = static_cast<std::size_t>(t.gesture);
+    std::size_t best = last.size();
+    for (std::size_t k = 0; k < last.size(); ++k) {
+      const GestureEvent& p = last[k];
+      if (used[k] || !same_track(t.track_id, p.track_id)) continue;
+      if (p.end_ms < t.start_ms - widen_ms || p.start_ms > t.end_ms + widen_ms) continue;
+      if (best == last.size() || (p.gesture == t.gesture && last[best].gesture != t.gesture))
+        best = k;
+    }
+    if (best == last.size()) {
+      ++out.fn[tg];
+      ++out.confusion[tg][none];
+      continue;
+    }
+    used[best] = true;
+    const GestureEvent& p = last[best];
+    const auto pg = static_cast<std::size_t>(p.gesture);
+    ++out.confusion[tg][pg];
+    if (pg == tg) {
+      ++out.tp[tg];
+      const bool counted = t.gesture == TouchGesture::tap ||
+                           t.gesture == TouchGesture::double_tap || t.gesture == TouchGesture::pat;
+      if (counted && p.repetitions != t.repetitions)
+        ++out.repetition_errors; // e.g. a pat split in two: its event came before the end
+      else
+        out.latency_ms[tg].push_back(p.decided_ms - t.end_ms);
+    } else {
+      ++out.fn[tg];
+      ++out.fp[pg];
+    }
+  }
+  for (std::size_t k = 0; k < last.size(); ++k)
+    if (!used[k]) {
+      const auto pg = static_cast<std::size_t>(last[k].gesture);
+      ++out.fp[pg];
+      ++out.confusion[none][pg];
+    }
+}
+
 inline TemporalEvalResult evaluate_temporal(const sim::TouchSequenceConfig& config,
                                             std::uint64_t first_user, int users,
                                             const TemporalGestureConfig& recogniser = {}) {
   detail::require(users >= 1, "evaluate_temporal: users must be >= 1");
   config.validate();
   TemporalEvalResult out;
-  const std::size_t none = TemporalEvalResult::n;
   const double widen = 1000.0 / config.fps;
   for (int u = 0; u < users; ++u) {
     const sim::TouchSequence seq =
         sim::make_touch_sequence(config, first_user + static_cast<std::uint64_t>(u));
     TemporalGestureRecogniser r(recogniser);
-    std::vector<GestureEvent> last; // the last word per (track_id, start_ms)
-    auto take = [&](const std::vector<GestureEvent>& events) {
-      for (const GestureEvent& e : events) {
-        auto it = std::find_if(last.begin(), last.end(), [&](const GestureEvent& x) {
-          return x.track_id == e.track_id && x.start_ms == e.start_ms;
-        });
-        if (it == last.end())
-          last.push_back(e);
-        else
-          *it = e;
-      }
-    };
+    TemporalEventLog log;
     for (std::size_t i = 0; i < seq.frames.size(); ++i)
-      take(r.update(seq.frames[i], seq.shapes[i]));
-    take(r.flush(seq.frames.empty() ? 0.0 : seq.frames.back().timestamp_ms + widen));
+      log.add(r.update(seq.frames[i], seq.shapes[i]));
+    log.add(r.flush(seq.frames.empty() ? 0.0 : seq.frames.back().timestamp_ms + widen));
     out.frames += seq.frames.size();
     ++out.users;
-    std::vector<bool> used(last.size(), false);
-    for (const sim::TouchGestureTruth& t : seq.truth) {
-      const auto tg = static_cast<std::size_t>(t.gesture);
-      std::size_t best = last.size();
-      for (std::size_t k = 0; k < last.size(); ++k) {
-        const GestureEvent& p = last[k];
-        if (used[k] || p.track_id != t.track_id) continue;
-        if (p.end_ms < t.start_ms - widen || p.start_ms > t.end_ms + widen) continue;
-        if (best == last.size() || (p.gesture == t.gesture && last[best].gesture != t.gesture))
-          best = k;
-      }
-      if (best == last.size()) {
-        ++out.fn[tg];
-        ++out.confusion[tg][none];
-        continue;
-      }
-      used[best] = true;
-      const GestureEvent& p = last[best];
-      const auto pg = static_cast<std::size_t>(p.gesture);
-      ++out.confusion[tg][pg];
-      if (pg == tg) {
-        ++out.tp[tg];
-        const bool counted = t.gesture == TouchGesture::tap ||
-                             t.gesture == TouchGesture::double_tap ||
-                             t.gesture == TouchGesture::pat;
-        if (counted && p.repetitions != t.repetitions)
-          ++out.repetition_errors; // e.g. a pat split in two: its event came before the end
-        else
-          out.latency_ms[tg].push_back(p.decided_ms - t.end_ms);
-      } else {
-        ++out.fn[tg];
-        ++out.fp[pg];
-      }
-    }
-    for (std::size_t k = 0; k < last.size(); ++k)
-      if (!used[k]) {
-        const auto pg = static_cast<std::size_t>(last[k].gesture);
-        ++out.fp[pg];
-        ++out.confusion[none][pg];
-      }
+    score_temporal(seq.truth, log.last(), widen, TemporalTrackMatch::same_id, out);
   }
   return out;
 }

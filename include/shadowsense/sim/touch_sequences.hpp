@@ -24,7 +24,8 @@
 //             points with Gaussian noise (position_noise_px); the classifier's label per frame
 //             (palm or point swapped with probability label_noise during palm/point contacts).
 //             truth: one TouchGestureTruth per gesture (two for a punch: the punch label interval
-//             on track 0 and the hit of its contact), in time order.
+//             on track 0 and the hit of its contact), in time order. hands, frame_index and
+//             content_index say what each frame shows, for rendering it.
 // Plain values; no shared state (any thread).
 #pragma once
 
@@ -78,12 +79,6 @@ struct TouchGestureTruth {
   Direction direction = Direction::none; // strokes
 };
 
-struct TouchSequence {
-  std::vector<TouchFrame> frames;
-  std::vector<OutputGesture> shapes; // the classifier's reading per frame
-  std::vector<TouchGestureTruth> truth;
-};
-
 namespace detail_touch {
 
 // One hand's script: contact intervals with a position function, and the label.
@@ -120,6 +115,17 @@ inline std::optional<cv::Point2d> contact_at(const HandScript& h, double t, doub
 }
 
 } // namespace detail_touch
+
+struct TouchSequence {
+  std::vector<TouchFrame> frames;
+  std::vector<OutputGesture> shapes; // the classifier's reading per frame
+  std::vector<TouchGestureTruth> truth;
+  // What the frames show, for rendering them as images (sim/touch_sequence_writer.hpp): each
+  // hand's script (image pixels, ms), and per kept frame its index k (time k * 1000 / fps) and
+  // the index whose content it carries (an earlier k for a duplicated frame, else k).
+  std::vector<detail_touch::HandScript> hands;
+  std::vector<std::int64_t> frame_index, content_index;
+};
 
 inline TouchSequence make_touch_sequence(const TouchSequenceConfig& config, std::uint64_t seed) {
   using namespace detail_touch;
@@ -257,6 +263,7 @@ inline TouchSequence make_touch_sequence(const TouchSequenceConfig& config, std:
   bool have_previous = false;
   TouchFrame previous;
   OutputGesture previous_shape;
+  std::int64_t previous_content = 0;
   for (std::int64_t k = 0;; ++k) {
     const double tk = static_cast<double>(k) * step;
     if (tk > t) break;
@@ -265,9 +272,11 @@ inline TouchSequence make_touch_sequence(const TouchSequenceConfig& config, std:
     TouchFrame f;
     OutputGesture shape;
     shape.available = true;
+    std::int64_t content = k;
     if (duplicate && have_previous) {
       f = previous;
       shape = previous_shape;
+      content = previous_content;
     } else {
       for (const HandScript& h : hands) {
         if (tk < h.appear || tk >= h.leave) continue;
@@ -294,11 +303,15 @@ inline TouchSequence make_touch_sequence(const TouchSequenceConfig& config, std:
     f.timestamp_ms = tk;
     previous = f;
     previous_shape = shape;
+    previous_content = content;
     have_previous = true;
     if (drop) continue;
     out.frames.push_back(f);
     out.shapes.push_back(shape);
+    out.frame_index.push_back(k);
+    out.content_index.push_back(content);
   }
+  out.hands = std::move(hands);
   return out;
 }
 
