@@ -1,0 +1,206 @@
+// Scores the temporal gesture recogniser (sense/temporal_gestures.hpp) on contact timelines from
+// outside the generator: a folder with timeline.csv and truth.csv as written by
+// tools/realhand/cost_timeline.py (issue 23's independent real timing; recipe and scoring rule
+// pre-registered in docs/validation_protocol.md, "Issue 23").
+//
+//   ss_timeline_eval --input DIR [--fps F] [--px-per-cm S]
+//
+// timeline.csv: sequence,time_ms,track,contact,x_px,y_px,area_px (rows of one frame together,
+// frames in time order within a sequence; track 0 = a frame without any track; contact 0 = the
+// track hovers). truth.csv: sequence,track,gesture,start_ms,end_ms[,...] (gesture by its name).
+// Each sequence is fed to a fresh TemporalGestureRecogniser with TemporalGestureConfig{} (only
+// px_per_cm may be set), without a classifier reading, and flushed one frame after its end.
+// Scoring (pre-registered): events collapsed to the last word per (track, start_ms); per truth,
+// the predictions on its track overlapping it (widened by 1000 / fps ms) are its own; one of
+// the truth's gesture is a true positive (double_tap counts as tap), further ones of that gesture
+// are ignored, others are false positives; no prediction of the truth's gesture is a miss.
+// Predictions overlapping no truth are false positives. Prints the table of
+// eval/temporal_eval.hpp (format_temporal_eval) and the number of rows read.
+#include <shadowsense/eval/temporal_eval.hpp>
+
+#include "common/cli.hpp"
+
+#include <fstream>
+#include <map>
+#include <sstream>
+
+using namespace shadowsense;
+
+namespace {
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream in(line);
+  while (std::getline(in, cell, ',')) out.push_back(cell);
+  if (!line.empty() && line.back() == ',') out.emplace_back();
+  return out;
+}
+
+double number(const std::string& s, const std::string& where) {
+  double v = 0;
+  const char* b = s.data();
+  const auto [p, ec] = std::from_chars(b, b + s.size(), v);
+  if (ec != std::errc() || p != b + s.size() || !std::isfinite(v))
+    throw InvalidArgument(where + ": not a number: '" + s + "'");
+  return v;
+}
+
+std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& path,
+                                               std::size_t min_columns,
+                                               const std::string& first_header) {
+  std::ifstream in(path);
+  if (!in) throw IoError("cannot open " + path.string());
+  std::string line;
+  if (!std::getline(in, line) || split_csv(line).empty() || split_csv(line)[0] != first_header)
+    throw InvalidArgument(path.string() + ": expected a header starting with '" + first_header +
+                          "'");
+  std::vector<std::vector<std::string>> rows;
+  std::size_t n = 1;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    auto r = split_csv(line);
+    if (r.size() < min_columns)
+      throw InvalidArgument(path.string() + ": line " + std::to_string(n) + " has " +
+                            std::to_string(r.size()) + " columns, expected at least " +
+                            std::to_string(min_columns));
+    rows.push_back(std::move(r));
+  }
+  return rows;
+}
+
+struct Truth {
+  TouchGesture gesture;
+  int track;
+  double start, end;
+};
+
+} // namespace
+
+int main(int argc, char** argv) {
+  return cli::run("ss_timeline_eval", [&] {
+    std::string input;
+    double fps = 30;
+    TemporalGestureConfig config;
+    cli::Parser p("ss_timeline_eval",
+                  "Scores the temporal gesture recogniser on contact timelines (timeline.csv, "
+                  "truth.csv; tools/realhand/cost_timeline.py).");
+    p.option("--input", "DIR", "folder with timeline.csv and truth.csv", input).required();
+    p.option("--fps", "F", "the timelines' frame rate (matching widens by one frame)", fps)
+        .range(5.0, 240.0);
+    p.option("--px-per-cm", "S", "recogniser's image scale (default 7.6)", config.px_per_cm)
+        .range(0.1, 1000.0);
+    p.parse(argc, argv);
+    config.validate();
+    const std::filesystem::path dir(input);
+    if (!std::filesystem::is_directory(dir))
+      throw cli::UsageError("--input: not a folder: " + input);
+    const auto tl = read_csv(dir / "timeline.csv", 7, "sequence");
+    const auto tr = read_csv(dir / "truth.csv", 5, "sequence");
+
+    // frames per sequence, in file order
+    std::map<long, std::vector<TouchFrame>> frames;
+    for (std::size_t i = 0; i < tl.size(); ++i) {
+      const auto& r = tl[i];
+      const std::string where = "timeline.csv row " + std::to_string(i + 2);
+      const long seq = static_cast<long>(number(r[0], where));
+      const double t = number(r[1], where);
+      const int track = static_cast<int>(number(r[2], where));
+      auto& fs = frames[seq];
+      if (fs.empty() || fs.back().timestamp_ms != t) {
+        if (!fs.empty() && t <= fs.back().timestamp_ms)
+          throw InvalidArgument(where + ": time_ms not increasing within its sequence");
+        fs.emplace_back();
+        fs.back().timestamp_ms = t;
+      }
+      if (track == 0) continue;
+      TouchTrack k;
+      k.id = track;
+      k.matched = true;
+      if (r[3] == "1") {
+        const float x = static_cast<float>(number(r[4], where));
+        const float y = static_cast<float>(number(r[5], where));
+        k.contact = cv::Point2f(x, y);
+        k.position = *k.contact;
+        k.contact_area = number(r[6], where);
+      } else if (r[3] != "0") {
+        throw InvalidArgument(where + ": contact must be 0 or 1");
+      }
+      fs.back().tracks.push_back(k);
+    }
+    std::map<long, std::vector<Truth>> truth;
+    for (std::size_t i = 0; i < tr.size(); ++i) {
+      const auto& r = tr[i];
+      const std::string where = "truth.csv row " + std::to_string(i + 2);
+      truth[static_cast<long>(number(r[0], where))].push_back(
+          {touch_gesture_from_string(r[2]), static_cast<int>(number(r[1], where)),
+           number(r[3], where), number(r[4], where)});
+    }
+
+    TemporalEvalResult out;
+    const std::size_t none = TemporalEvalResult::n;
+    const double widen = 1000.0 / fps;
+    const OutputGesture no_reading; // a pressure grid has no hand-shape reading
+    for (auto& [seq, fs] : frames) {
+      TemporalGestureRecogniser rec(config);
+      std::vector<GestureEvent> last;
+      auto take = [&](const std::vector<GestureEvent>& events) {
+        for (const GestureEvent& e : events) {
+          auto it = std::find_if(last.begin(), last.end(), [&](const GestureEvent& x) {
+            return x.track_id == e.track_id && x.start_ms == e.start_ms;
+          });
+          if (it == last.end())
+            last.push_back(e);
+          else
+            *it = e;
+        }
+      };
+      for (const TouchFrame& f : fs) take(rec.update(f, no_reading));
+      take(rec.flush(fs.back().timestamp_ms + widen));
+      for (GestureEvent& e : last)
+        if (e.gesture == TouchGesture::double_tap) e.gesture = TouchGesture::tap; // pre-registered
+      out.frames += fs.size();
+      ++out.users;
+      std::vector<bool> used(last.size(), false);
+      for (const Truth& t : truth[seq]) {
+        const auto tg = static_cast<std::size_t>(t.gesture);
+        bool hit = false;
+        std::size_t other = last.size();
+        for (std::size_t k = 0; k < last.size(); ++k) {
+          const GestureEvent& e = last[k];
+          if (used[k] || e.track_id != t.track) continue;
+          if (e.end_ms < t.start - widen || e.start_ms > t.end + widen) continue;
+          used[k] = true;
+          const auto pg = static_cast<std::size_t>(e.gesture);
+          if (pg == tg) {
+            if (!hit) {
+              hit = true;
+              ++out.tp[tg];
+              ++out.confusion[tg][tg];
+              out.latency_ms[tg].push_back(e.decided_ms - t.end);
+            } // further ones of the same gesture: repeated contacts of one capture, ignored
+          } else {
+            ++out.fp[pg];
+            if (other == last.size()) other = k;
+          }
+        }
+        if (!hit) {
+          ++out.fn[tg];
+          ++out.confusion[tg][other == last.size() ? none
+                                                   : static_cast<std::size_t>(last[other].gesture)];
+        }
+      }
+      for (std::size_t k = 0; k < last.size(); ++k)
+        if (!used[k]) {
+          const auto pg = static_cast<std::size_t>(last[k].gesture);
+          ++out.fp[pg];
+          ++out.confusion[none][pg];
+        }
+    }
+    std::cout << "sequences " << out.users << ", timeline rows " << tl.size() << ", truths "
+              << tr.size() << " (double_tap counted as tap; no repetition scoring)\n"
+              << format_temporal_eval(out);
+    return 0;
+  });
+}
