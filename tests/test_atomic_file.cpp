@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "common/files.hpp"
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -22,18 +23,6 @@ using namespace shadowsense;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path p = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "atomic_file" / name;
-  fs::remove_all(p);
-  fs::create_directories(p);
-  return p;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 // Names of every entry in a folder.
 std::vector<std::string> entries(const fs::path& dir) {
@@ -50,18 +39,18 @@ void write_plain(const fs::path& p, const std::string& s) {
 } // namespace
 
 TEST_CASE("write_file_atomically writes new files and replaces old ones exactly") {
-  const fs::path dir = fresh_dir("ok");
+  const fs::path dir = tests::fresh_dir("atomic_file/ok");
   write_file_atomically(dir / "a.txt", std::string_view("hello\n"));
-  CHECK(slurp(dir / "a.txt") == "hello\n");
+  CHECK(tests::read_file(dir / "a.txt") == "hello\n");
   std::string big(300000, 'x'); // larger than the stream buffer
   for (std::size_t i = 0; i < big.size(); i += 7) big[i] = static_cast<char>('a' + i % 26);
   write_file_atomically(dir / "a.txt", big);
-  CHECK(slurp(dir / "a.txt") == big);
+  CHECK(tests::read_file(dir / "a.txt") == big);
   write_file_atomically(dir / "b.txt", [&](std::ostream& os) {
     os << "n=" << 42 << '\n';
     os.write(big.data(), static_cast<std::streamsize>(big.size()));
   });
-  CHECK(slurp(dir / "b.txt") == "n=42\n" + big);
+  CHECK(tests::read_file(dir / "b.txt") == "n=42\n" + big);
   write_file_atomically(dir / "empty.txt", std::string_view());
   CHECK(fs::exists(dir / "empty.txt"));
   CHECK(fs::file_size(dir / "empty.txt") == 0);
@@ -69,29 +58,29 @@ TEST_CASE("write_file_atomically writes new files and replaces old ones exactly"
 }
 
 TEST_CASE("AtomicFileWriter: nothing is visible before commit, and no commit leaves nothing") {
-  const fs::path dir = fresh_dir("writer");
+  const fs::path dir = tests::fresh_dir("atomic_file/writer");
   write_plain(dir / "f.csv", "old\n");
   {
     AtomicFileWriter w(dir / "f.csv");
     CHECK(w.temporary_path().parent_path() == dir);
     w.stream() << "new ";
     w.write("content\n");
-    CHECK(slurp(dir / "f.csv") == "old\n");
+    CHECK(tests::read_file(dir / "f.csv") == "old\n");
     w.commit();
     CHECK_THROWS_AS(w.commit(), InvalidArgument);
   }
-  CHECK(slurp(dir / "f.csv") == "new content\n");
+  CHECK(tests::read_file(dir / "f.csv") == "new content\n");
   {
     AtomicFileWriter w(dir / "f.csv");
     w.stream() << "abandoned";
     CHECK(fs::exists(w.temporary_path()));
   } // destroyed without commit
-  CHECK(slurp(dir / "f.csv") == "new content\n");
+  CHECK(tests::read_file(dir / "f.csv") == "new content\n");
   CHECK(entries(dir) == std::vector<std::string>{"f.csv"});
 }
 
 TEST_CASE("a folder that does not exist: IoError naming the path, nothing created") {
-  const fs::path dir = fresh_dir("missing");
+  const fs::path dir = tests::fresh_dir("atomic_file/missing");
   const fs::path target = dir / "no" / "such" / "folder" / "x.json";
   try {
     write_file_atomically(target, std::string_view("{}"));
@@ -106,7 +95,7 @@ TEST_CASE("a folder that does not exist: IoError naming the path, nothing create
 }
 
 TEST_CASE("the target is a folder: IoError at the rename, temporary file removed") {
-  const fs::path dir = fresh_dir("isdir");
+  const fs::path dir = tests::fresh_dir("atomic_file/isdir");
   fs::create_directories(dir / "target");
   write_plain(dir / "target" / "keep", "k");
   try {
@@ -118,11 +107,11 @@ TEST_CASE("the target is a folder: IoError at the rename, temporary file removed
           0);
   }
   CHECK(entries(dir) == std::vector<std::string>{"target"});
-  CHECK(slurp(dir / "target" / "keep") == "k");
+  CHECK(tests::read_file(dir / "target" / "keep") == "k");
 }
 
 TEST_CASE("a throwing callback propagates unchanged; old file intact, no temporary file") {
-  const fs::path dir = fresh_dir("throws");
+  const fs::path dir = tests::fresh_dir("atomic_file/throws");
   write_plain(dir / "m.csv", "old rows\n");
   CHECK_THROWS_WITH_AS(write_file_atomically(dir / "m.csv",
                                              [](std::ostream& os) {
@@ -130,12 +119,12 @@ TEST_CASE("a throwing callback propagates unchanged; old file intact, no tempora
                                                throw std::runtime_error("generator failed");
                                              }),
                        "generator failed", std::runtime_error);
-  CHECK(slurp(dir / "m.csv") == "old rows\n");
+  CHECK(tests::read_file(dir / "m.csv") == "old rows\n");
   CHECK(entries(dir) == std::vector<std::string>{"m.csv"});
 }
 
 TEST_CASE("a full disk (RLIMIT_FSIZE in a child) fails with IoError; old file intact") {
-  const fs::path dir = fresh_dir("full");
+  const fs::path dir = tests::fresh_dir("atomic_file/full");
   const std::string old = "the good old model\n";
   write_plain(dir / "model.ssdn", old);
   const fs::path target = dir / "model.ssdn";
@@ -172,14 +161,14 @@ TEST_CASE("a full disk (RLIMIT_FSIZE in a child) fails with IoError; old file in
     REQUIRE(::waitpid(pid, &status, 0) == pid);
     REQUIRE(WIFEXITED(status));
     CHECK(WEXITSTATUS(status) == 0);
-    CHECK(slurp(target) == old);
+    CHECK(tests::read_file(target) == old);
     CHECK(entries(dir) == std::vector<std::string>{"model.ssdn"});
   }
 }
 
 TEST_CASE("a writer killed mid-write leaves a temporary file that the next commit removes") {
   // Before: kill -9 left ".skin.calib.tmp.PID.N" for ever.
-  const fs::path dir = fresh_dir("killed");
+  const fs::path dir = tests::fresh_dir("atomic_file/killed");
   write_file_atomically(dir / "a.txt", std::string_view("old\n"));
   const pid_t pid = ::fork();
   REQUIRE(pid >= 0);
@@ -196,7 +185,7 @@ TEST_CASE("a writer killed mid-write leaves a temporary file that the next commi
   REQUIRE(left.size() == 2);
   CHECK(left[0].starts_with(".a.txt.tmp." + std::to_string(pid) + "."));
   CHECK(left[1] == "a.txt");
-  CHECK(slurp(dir / "a.txt") == "old\n");
+  CHECK(tests::read_file(dir / "a.txt") == "old\n");
   // Temporary files that must stay: this process's own (a writer still open), a live process's
   // (pid 1), another target's, and names that only look similar.
   AtomicFileWriter mine(dir / "a.txt");
@@ -206,7 +195,7 @@ TEST_CASE("a writer killed mid-write leaves a temporary file that the next commi
         std::string(".a.txt.tmp.x1.0"), ".a.txt.tmp." + std::to_string(pid) + ".0.bak"})
     write_plain(dir / keep, "keep");
   write_file_atomically(dir / "a.txt", std::string_view("new\n"));
-  CHECK(slurp(dir / "a.txt") == "new\n");
+  CHECK(tests::read_file(dir / "a.txt") == "new\n");
   std::vector<std::string> want{".a.txt.tmp." + std::to_string(pid) + ".0.bak",
                                 ".a.txt.tmp.1.0",
                                 ".a.txt.tmp.x1.0",

@@ -32,13 +32,13 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kDir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "calibrate_cli";
+const fs::path kCalibrateDir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "calibrate_cli";
 
 using Run = tests::ProgramRun;
 using tests::read_file;
 
-Run run(const std::string& args) {
-  return tests::run_program(SHADOWSENSE_SS_CALIBRATE, args, kDir);
+Run run_calibrate(const std::string& args) {
+  return tests::run_program(SHADOWSENSE_SS_CALIBRATE, args, kCalibrateDir);
 }
 
 std::string box_fields(const std::optional<cv::Rect>& r) {
@@ -56,11 +56,11 @@ struct Written {
 
 Written write_frames() {
   static sim::Renderer renderer(sim::Rig::tracking_box());
-  fs::remove_all(kDir / "empty");
-  fs::remove_all(kDir / "touch");
-  fs::create_directories(kDir / "empty");
-  fs::create_directories(kDir / "touch");
-  std::ofstream labels(kDir / "labels.csv");
+  fs::remove_all(kCalibrateDir / "empty");
+  fs::remove_all(kCalibrateDir / "touch");
+  fs::create_directories(kCalibrateDir / "empty");
+  fs::create_directories(kCalibrateDir / "touch");
+  std::ofstream labels(kCalibrateDir / "labels.csv");
   labels << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
   Written w;
   for (int light = 0; light < 3; ++light) {
@@ -76,8 +76,9 @@ Written write_frames() {
           variety);
       char name[32];
       std::snprintf(name, sizeof name, "%s%d_%d.png", empty ? "e" : "t", light, i);
-      REQUIRE(cv::imwrite((kDir / (empty ? "empty" : "touch") / name).string(), f.image));
-      const cv::Mat back = cv::imread((kDir / (empty ? "empty" : "touch") / name).string());
+      REQUIRE(cv::imwrite((kCalibrateDir / (empty ? "empty" : "touch") / name).string(), f.image));
+      const cv::Mat back =
+          cv::imread((kCalibrateDir / (empty ? "empty" : "touch") / name).string());
       if (empty) {
         w.empty.push_back(back);
         continue;
@@ -99,13 +100,14 @@ Written write_frames() {
 
 TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from the same frames") {
   const Written w = write_frames();
-  const std::string out = (kDir / "skin.calib").string();
-  const std::string preview = (kDir / "preview.png").string();
+  const std::string out = (kCalibrateDir / "skin.calib").string();
+  const std::string preview = (kCalibrateDir / "preview.png").string();
   fs::remove(out);
   fs::remove(preview);
-  const Run r = run("--empty '" + (kDir / "empty").string() + "' --touch '" +
-                    (kDir / "touch").string() + "' --labels '" + (kDir / "labels.csv").string() +
-                    "' --out '" + out + "' --preview '" + preview + "'");
+  const Run r = run_calibrate("--empty '" + (kCalibrateDir / "empty").string() + "' --touch '" +
+                              (kCalibrateDir / "touch").string() + "' --labels '" +
+                              (kCalibrateDir / "labels.csv").string() + "' --out '" + out +
+                              "' --preview '" + preview + "'");
   INFO(r.err);
   REQUIRE(r.status == 0);
   CHECK(r.out.find("6 empty frames, 18 touch frames (15 labelled, from a folder), 3 light "
@@ -127,12 +129,12 @@ TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from 
 
 TEST_CASE("ss_calibrate: bad labels and arguments exit 2 naming the problem") {
   write_frames();
-  const std::string base = "--empty '" + (kDir / "empty").string() + "' --touch '" +
-                           (kDir / "touch").string() + "' --out '" + (kDir / "bad.calib").string() +
-                           "'";
+  const std::string base = "--empty '" + (kCalibrateDir / "empty").string() + "' --touch '" +
+                           (kCalibrateDir / "touch").string() + "' --out '" +
+                           (kCalibrateDir / "bad.calib").string() + "'";
   auto with_labels = [&](const std::string& text) {
-    std::ofstream(kDir / "bad_labels.csv") << text;
-    return run(base + " --labels '" + (kDir / "bad_labels.csv").string() + "'");
+    std::ofstream(kCalibrateDir / "bad_labels.csv") << text;
+    return run_calibrate(base + " --labels '" + (kCalibrateDir / "bad_labels.csv").string() + "'");
   };
   const std::string header =
       "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
@@ -157,20 +159,20 @@ TEST_CASE("ss_calibrate: bad labels and arguments exit 2 naming the problem") {
   r = with_labels(header + "t0_2.png,190,0,30,30,,,,\n"); // outside the 200 px wide image
   CHECK(r.status == 2);
   CHECK(r.err.find("reaches outside the image") != std::string::npos);
-  CHECK_FALSE(fs::exists(kDir / "bad.calib"));
-  r = run("--help");
+  CHECK_FALSE(fs::exists(kCalibrateDir / "bad.calib"));
+  r = run_calibrate("--help");
   CHECK(r.status == 0);
   CHECK(r.out.find("usage: ss_calibrate") == 0);
-  r = run("--version");
+  r = run_calibrate("--version");
   CHECK(r.status == 0);
   CHECK(r.out.find("ss_calibrate shadowsense ") == 0);
-  r = run("--out x.calib");
+  r = run_calibrate("--out x.calib");
   CHECK(r.status == 2);
   CHECK(r.err.find("--empty is required") != std::string::npos);
-  r = run(base + " --max-empty 1e3");
+  r = run_calibrate(base + " --max-empty 1e3");
   CHECK(r.status == 2);
   CHECK(r.err.find("--max-empty: expected an integer") != std::string::npos);
-  r = run(base + " --max-empty=0");
+  r = run_calibrate(base + " --max-empty=0");
   CHECK(r.status == 2);
   CHECK(r.err.find("--max-empty: expected an integer in [1, 100000], got '0'") !=
         std::string::npos);
@@ -207,16 +209,16 @@ TEST_CASE("ss_calibrate --touch on a dataset folder takes the boxes from its met
   // The generator's tracking dataset (all three light presets) and empty frames in daylight
   // only: touch frames in dusk and night light are far from every empty light level, and the
   // warnings must name their files.
-  const fs::path data = kDir / "dataset";
+  const fs::path data = kCalibrateDir / "dataset";
   fs::remove_all(data);
   sim::TrackingDatasetConfig config;
   config.frames_per_category = 3;
   sim::write_tracking_dataset(data, 7, config);
-  fs::remove_all(kDir / "day_empty");
-  fs::create_directories(kDir / "day_empty");
+  fs::remove_all(kCalibrateDir / "day_empty");
+  fs::create_directories(kCalibrateDir / "day_empty");
   std::vector<cv::Mat> empty;
   for (const cv::Mat& f : empty_frames(0, 3, 0xE3)) {
-    const fs::path p = kDir / "day_empty" / ("e" + std::to_string(empty.size()) + ".png");
+    const fs::path p = kCalibrateDir / "day_empty" / ("e" + std::to_string(empty.size()) + ".png");
     REQUIRE(cv::imwrite(p.string(), f));
     empty.push_back(cv::imread(p.string()));
   }
@@ -228,10 +230,11 @@ TEST_CASE("ss_calibrate --touch on a dataset folder takes the boxes from its met
     naming_a_file += x.message.find(".png'") != std::string::npos ? 1 : 0;
   REQUIRE(naming_a_file > 0); // the case tests what it claims
 
-  const std::string out = (kDir / "dataset.calib").string();
+  const std::string out = (kCalibrateDir / "dataset.calib").string();
   fs::remove(out);
-  const Run r = run("--empty=" + tests::shell_quote((kDir / "day_empty").string()) + " --touch=" +
-                    tests::shell_quote(data.string()) + " --out=" + tests::shell_quote(out));
+  const Run r = run_calibrate(
+      "--empty=" + tests::shell_quote((kCalibrateDir / "day_empty").string()) +
+      " --touch=" + tests::shell_quote(data.string()) + " --out=" + tests::shell_quote(out));
   INFO(r.err);
   REQUIRE(r.status == 0);
   CHECK(load_calibration(out) == expected.calibration);
@@ -255,8 +258,8 @@ TEST_CASE("ss_calibrate --touch on a dataset folder takes the boxes from its met
     if (!b.name.starts_with("nothing/")) touching.push_back(b);
   REQUIRE(touching.size() == 12);
   const CalibrationResult split = calibrate_from_frames(nothing, touching);
-  const Run own = run("--empty '" + (data / "nothing").string() + "' --touch '" + data.string() +
-                      "' --out '" + out + "'");
+  const Run own = run_calibrate("--empty '" + (data / "nothing").string() + "' --touch '" +
+                                data.string() + "' --out '" + out + "'");
   INFO(own.err);
   REQUIRE(own.status == 0);
   CHECK(load_calibration(out) == split.calibration);
@@ -264,11 +267,11 @@ TEST_CASE("ss_calibrate --touch on a dataset folder takes the boxes from its met
         std::string::npos);
 
   // The metadata gives the boxes: a labels CSV as well is refused.
-  std::ofstream(kDir / "extra_labels.csv")
+  std::ofstream(kCalibrateDir / "extra_labels.csv")
       << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
-  const Run both =
-      run("--empty '" + (kDir / "day_empty").string() + "' --touch '" + data.string() +
-          "' --labels '" + (kDir / "extra_labels.csv").string() + "' --out '" + out + "'");
+  const Run both = run_calibrate(
+      "--empty '" + (kCalibrateDir / "day_empty").string() + "' --touch '" + data.string() +
+      "' --labels '" + (kCalibrateDir / "extra_labels.csv").string() + "' --out '" + out + "'");
   CHECK(both.status == 2);
   CHECK(both.err.find("is a dataset folder; its metadata.csv gives the boxes") !=
         std::string::npos);
@@ -310,8 +313,9 @@ TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame in
     touch_images.push_back(f.image);
     truth.push_back(f.gt);
   }
-  const std::vector<cv::Mat> empty = write_video(kDir / "empty.avi", empty_frames(0, 4, 0xE4));
-  const std::vector<cv::Mat> decoded = write_video(kDir / "touch.avi", touch_images);
+  const std::vector<cv::Mat> empty =
+      write_video(kCalibrateDir / "empty.avi", empty_frames(0, 4, 0xE4));
+  const std::vector<cv::Mat> decoded = write_video(kCalibrateDir / "touch.avi", touch_images);
   // OpenCV's videoio is built (SHADOWSENSE_HAVE_VIDEOIO): Debian's has both encoders, so a
   // missing one is a broken install, not a reason to pass without testing.
   REQUIRE_MESSAGE(!(empty.empty() || decoded.empty()),
@@ -319,10 +323,10 @@ TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame in
   REQUIRE(empty.size() == 4);
   REQUIRE(decoded.size() == 6);
   // Frames 0, 2 and 3 labelled (by index, one with leading zeros), the others unlabelled.
-  std::ofstream labels(kDir / "video_labels.csv");
+  std::ofstream labels(kCalibrateDir / "video_labels.csv");
   labels << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n";
   std::vector<BoxLabelledFrame> touch;
-  const std::string video = (kDir / "touch.avi").string();
+  const std::string video = (kCalibrateDir / "touch.avi").string();
   for (int i = 0; i < 6; ++i) {
     const bool labelled = i == 0 || i == 2 || i == 3;
     BoxLabelledFrame b{decoded[static_cast<std::size_t>(i)], labelled, std::nullopt, std::nullopt,
@@ -337,11 +341,12 @@ TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame in
   }
   labels.close();
   const CalibrationResult expected = calibrate_from_frames(empty, touch);
-  const std::string out = (kDir / "video.calib").string();
+  const std::string out = (kCalibrateDir / "video.calib").string();
   fs::remove(out);
-  const std::string args =
-      "--empty '" + (kDir / "empty.avi").string() + "' --touch '" + video + "' --out '" + out + "'";
-  const Run r = run(args + " --labels '" + (kDir / "video_labels.csv").string() + "'");
+  const std::string args = "--empty '" + (kCalibrateDir / "empty.avi").string() + "' --touch '" +
+                           video + "' --out '" + out + "'";
+  const Run r =
+      run_calibrate(args + " --labels '" + (kCalibrateDir / "video_labels.csv").string() + "'");
   INFO(r.err);
   REQUIRE(r.status == 0);
   CHECK(load_calibration(out) == expected.calibration);
@@ -351,37 +356,40 @@ TEST_CASE("ss_calibrate on videos: --empty and --touch, labels keyed by frame in
         std::string::npos);
 
   // --max-touch bounds the unlabelled frames taken from a video (labelled ones are all kept).
-  const Run capped =
-      run(args + " --labels '" + (kDir / "video_labels.csv").string() + "' --max-touch 1");
+  const Run capped = run_calibrate(
+      args + " --labels '" + (kCalibrateDir / "video_labels.csv").string() + "' --max-touch 1");
   INFO(capped.err);
   CHECK(capped.status == 0);
   CHECK(capped.out.find("4 touch frames (3 labelled, from a video)") != std::string::npos);
 
   // A label for a frame the video does not have, and a file name instead of an index.
-  std::ofstream(kDir / "bad_video_labels.csv")
+  std::ofstream(kCalibrateDir / "bad_video_labels.csv")
       << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
       << "99,1,2,3,4,,,,\n";
-  Run bad = run(args + " --labels '" + (kDir / "bad_video_labels.csv").string() + "'");
+  Run bad =
+      run_calibrate(args + " --labels '" + (kCalibrateDir / "bad_video_labels.csv").string() + "'");
   CHECK(bad.status == 2);
   CHECK(bad.err.find("labels '99', which is not a frame of") != std::string::npos);
-  std::ofstream(kDir / "bad_video_labels.csv")
+  std::ofstream(kCalibrateDir / "bad_video_labels.csv")
       << "file,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,contact_w,contact_h\n"
       << "f.png,1,2,3,4,,,,\n";
-  bad = run(args + " --labels '" + (kDir / "bad_video_labels.csv").string() + "'");
+  bad =
+      run_calibrate(args + " --labels '" + (kCalibrateDir / "bad_video_labels.csv").string() + "'");
   CHECK(bad.status == 2);
   CHECK(bad.err.find("must be a frame index (0 = the first frame)") != std::string::npos);
 
   // A damaged video (its last two thirds cut off) that still declares its 60 frames: an error,
   // not a calibration from the 20 it gave (before: exit 0 and a calibration file).
-  REQUIRE(write_video(kDir / "long_empty.avi", empty_frames(0, 60, 0xE5)).size() == 60);
+  REQUIRE(write_video(kCalibrateDir / "long_empty.avi", empty_frames(0, 60, 0xE5)).size() == 60);
   {
-    std::ifstream in(kDir / "long_empty.avi", std::ios::binary);
+    std::ifstream in(kCalibrateDir / "long_empty.avi", std::ios::binary);
     const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    std::ofstream(kDir / "cut_empty.avi", std::ios::binary) << bytes.substr(0, bytes.size() / 3);
+    std::ofstream(kCalibrateDir / "cut_empty.avi", std::ios::binary)
+        << bytes.substr(0, bytes.size() / 3);
   }
   fs::remove(out);
-  const Run cut = run("--empty '" + (kDir / "cut_empty.avi").string() + "' --touch '" + video +
-                      "' --out '" + out + "'");
+  const Run cut = run_calibrate("--empty '" + (kCalibrateDir / "cut_empty.avi").string() +
+                                "' --touch '" + video + "' --out '" + out + "'");
   CHECK(cut.status == 2);
   CHECK(cut.err.find("ended after") != std::string::npos);
   CHECK(cut.err.find("of the 60 frames it declares") != std::string::npos);

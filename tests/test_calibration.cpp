@@ -8,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include "common/sim_box.hpp"
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -16,11 +17,6 @@
 using namespace shadowsense;
 
 namespace {
-
-sim::Renderer& renderer() {
-  static sim::Renderer r(sim::Rig::tracking_box());
-  return r;
-}
 
 // Generator frames of every lighting preset: `empty` of the empty skin per preset, and touch
 // frames (hover, palm, fist, finger in turn) labelled by their true boxes with each side moved
@@ -48,8 +44,8 @@ Frames render_frames(std::uint64_t seed, int empty_per_light, int touch_per_ligh
       const auto category =
           empty ? sim::TrackCategory::nothing : static_cast<sim::TrackCategory>(1 + i % 4);
       const sim::Frame f = sim::render_random_tracking_frame(
-          renderer(), category, sim::derive_seed(seed, static_cast<std::uint64_t>(100 * light + i)),
-          variety);
+          test::box_renderer(), category,
+          sim::derive_seed(seed, static_cast<std::uint64_t>(100 * light + i)), variety);
       if (empty) {
         out.empty.push_back(f.image);
         continue;
@@ -111,7 +107,7 @@ TEST_CASE("the segmenter from box labels meets the mask-fitted accuracy on other
     int shadow_miss = 0, contact_miss = 0, shadow_fp = 0, contact_fp = 0;
     for (int i = 0; i < 12; ++i) {
       const sim::Frame f = sim::render_random_tracking_frame(
-          renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
+          test::box_renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
       const Segmentation s = seg.segment(f.image);
       if (f.gt.shadow_box) {
         if (s.shadow_box)
@@ -156,7 +152,7 @@ TEST_CASE("the calibration file holds the empty-skin model; the loaded segmenter
   sim::TrackingSampleConfig variety;
   for (int i = 0; i < 6; ++i) {
     const sim::Frame f = sim::render_random_tracking_frame(
-        renderer(), static_cast<sim::TrackCategory>(i % 5), 0x5A4E + i, variety);
+        test::box_renderer(), static_cast<sim::TrackCategory>(i % 5), 0x5A4E + i, variety);
     const Segmentation sa = a.segment(f.image), sb = b.segment(f.image);
     CHECK(sa.shadow_box == sb.shadow_box);
     CHECK(sa.contact_box == sb.contact_box);
@@ -255,7 +251,7 @@ TEST_CASE(
     int shadow_fp = 0, contact_fp = 0, contact_miss = 0;
     for (int i = 0; i < 12; ++i) {
       const sim::Frame fr = sim::render_random_tracking_frame(
-          renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
+          test::box_renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
       const Segmentation s = seg.segment(fr.image);
       if (!fr.gt.shadow_box && s.shadow_box) ++shadow_fp;
       if (!fr.gt.contact_box && s.contact_box) ++contact_fp;

@@ -14,6 +14,7 @@
 #include <opencv2/videoio.hpp>
 #endif
 
+#include "common/files.hpp"
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -30,7 +31,7 @@ namespace {
 
 using tests::shell_quote;
 
-tests::ProgramRun run(const std::string& args) {
+tests::ProgramRun run_classify(const std::string& args) {
   return tests::run_program(SS_CLASSIFY_PROGRAM, args,
                             fs::path(SHADOWSENSE_TEST_TMP_DIR) / "classify_program");
 }
@@ -54,24 +55,17 @@ std::string numbered(const char* stem, int i) { // (avoids a GCC 12 -Wrestrict f
   return std::string(stem).append(std::to_string(i)).append(".png");
 }
 
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
 } // namespace
 
 TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 on stderr") {
-  auto help = run("--help");
+  auto help = run_classify("--help");
   CHECK(help.status == 0);
   CHECK(help.out.find("usage: ss_classify") == 0);
   CHECK(help.err.empty());
-  auto version = run("--version");
+  auto version = run_classify("--version");
   CHECK(version.status == 0);
   CHECK(version.out.find("ss_classify shadowsense 0.") == 0);
-  const fs::path dir = fresh("classify_args");
+  const fs::path dir = tests::fresh_dir("classify_args");
   cv::imwrite((dir / "a.png").string(), frame(0));
   const std::string d = shell_quote(dir.string());
   const std::vector<std::pair<std::string, std::string>> bad = {
@@ -94,27 +88,27 @@ TEST_CASE("--help and --version on stdout with status 0; bad arguments status 2 
   };
   for (const auto& [args, message] : bad) {
     CAPTURE(args);
-    const auto r = run(args);
+    const auto r = run_classify(args);
     CHECK(r.status == 2);
     CHECK(r.out.find("frame,") == std::string::npos);
     CHECK(r.err.find("ss_classify: ") == 0);
     CHECK(r.err.find(message) != std::string::npos);
   }
   fs::create_directories(dir / "empty");
-  const auto empty = run(shell_quote((dir / "empty").string()));
+  const auto empty = run_classify(shell_quote((dir / "empty").string()));
   CHECK(empty.status == 2);
   CHECK(empty.err.find("no images found") != std::string::npos);
 }
 
 TEST_CASE("--truth: accuracy and confusion counts agree with the per-frame labels") {
-  const fs::path dir = fresh("classify_truth");
+  const fs::path dir = tests::fresh_dir("classify_truth");
   int k = 0;
   for (const char* cls : {"palm", "punch"})
     for (int i = 0; i < 3; ++i) {
       fs::create_directories(dir / cls / (i == 2 ? "nested" : ""));
       cv::imwrite((dir / cls / (i == 2 ? "nested" : "") / numbered("f", i)).string(), frame(k++));
     }
-  const auto r = run("--truth " + shell_quote(dir.string()));
+  const auto r = run_classify("--truth " + shell_quote(dir.string()));
   REQUIRE(r.status == 0);
   const auto out = lines(r.out);
   REQUIRE(out.size() == 7);
@@ -156,32 +150,32 @@ TEST_CASE("--truth: accuracy and confusion counts agree with the per-frame label
   // A folder whose name is not a class of the model is an error naming the image.
   fs::create_directories(dir / "wave");
   cv::imwrite((dir / "wave" / "x.png").string(), frame(0));
-  const auto unknown = run("--truth " + shell_quote(dir.string()));
+  const auto unknown = run_classify("--truth " + shell_quote(dir.string()));
   CHECK(unknown.status == 2);
   CHECK(unknown.err.find("true class 'wave'") != std::string::npos);
 }
 
 TEST_CASE("awkward paths stay valid JSON and CSV") {
-  const fs::path dir = fresh("classify_paths");
+  const fs::path dir = tests::fresh_dir("classify_paths");
   const fs::path odd = dir / "we\"ird,dir";
   fs::create_directories(odd);
   cv::imwrite((odd / "f.png").string(), frame(1));
-  const auto json = run("--format json " + shell_quote(dir.string()));
+  const auto json = run_classify("--format json " + shell_quote(dir.string()));
   REQUIRE(json.status == 0);
   CHECK(json.out.find("\"source\":\"" + dir.string() + "/we\\\"ird,dir/f.png\"") !=
         std::string::npos);
   CHECK(json.out.find("\"probabilities\":{\"nothing\":") != std::string::npos);
-  const auto csv = run(shell_quote(dir.string()));
+  const auto csv = run_classify(shell_quote(dir.string()));
   REQUIRE(csv.status == 0);
   CHECK(csv.out.find("0,\"" + dir.string() + "/we\"\"ird,dir/f.png\",0,") != std::string::npos);
 }
 
 TEST_CASE("--input and the last word are one input; options take '=' too; progress on stderr") {
   // 101 frames: above the 100 of the progress rule, so the closing line is printed.
-  const fs::path dir = fresh("classify_forms");
+  const fs::path dir = tests::fresh_dir("classify_forms");
   for (int i = 0; i < 101; ++i) cv::imwrite((dir / numbered("f", i)).string(), frame(i % 3));
-  const auto positional = run("--format json " + shell_quote(dir.string()));
-  const auto named = run("--format=json --input=" + shell_quote(dir.string()));
+  const auto positional = run_classify("--format json " + shell_quote(dir.string()));
+  const auto named = run_classify("--format=json --input=" + shell_quote(dir.string()));
   REQUIRE(positional.status == 0);
   REQUIRE(named.status == 0);
   CHECK(lines(named.out).size() == 101);
@@ -193,7 +187,7 @@ TEST_CASE("--input and the last word are one input; options take '=' too; progre
 
 #ifdef SHADOWSENSE_HAVE_VIDEOIO
 TEST_CASE("a video file gives the same lines as its decoded frames in a folder") {
-  const fs::path dir = fresh("classify_video");
+  const fs::path dir = tests::fresh_dir("classify_video");
   const fs::path video = dir / "clip.avi";
   {
     cv::VideoWriter w(video.string(), cv::CAP_OPENCV_MJPEG,
@@ -209,8 +203,8 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
   for (cv::Mat f; cap.read(f) && !f.empty(); ++n)
     cv::imwrite((dir / "frames" / numbered("f", n)).string(), f);
   REQUIRE(n == 5);
-  const auto from_video = lines(run(shell_quote(video.string())).out);
-  const auto from_folder = lines(run(shell_quote((dir / "frames").string())).out);
+  const auto from_video = lines(run_classify(shell_quote(video.string())).out);
+  const auto from_folder = lines(run_classify(shell_quote((dir / "frames").string())).out);
   REQUIRE(from_video.size() == 6);
   REQUIRE(from_folder.size() == 6);
   CHECK(from_video[0] == from_folder[0]);
@@ -223,7 +217,7 @@ TEST_CASE("a video file gives the same lines as its decoded frames in a folder")
     CHECK(tail(from_video[i]) == tail(from_folder[i]));
     CHECK(from_video[i].find(video.string() + "#" + std::to_string(i - 1)) != std::string::npos);
   }
-  const auto truth = run("--truth " + shell_quote(video.string()));
+  const auto truth = run_classify("--truth " + shell_quote(video.string()));
   CHECK(truth.status == 2);
   CHECK(truth.err.find("--truth needs a folder of images") != std::string::npos);
 }
@@ -252,14 +246,14 @@ TEST_CASE("a small PNG claiming 30000x30000 pixels is refused from its header, n
   const std::uint32_t crc = crc32(png.data() + 12, 17);
   for (int b = 0; b < 4; ++b)
     png[29 + b] = static_cast<unsigned char>((crc >> (24 - 8 * b)) & 0xff);
-  const fs::path dir = fresh("classify_huge");
+  const fs::path dir = tests::fresh_dir("classify_huge");
   {
     std::FILE* f = std::fopen((dir / "huge.png").string().c_str(), "wb");
     REQUIRE(f);
     REQUIRE(std::fwrite(png.data(), 1, png.size(), f) == png.size());
     std::fclose(f);
   }
-  const tests::ProgramRun r = run("--input " + shell_quote(dir.string()) + " --quiet");
+  const tests::ProgramRun r = run_classify("--input " + shell_quote(dir.string()) + " --quiet");
   CHECK(r.status == 2);
   CHECK(r.err.find("huge.png") != std::string::npos);
   CHECK(r.err.find("30000") != std::string::npos);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "common/files.hpp"
 #include <sys/resource.h>
 
 namespace fs = std::filesystem;
@@ -68,13 +69,6 @@ struct Fixture {
 std::string read(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), {}};
-}
-
-fs::path fresh_dir(const std::string& name) {
-  const fs::path d = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
 }
 
 } // namespace
@@ -555,7 +549,7 @@ TEST_CASE("JSON: non-finite numbers and misuse are errors") {
 }
 
 TEST_CASE("JsonWriter::save replaces the file through core/atomic_file.hpp, never half-written") {
-  const fs::path d = fresh_dir("cli_json_save");
+  const fs::path d = tests::fresh_dir("cli_json_save");
   const fs::path target = d / "score.json";
   cli::JsonWriter j;
   j.begin_array(cli::JsonWriter::compact).value("a\"b").end_array();

@@ -25,15 +25,8 @@ double mann_whitney(const std::vector<double>& pos, const std::vector<double>& n
   return s / static_cast<double>(pos.size() * neg.size());
 }
 
-sim::Renderer& renderer() {
-  return test::box_renderer();
-}
-const SimCalibration& calibration() {
-  return test::box_calibration();
-}
-
 sim::Frame frame(sim::TrackCategory c, std::uint64_t seed) {
-  return sim::render_random_tracking_frame(renderer(), c, seed);
+  return sim::render_random_tracking_frame(test::box_renderer(), c, seed);
 }
 
 } // namespace
@@ -86,13 +79,13 @@ TEST_CASE("tpr_at_fpr and the refusals") {
   CHECK_THROWS_AS(roc_from_scores({1, std::numeric_limits<double>::infinity()}, {0}),
                   InvalidArgument);
 
-  const Segmenter seg = segmenter_from(calibration());
+  const Segmenter seg = segmenter_from(test::box_calibration());
   CHECK_THROWS_AS(ContactRoc(seg, {-0.1f, 0.1f}), InvalidArgument); // no 0
   CHECK_THROWS_AS(ContactRoc(seg, {0.f, -0.1f}), InvalidArgument);  // not increasing
   CHECK_THROWS_AS(ContactRoc(seg, {0.f, 1.5f}), InvalidArgument);   // outside [-1, 1]
   CHECK_THROWS_AS(ContactRoc(seg, {}), InvalidArgument);
   CHECK_THROWS_AS(ContactRoc(Segmenter{}, {0.f}), InvalidArgument); // no empty-skin model
-  SegmenterConfig fixed = calibration().config;
+  SegmenterConfig fixed = test::box_calibration().config;
   fixed.calibration.mode = SegmentMode::fixed_ranges;
   CHECK_THROWS_AS(ContactRoc(Segmenter(fixed), {0.f}), InvalidArgument);
 
@@ -131,8 +124,8 @@ TEST_CASE("contact blobs carry their edge width: a sharp contact is narrower tha
 }
 
 TEST_CASE("ContactSweepRule: the joint cue at offset 0 is the shipped rule, pixel for pixel") {
-  const Segmenter::Config& config = calibration().config;
-  Segmenter shipped = segmenter_from(calibration());
+  const Segmenter::Config& config = test::box_calibration().config;
+  Segmenter shipped = segmenter_from(test::box_calibration());
   const SegmenterCalibration& cal = config.calibration;
   const RelativeRule relative{cal.shadow_darkness, cal.contact_darkness, cal.contact_warmth,
                               cal.by_light};
@@ -154,7 +147,7 @@ TEST_CASE("ContactSweepRule: the joint cue at offset 0 is the shipped rule, pixe
 }
 
 TEST_CASE("frame-level ROC on two hovering hands and two contacts of the generator") {
-  Segmenter shipped = segmenter_from(calibration());
+  Segmenter shipped = segmenter_from(test::box_calibration());
   ContactRoc roc(shipped, {-1.f, 0.f, 1.f});
   double shipped_iou = 0;
   int shipped_hover_contacts = 0;

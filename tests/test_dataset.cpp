@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "common/files.hpp"
 #include <sys/stat.h>
 
 using namespace shadowsense;
@@ -18,23 +19,20 @@ namespace fs = std::filesystem;
 
 namespace {
 
-fs::path fresh_dir(const std::string& name) {
+// A path under the test temp folder that does not exist yet (its parent does).
+fs::path absent_dir(const std::string& name) {
   const fs::path p = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "dataset" / name;
   fs::remove_all(p);
   fs::create_directories(p.parent_path());
   return p;
 }
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // Every regular file under root, by relative path, with its bytes.
 std::map<std::string, std::string> tree(const fs::path& root) {
   std::map<std::string, std::string> m;
   for (const auto& e : fs::recursive_directory_iterator(root))
-    if (e.is_regular_file()) m[fs::relative(e.path(), root).generic_string()] = slurp(e.path());
+    if (e.is_regular_file())
+      m[fs::relative(e.path(), root).generic_string()] = tests::read_file(e.path());
   return m;
 }
 
@@ -72,7 +70,7 @@ const std::string good_row =
 } // namespace
 
 TEST_CASE("the same seed writes byte-identical datasets (any thread count); another seed differs") {
-  const fs::path a = fresh_dir("det_a"), b = fresh_dir("det_b"), c = fresh_dir("det_c");
+  const fs::path a = absent_dir("det_a"), b = absent_dir("det_b"), c = absent_dir("det_c");
   sim::TrackingDatasetConfig t;
   t.frames_per_category = 2;
   for (const fs::path& root : {a, b}) {
@@ -95,7 +93,7 @@ TEST_CASE("the same seed writes byte-identical datasets (any thread count); anot
 }
 
 TEST_CASE("written datasets read back with consistent rows and images") {
-  const fs::path root = fresh_dir("readback");
+  const fs::path root = absent_dir("readback");
   const auto gs = sim::write_gesture_dataset(root / "gestures", 2, tiny_gestures());
   CHECK(gs.images == 12);
   const Metadata g = read_metadata(root / "gestures" / "metadata.csv");
@@ -157,7 +155,7 @@ TEST_CASE("written datasets read back with consistent rows and images") {
 }
 
 TEST_CASE("bad configuration is rejected before anything is written") {
-  const fs::path root = fresh_dir("badcfg");
+  const fs::path root = absent_dir("badcfg");
   sim::GestureDatasetConfig g;
   g.frames_per_gesture = -1;
   CHECK_THROWS_WITH_AS(sim::write_gesture_dataset(root / "g", 1, g),
@@ -188,7 +186,7 @@ TEST_CASE("bad configuration is rejected before anything is written") {
 
 TEST_CASE(
     "unwritable or occupied output folders fail clearly and leave no complete-looking dataset") {
-  const fs::path root = fresh_dir("unwritable");
+  const fs::path root = absent_dir("unwritable");
   fs::create_directories(root);
   std::ofstream(root / "a_file") << "x";
   sim::TrackingDatasetConfig t;
@@ -219,7 +217,7 @@ TEST_CASE("overwriting slides killed early leaves no old csv beside new frames")
   // Issue 11: `ss_synth --overwrite` stopped early left old per-sequence metadata.csv files
   // beside new frames. The writer now removes sequences.csv, then every metadata.csv, before
   // writing a frame; a failure at the first frame stands for a kill.
-  const fs::path root = fresh_dir("slides_overwrite");
+  const fs::path root = absent_dir("slides_overwrite");
   sim::SlideDatasetConfig c = tiny_slides();
   sim::write_slide_dataset(root, 3, c);
   int old_csvs = 0;
@@ -358,7 +356,7 @@ TEST_CASE("the shared bad-input corpus: the C++ reader gives the verdicts of cas
 }
 
 TEST_CASE("bounded image reading: header sizes before decoding, no FIFO hang, no /dev/zero") {
-  const fs::path dir = fresh_dir("image_file");
+  const fs::path dir = absent_dir("image_file");
   fs::create_directories(dir);
   cv::Mat img(37, 53, CV_8UC3, cv::Scalar(10, 200, 30));
   for (const char* ext : {".png", ".jpg", ".bmp"}) {

@@ -5,6 +5,7 @@
 
 #include <doctest/doctest.h>
 
+#include "common/files.hpp"
 #include <filesystem>
 #include <fstream>
 
@@ -12,14 +13,7 @@ namespace fs = std::filesystem;
 using namespace shadowsense;
 
 namespace {
-const fs::path tiny_model = fs::path(SHADOWSENSE_TEST_DATA_DIR) / "densenet_tiny.ssdn";
-
-fs::path fresh_folder(const std::string& name) {
-  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / "gesture_samples" / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+const fs::path tiny_model_path = fs::path(SHADOWSENSE_TEST_DATA_DIR) / "densenet_tiny.ssdn";
 
 MetadataRow row(const std::string& file, const std::string& label, double t) {
   MetadataRow r;
@@ -33,22 +27,22 @@ MetadataRow row(const std::string& file, const std::string& label, double t) {
 } // namespace
 
 TEST_CASE("a folder without metadata.csv is rejected naming the csv it looked for") {
-  const fs::path dir = fresh_folder("empty");
+  const fs::path dir = tests::fresh_dir("gesture_samples/empty");
   const std::string expected = (dir / "metadata.csv").string() + ": missing";
   CHECK_THROWS_WITH_AS(load_gesture_samples(dir, {"a", "b"}), doctest::Contains(expected.c_str()),
                        DatasetError);
 }
 
 TEST_CASE("a metadata.csv without frames is rejected") {
-  const fs::path dir = fresh_folder("no_frames");
+  const fs::path dir = tests::fresh_dir("gesture_samples/no_frames");
   write_metadata(dir / "metadata.csv", {}, false);
   CHECK_THROWS_WITH_AS(load_gesture_samples(dir, {"a", "b"}),
                        doctest::Contains("metadata.csv:2: no data rows"), DatasetError);
 }
 
 TEST_CASE("a class the model does not know is rejected naming file, line and class") {
-  const ModelFile model = ModelFile::load(tiny_model.string());
-  const fs::path dir = fresh_folder("unknown_class");
+  const ModelFile model = ModelFile::load(tiny_model_path.string());
+  const fs::path dir = tests::fresh_dir("gesture_samples/unknown_class");
   write_metadata(dir / "metadata.csv",
                  {row("x/0.png", model.class_names.front(), 0), row("y/1.png", "no_such_class", 1)},
                  false);
@@ -59,9 +53,9 @@ TEST_CASE("a class the model does not know is rejected naming file, line and cla
 }
 
 TEST_CASE("corrupt and missing images are IoErrors naming the image; good frames encode") {
-  const ModelFile model = ModelFile::load(tiny_model.string());
+  const ModelFile model = ModelFile::load(tiny_model_path.string());
   const std::string cls = model.class_names.front();
-  const fs::path dir = fresh_folder("images");
+  const fs::path dir = tests::fresh_dir("gesture_samples/images");
   fs::create_directories(dir / cls);
   cv::imwrite((dir / cls / "good.png").string(),
               cv::Mat(60, 80, CV_8UC3, cv::Scalar(90, 120, 150)));
@@ -87,7 +81,7 @@ TEST_CASE("corrupt and missing images are IoErrors naming the image; good frames
 }
 
 TEST_CASE("a plain class-per-folder tree: recursive, sorted, hidden files and non-images skipped") {
-  const fs::path dir = fresh_folder("tree");
+  const fs::path dir = tests::fresh_dir("gesture_samples/tree");
   const cv::Mat img(30, 40, CV_8UC3, cv::Scalar(10, 20, 30));
   for (const char* p : {"palm/b.png", "palm/a.PNG", "palm/deep/er/c.jpg", "fist/z.bmp",
                         "fist/.hidden.png", ".cache/x.png", "stray.png"}) {
@@ -119,17 +113,17 @@ TEST_CASE("a plain class-per-folder tree: recursive, sorted, hidden files and no
                        DatasetError);
   // load_gesture_folder takes metadata.csv when there is one, the tree otherwise.
   CHECK(load_gesture_folder(dir, {}).frames.size() == 4);
-  const fs::path empty = fresh_folder("tree_empty");
+  const fs::path empty = tests::fresh_dir("gesture_samples/tree_empty");
   cv::imwrite((empty / "only_here.png").string(), img);
   CHECK_THROWS_WITH_AS(load_gesture_folder(empty, {}), doctest::Contains("no images in class"),
                        DatasetError);
 }
 
 TEST_CASE("frames without metadata are encoded with the model's dark-frame rule") {
-  ModelFile model = ModelFile::load(tiny_model.string());
+  ModelFile model = ModelFile::load(tiny_model_path.string());
   model.preprocess.dark_luminance_threshold = 0.2f;
   const std::string cls = model.class_names.front();
-  const fs::path dir = fresh_folder("tree_dark");
+  const fs::path dir = tests::fresh_dir("gesture_samples/tree_dark");
   fs::create_directories(dir / cls);
   const cv::Mat dark(60, 80, CV_8UC3, cv::Scalar::all(25)); // luminance 0.098 < 0.2
   cv::imwrite((dir / cls / "dark.png").string(), dark);

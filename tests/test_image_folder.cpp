@@ -5,6 +5,7 @@
 
 #include <doctest/doctest.h>
 
+#include "common/files.hpp"
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -14,13 +15,6 @@ using namespace shadowsense;
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 // Files with these relative paths (the rule looks at names only, never at the bytes).
 void touch(const fs::path& dir, std::initializer_list<const char*> files) {
@@ -39,7 +33,7 @@ std::vector<std::string> relative(const std::vector<fs::path>& found, const fs::
 } // namespace
 
 TEST_CASE("find_images: recursive, sorted by path, every extension in any case, dot-names out") {
-  const fs::path dir = fresh("image_folder_rule");
+  const fs::path dir = tests::fresh_dir("image_folder_rule");
   touch(dir, {"b.webp",
               "a.PNG",
               "c.JpEg",
@@ -74,7 +68,7 @@ TEST_CASE("find_images: recursive, sorted by path, every extension in any case, 
 }
 
 TEST_CASE("find_images: zero-padded frame numbers sort in capture order, folders stay together") {
-  const fs::path dir = fresh("image_folder_order");
+  const fs::path dir = tests::fresh_dir("image_folder_order");
   touch(dir, {"frame_0010.png", "frame_0002.png", "frame_0001.png", "a/frame_0003.png", "a.png"});
   CHECK(relative(find_images(dir), dir) ==
         std::vector<std::string>{"a/frame_0003.png", "a.png", "frame_0001.png", "frame_0002.png",
@@ -82,7 +76,7 @@ TEST_CASE("find_images: zero-padded frame numbers sort in capture order, folders
 }
 
 TEST_CASE("find_images: bounded, and errors name the folder") {
-  const fs::path dir = fresh("image_folder_errors");
+  const fs::path dir = tests::fresh_dir("image_folder_errors");
   touch(dir, {"1.png", "2.png", "3.png", "x/readme.txt"});
   CHECK(find_images(dir, {.max_images = 3}).size() == 3);
   CHECK_THROWS_WITH_AS(find_images(dir, {.max_images = 2}),

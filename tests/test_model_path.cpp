@@ -6,6 +6,7 @@
 
 #include "common/model_path.hpp"
 
+#include "common/files.hpp"
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -13,13 +14,6 @@
 namespace fs = std::filesystem;
 
 namespace {
-
-fs::path fresh(const std::string& name) {
-  const fs::path dir = fs::path(SHADOWSENSE_TEST_TMP_DIR) / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
 
 void touch(const fs::path& p) {
   fs::create_directories(p.parent_path());
@@ -38,7 +32,7 @@ std::string error_of(const cli::ModelPlaces& places) {
 } // namespace
 
 TEST_CASE("the installed model beside the program's prefix comes first") {
-  const fs::path root = fresh("model_path_installed");
+  const fs::path root = tests::fresh_dir("model_path_installed");
   const fs::path installed = root / "prefix/share/shadowsense/models/default.ssm";
   touch(installed);
   touch(root / "src/models/default.ssm");
@@ -54,7 +48,7 @@ TEST_CASE("the installed model beside the program's prefix comes first") {
 }
 
 TEST_CASE("the source tree's model only from the build folder the program was built in") {
-  const fs::path root = fresh("model_path_build");
+  const fs::path root = tests::fresh_dir("model_path_build");
   const fs::path source_model = root / "src/models/default.ssm";
   touch(source_model);
   fs::create_directories(root / "build/examples");
@@ -75,7 +69,7 @@ TEST_CASE("the source tree's model only from the build folder the program was bu
 }
 
 TEST_CASE("$SHADOWSENSE_MODEL overrides, and a missing file there is an error naming it") {
-  const fs::path root = fresh("model_path_env");
+  const fs::path root = tests::fresh_dir("model_path_env");
   touch(root / "prefix/share/shadowsense/models/default.ssm");
   touch(root / "mine.ssm");
   cli::ModelPlaces p;
@@ -92,7 +86,7 @@ TEST_CASE("$SHADOWSENSE_MODEL overrides, and a missing file there is an error na
 }
 
 TEST_CASE("every place looked at is named, in order; a folder is not a model") {
-  const fs::path root = fresh("model_path_none");
+  const fs::path root = tests::fresh_dir("model_path_none");
   fs::create_directories(root / "prefix/share/shadowsense/models/default.ssm"); // a folder
   fs::create_directories(root / "build");
   cli::ModelPlaces p;
@@ -112,6 +106,9 @@ TEST_CASE("every place looked at is named, in order; a folder is not a model") {
 }
 
 TEST_CASE("this program's folder is found from /proc/self/exe") {
-  const cli::ModelPlaces p = cli::this_program_places("test_model_path");
-  CHECK(fs::equivalent(p.program_dir / "test_model_path", fs::read_symlink("/proc/self/exe")));
+  // This file is compiled into a group executable (tests/CMakeLists.txt): ask for its name.
+  const fs::path self = fs::read_symlink("/proc/self/exe");
+  const std::string name = self.filename().string();
+  const cli::ModelPlaces p = cli::this_program_places(name.c_str());
+  CHECK(fs::equivalent(p.program_dir / name, self));
 }

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/pinhole_rig.hpp"
 #include <cmath>
 #include <cstdint>
 
@@ -15,20 +16,6 @@ using namespace shadowsense;
 using namespace shadowsense::sim;
 
 namespace {
-
-// A nearly pinhole rig: the camera 10 m below a 60 x 60 cm skin at 10 px per cm, so the
-// fisheye's compression over the scene (at most 1 - atan(0.03) / 0.03 = 0.03% in radius) is
-// far below a pixel and a zoom of the scene is a zoom of the image.
-Rig pinhole_rig() {
-  Rig r;
-  r.name = "pinhole";
-  r.image_size = {600, 600};
-  r.camera_distance_cm = 1000;
-  r.focal_px_per_rad = 10000; // 10 px per cm on the axis
-  r.surface = Rig::Surface::rectangle;
-  r.surface_half_cm = {30, 30};
-  return r;
-}
 
 // Penumbra sigma 0.05 + 0.04 x 2 cm = 0.13 cm: 0.8 to 2.6 px over zooms 0.6 to 2, so every
 // shadow is blurred at full resolution (draw_soft works at a reduced one above 3 px, whose
@@ -60,7 +47,7 @@ cv::Point2d centroid(const cv::Mat& m) {
 } // namespace
 
 TEST_CASE("zoomed contact: area grows with the zoom squared, the part moves about the centre") {
-  Renderer r(pinhole_rig(), exact_config());
+  Renderer r(test::pinhole_rig(), exact_config());
   const cv::Point2d centre{2, 1};
   const Frame base = r.render(one_part(0, 1.0, centre), overhead(0), 0);
   const double a1 = cv::countNonZero(base.gt.contact_mask);
@@ -81,7 +68,7 @@ TEST_CASE("zoomed contact: area grows with the zoom squared, the part moves abou
 }
 
 TEST_CASE("zoomed hover: the shadow's area, penumbra and shift along the light scale with it") {
-  Renderer r(pinhole_rig(), exact_config());
+  Renderer r(test::pinhole_rig(), exact_config());
   const cv::Point2d centre{2, 1};
   // Light straight above: the soft shadow is the blurred part, shape and blur scaled alike, so
   // its >= 0.5 region grows with z^2 as the contact does.

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/pinhole_rig.hpp"
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -21,18 +22,6 @@ using namespace shadowsense::sim;
 namespace fs = std::filesystem;
 
 namespace {
-
-// The same nearly pinhole rig as test_sim_scale: 10 px per cm, no visible fisheye bending.
-Rig pinhole_rig() {
-  Rig r;
-  r.name = "pinhole";
-  r.image_size = {600, 600};
-  r.camera_distance_cm = 1000;
-  r.focal_px_per_rad = 10000;
-  r.surface = Rig::Surface::rectangle;
-  r.surface_half_cm = {30, 30};
-  return r;
-}
 
 // A drawn open hand, 100 rows (fingers up, wrist on the last row): a palm, four fingers with
 // gaps between them and a thumb to the right, asymmetric so a mirror image differs.
@@ -74,7 +63,7 @@ double iou(const cv::Mat& a, const cv::Mat& b) {
 } // namespace
 
 TEST_CASE("a touching silhouette's contact ground truth is the silhouette, placed and mirrored") {
-  Renderer r(pinhole_rig(), RenderConfig{.sensor_noise = false});
+  Renderer r(test::pinhole_rig(), RenderConfig{.sensor_noise = false});
   HandSilhouette s{drawn_hand(), 10.0, HandShape::open, "drawn"}; // 0.1 cm = 1 px per row
   const cv::Point2d at{2.0, 1.0};
   const Frame f = render_hand(r, s, touching(at));
@@ -127,7 +116,7 @@ TEST_CASE("a touching silhouette's contact ground truth is the silhouette, place
 }
 
 TEST_CASE("a silhouette fist touches with its knuckle band; pressing harder, with all of it") {
-  Renderer r(pinhole_rig(), RenderConfig{.sensor_noise = false});
+  Renderer r(test::pinhole_rig(), RenderConfig{.sensor_noise = false});
   cv::Mat fist = cv::Mat::zeros(80, 60, CV_8UC1);
   cv::ellipse(fist, cv::Point(30, 40), cv::Size(26, 45), 0, 0, 360, 255, cv::FILLED);
   HandSilhouette s{fist, 8.0, HandShape::fist, "fist"};

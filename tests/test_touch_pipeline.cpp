@@ -8,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include "common/files.hpp"
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -17,13 +18,6 @@
 using namespace shadowsense;
 
 namespace {
-
-sim::Renderer& renderer() {
-  return test::box_renderer();
-}
-const SimCalibration& calibration() {
-  return test::box_calibration();
-}
 
 sim::HandPose finger(double x_cm, double y_cm, double height_cm, double rotation_deg = -90) {
   sim::HandPose p;
@@ -39,7 +33,7 @@ sim::Frame render(const std::vector<sim::HandPose>& hands, std::uint64_t seed) {
   sim::Scene scene;
   sim::User user;
   for (const auto& h : hands) sim::add_hand(scene.parts, user, h);
-  return renderer().render(scene, sim::preset(sim::Lighting::dusk), seed);
+  return test::box_renderer().render(scene, sim::preset(sim::Lighting::dusk), seed);
 }
 
 struct Expected {
@@ -79,7 +73,7 @@ TEST_CASE("one finger: appear, touch, slide right, lift, disappear - on the scri
       {11, 1, TouchState::move, TouchState::lift}, // contact lost at 9: 154 ms later
       {13, 1, TouchState::lift, TouchState::none}, // shadow lost at 11: 154 ms later
   };
-  TouchPipeline pipeline(segmenter_from(calibration()), {.max_distance_px = 60});
+  TouchPipeline pipeline(segmenter_from(test::box_calibration()), {.max_distance_px = 60});
   std::vector<TrackEvent> events;
   std::vector<int> frame_of;
   for (std::size_t i = 0; i < script.size(); ++i) {
@@ -117,7 +111,7 @@ TEST_CASE("one finger: appear, touch, slide right, lift, disappear - on the scri
 }
 
 TEST_CASE("two hands touching at once: two tracks, two touches; flush ends both") {
-  TouchPipeline pipeline(segmenter_from(calibration()));
+  TouchPipeline pipeline(segmenter_from(test::box_calibration()));
   const std::vector<sim::HandPose> hands{finger(-3, 0, 0, 0), finger(3, 0, 0, 180)}; // arms apart
   for (int i = 0; i < 3; ++i) {
     const sim::Frame f = render(hands, 900 + static_cast<std::uint64_t>(i));
@@ -160,7 +154,7 @@ TEST_CASE("two hands touching at once: two tracks, two touches; flush ends both"
 }
 
 TEST_CASE("bad timestamps and frames are refused with the pipeline unchanged") {
-  TouchPipeline pipeline(segmenter_from(calibration()));
+  TouchPipeline pipeline(segmenter_from(test::box_calibration()));
   const sim::Frame f = render({}, 1);
   pipeline.update(f.image, 10);
   CHECK_THROWS_WITH_AS(pipeline.update(f.image, 10), doctest::Contains("strictly increasing"),
@@ -205,20 +199,15 @@ std::vector<std::string> trimmed_lines(const std::string& text, const std::strin
   return out;
 }
 
-std::string read_text(const std::string& path) {
-  std::ifstream f(path);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
-
 } // namespace
 
 TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
   const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
-  const auto readme =
-      trimmed_lines(read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
+  const auto readme = trimmed_lines(
+      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
   const auto here = trimmed_lines(
-      read_text(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"), first,
-      last);
+      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"),
+      first, last);
   REQUIRE(readme.size() == 7);
   CHECK(readme == here);
   // Run it: a calibration file in the working folder, a short touch.
@@ -226,7 +215,7 @@ TEST_CASE("the README's tracking loop is this compiled code, and it reports the 
   std::filesystem::create_directories(dir);
   const auto old = std::filesystem::current_path();
   std::filesystem::current_path(dir);
-  save_calibration(calibration().config.calibration, "skin.calib");
+  save_calibration(test::box_calibration().config.calibration, "skin.calib");
   std::vector<std::pair<cv::Mat, double>> camera;
   camera.emplace_back(render({}, 1).image, 0.0);
   camera.emplace_back(render({finger(0, 0, 0)}, 2).image, 33.0);
@@ -303,7 +292,7 @@ TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen
   // From the first frame on: no appear, no track, the fault on every frame, the change once.
   for (const std::uint8_t level : {std::uint8_t(0), std::uint8_t(255)}) {
     CAPTURE(int(level));
-    TouchPipeline pipeline(segmenter_from(calibration()));
+    TouchPipeline pipeline(segmenter_from(test::box_calibration()));
     for (int i = 0; i < 10; ++i) {
       const TouchFrame& r = pipeline.update(filled(size, level), 33.0 * (i + 1));
       CHECK(r.events.empty());
@@ -317,7 +306,7 @@ TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen
   // A touch, then the lens cap: the touch ends as when the hand leaves (lift, then disappear
   // after the hysteresis), and nothing appears while the camera is dark.
   {
-    TouchPipeline pipeline(segmenter_from(calibration()));
+    TouchPipeline pipeline(segmenter_from(test::box_calibration()));
     std::vector<std::string> seen;
     double t = 0;
     for (int i = 0; i < 4; ++i) {
@@ -338,7 +327,7 @@ TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen
   // the touch ends; with the check off (enabled = false) the stale touch would go on for ever.
   {
     const sim::Frame touching = render({finger(0, 0, 0)}, 400);
-    TouchPipeline pipeline(segmenter_from(calibration()));
+    TouchPipeline pipeline(segmenter_from(test::box_calibration()));
     std::vector<std::string> seen;
     int first_frozen = 0;
     for (int i = 1; i <= 50; ++i) {
@@ -349,7 +338,7 @@ TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen
     CHECK(first_frozen == 30);
     CHECK(seen == std::vector<std::string>{"1 none->appear", "1 appear->touch", "1 touch->lift",
                                            "1 lift->none"});
-    TouchPipeline unchecked(segmenter_from(calibration()), {}, {},
+    TouchPipeline unchecked(segmenter_from(test::box_calibration()), {}, {},
                             CameraHealthConfig{.enabled = false});
     std::vector<std::string> stale;
     for (int i = 1; i <= 50; ++i)

@@ -15,13 +15,6 @@ using namespace shadowsense;
 
 namespace {
 
-sim::Renderer& renderer() {
-  return test::box_renderer();
-}
-const SimCalibration& calibration() {
-  return test::box_calibration();
-}
-
 sim::HandPose finger_at(double x_cm, double y_cm, double rotation_deg = -90) {
   sim::HandPose p;
   p.shape = sim::HandShape::point;
@@ -36,14 +29,14 @@ sim::Frame render(const std::vector<sim::HandPose>& hands, sim::Lighting light,
   sim::Scene scene;
   sim::User user;
   for (const auto& h : hands) sim::add_hand(scene.parts, user, h);
-  return renderer().render(scene, sim::preset(light), seed);
+  return test::box_renderer().render(scene, sim::preset(light), seed);
 }
 
 } // namespace
 
 TEST_CASE(
     "two simultaneous fingertip touches: two contact blobs at the true centroids, stable ids") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   ContactTracker tracker;
   int left_id = 0;
   for (int step = 0; step < 5; ++step) {
@@ -77,7 +70,7 @@ TEST_CASE(
 }
 
 TEST_CASE("a touch at the image border: the contact box reaches the edge like the truth") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   // Fingertip pointing right, beyond the right edge of the box top: only the finger's base is
   // on the visible skin.
   const sim::Frame f = render({finger_at(13.5, 1, 0)}, sim::Lighting::daylight, 7);
@@ -92,7 +85,7 @@ TEST_CASE("a touch at the image border: the contact box reaches the edge like th
 }
 
 TEST_CASE("a shadow entering from outside the frame: the arm's shadow box starts at the edge") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   sim::HandPose p = finger_at(0, 8, -90); // arm towards the bottom edge
   p.shape = sim::HandShape::open;
   p.height_cm = 6; // hovering
@@ -108,7 +101,7 @@ TEST_CASE("a shadow entering from outside the frame: the arm's shadow box starts
 }
 
 TEST_CASE("random frames of every category, all lighting: IoU, misses and false positives") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   sim::TrackingSampleConfig variety; // the generator's default mix of lighting
   const char* names[] = {"nothing", "hover", "palm", "fist", "finger"};
   for (int c = 0; c < 5; ++c) {
@@ -116,7 +109,7 @@ TEST_CASE("random frames of every category, all lighting: IoU, misses and false 
     int shadow_miss = 0, contact_miss = 0, shadow_fp = 0, contact_fp = 0;
     for (int i = 0; i < 12; ++i) {
       const sim::Frame f = sim::render_random_tracking_frame(
-          renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
+          test::box_renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
       const Segmentation s = seg.segment(f.image);
       if (f.gt.shadow_box) {
         if (s.shadow_box)
@@ -147,7 +140,7 @@ TEST_CASE("random frames of every category, all lighting: IoU, misses and false 
 }
 
 TEST_CASE("slides rendered by the generator: the state machine reports the true direction") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   int i = 0;
   for (sim::SlideGesture g : {sim::SlideGesture::palm, sim::SlideGesture::finger})
     for (sim::Direction d : sim::all_directions) {
@@ -158,7 +151,7 @@ TEST_CASE("slides rendered by the generator: the state machine reports the true 
       TouchStateMachine fsm({.differential_window_ms = 300});
       bool touched = false;
       for (int k = 0; k < plan.num_frames(); ++k) {
-        const sim::Frame f = sim::render_slide_frame(renderer(), plan, k);
+        const sim::Frame f = sim::render_slide_frame(test::box_renderer(), plan, k);
         const Segmentation s = seg.segment(f.image);
         fsm.update(plan.timestamps_ms[static_cast<std::size_t>(k)],
                    {s.shadow_box.has_value(), s.contact_point});
@@ -170,11 +163,11 @@ TEST_CASE("slides rendered by the generator: the state machine reports the true 
 }
 
 TEST_CASE("images of the wrong size for the empty-skin model are rejected") {
-  Segmenter seg = segmenter_from(calibration());
+  Segmenter seg = segmenter_from(test::box_calibration());
   CHECK_THROWS_WITH_AS(seg.segment(cv::Mat(100, 100, CV_8UC3, cv::Scalar::all(128))),
                        doctest::Contains("empty-skin model is 200x205"), InvalidArgument);
   CHECK_THROWS_AS(seg.set_empty_skin({}), InvalidArgument);
-  CHECK_THROWS_AS(calibrate_on_sim(renderer(), 1, 5), InvalidArgument);
+  CHECK_THROWS_AS(calibrate_on_sim(test::box_renderer(), 1, 5), InvalidArgument);
 }
 
 TEST_CASE(

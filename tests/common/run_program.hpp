@@ -16,8 +16,7 @@
 // std::string shell_quote(const std::string& s)
 //   ensures: `s` as one /bin/sh word: in single quotes, each ' inside written as '\''.
 //
-// std::string read_file(const std::filesystem::path& p)
-//   ensures: every byte of p; "" when p cannot be opened.
+// read_file (tests/common/files.hpp) is included for the callers that read the output files.
 //
 // Threading: no state; calls running at the same time must use different `dir`s.
 #pragma once
@@ -30,17 +29,14 @@
 #include <iterator>
 #include <string>
 
+#include "files.hpp"
+
 namespace tests {
 
 struct ProgramRun {
   int status = -1;
   std::string out, err;
 };
-
-inline std::string read_file(const std::filesystem::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
 
 inline std::string shell_quote(const std::string& s) {
   std::string q = "'";
