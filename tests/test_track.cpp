@@ -3,6 +3,7 @@
 
 #include <doctest/doctest.h>
 
+#include <cmath>
 #include <limits>
 #include <vector>
 
@@ -64,6 +65,22 @@ TEST_CASE("a very fast slide is followed through constant-velocity prediction") 
   }
   // Velocity: first estimate 25/77, then smoothed with weight 0.5: (25+40)/2, then (32.5+45)/2, ...
   CHECK(tracker.tracks()[0].velocity.x == doctest::Approx(((32.5 + 45) / 2 + 45) / 2 / 77.0));
+}
+
+TEST_CASE("a rub at 15 fps keeps one track: at each turn the hand is near its last position") {
+  // 28 px amplitude at 3.75 Hz (a fast rub, issue 23's generator), sampled every 66.7 ms: 90
+  // degrees of phase per frame. At a turn the constant-velocity prediction points 40-50 px the
+  // wrong way, outside the 40 px gate; the last position is within it.
+  ContactTracker tracker;
+  for (int k = 0; k < 22; ++k) {
+    const double t = 1000.0 / 15 * k;
+    const float x = static_cast<float>(100 + 28 * std::sin(2 * CV_PI * 3.75 * t / 1000));
+    const auto& tr = tracker.update(std::vector<Detection>{at(x, 100)}, t);
+    CAPTURE(k);
+    REQUIRE(tr.size() == 1);
+    CHECK(tr[0].id == 1);
+    CHECK(tr[0].matched);
+  }
 }
 
 TEST_CASE("hits_to_confirm debounces new tracks") {

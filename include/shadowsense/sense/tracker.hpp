@@ -1,7 +1,10 @@
 // Multi-touch tracking: stable IDs for the blobs the segmenter reports, frame after frame.
 // A small stateful class with one update(detections, timestamp) call, in the spirit of norfair:
 // constant-velocity prediction, greedy nearest-neighbour association inside a distance gate,
-// a hit counter before a track is confirmed and a time-out before it is dropped.
+// a hit counter before a track is confirmed and a time-out before it is dropped. The gate is
+// measured from the predicted position or from the last position, whichever is nearer: a hand
+// that turns back (a rub, a scrub) is near where it was, not where its velocity points, and at
+// 15 fps that miss is larger than the gate.
 //
 // update(detections, timestamp_ms)
 //   requires: a finite timestamp greater than the previous one; finite detection positions.
@@ -50,7 +53,7 @@ struct Track {
 class ContactTracker {
 public:
   struct Config {
-    double max_distance_px = 40.0;   // association gate around the predicted position
+    double max_distance_px = 40.0;   // association gate around the predicted or last position
     int hits_to_confirm = 1;         // matched frames before a track is reported as confirmed
     double max_missing_ms = 150.0;   // a track unseen this long (inclusive) is dropped
     double velocity_smoothing = 0.5; // weight of the new velocity estimate, (0, 1]
@@ -100,8 +103,10 @@ public:
       const double dt = timestamp_ms - tr.last_seen_ms;
       const cv::Point2f pred = tr.position + tr.velocity * static_cast<float>(dt);
       for (std::size_t di = 0; di < detections.size(); ++di) {
-        const cv::Point2f diff = detections[di].position - pred;
-        const double dist = std::hypot(diff.x, diff.y);
+        const cv::Point2f to_pred = detections[di].position - pred;
+        const cv::Point2f to_last = detections[di].position - tr.position;
+        const double dist =
+            std::min(std::hypot(to_pred.x, to_pred.y), std::hypot(to_last.x, to_last.y));
         if (dist <= config_.max_distance_px) pairs_.push_back({dist, ti, di});
       }
     }
