@@ -144,20 +144,10 @@ int main(int argc, char** argv) {
     const OutputGesture no_reading; // a pressure grid has no hand-shape reading
     for (auto& [seq, fs] : frames) {
       TemporalGestureRecogniser rec(config);
-      std::vector<GestureEvent> last;
-      auto take = [&](const std::vector<GestureEvent>& events) {
-        for (const GestureEvent& e : events) {
-          auto it = std::find_if(last.begin(), last.end(), [&](const GestureEvent& x) {
-            return x.track_id == e.track_id && x.start_ms == e.start_ms;
-          });
-          if (it == last.end())
-            last.push_back(e);
-          else
-            *it = e;
-        }
-      };
-      for (const TouchFrame& f : fs) take(rec.update(f, no_reading));
-      take(rec.flush(fs.back().timestamp_ms + widen));
+      TemporalEventLog log; // the last word per (track, start), as evaluate_temporal keeps it
+      for (const TouchFrame& f : fs) log.add(rec.update(f, no_reading));
+      log.add(rec.flush(fs.back().timestamp_ms + widen));
+      std::vector<GestureEvent> last = log.last();
       for (GestureEvent& e : last)
         if (e.gesture == TouchGesture::double_tap) e.gesture = TouchGesture::tap; // pre-registered
       out.frames += fs.size();
