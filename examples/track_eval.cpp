@@ -16,11 +16,14 @@
 // dataset (docs/dataset_format.md; ss_synth --dataset temporal writes one): every frame goes
 // through the segmenter, the touch pipeline and the temporal gesture recogniser, with the
 // frame's hand-shape reading from frames.csv standing in for the classifier (--temporal-shapes
-// none: no reading); the events are scored against gestures.csv by eval/temporal_eval.hpp
+// none: no reading; --temporal-shapes model: the classifier itself, the library's Runtime with
+// the model of --model or the installed one, as ss_track runs it); the events are scored
+// against gestures.csv by eval/temporal_eval.hpp
 // (score_temporal, tracks matched with TemporalTrackMatch::any_track: the tracker numbers the
 // hands itself). Per frame rate: per-gesture precision, recall, F1, the confusion matrix (text;
 // a PNG per rate with --temporal-confusion DIR), latency p50/p90/max, repetition errors and
-// the milliseconds per frame. Nothing else is evaluated in this mode.
+// the milliseconds per frame; --json PATH writes them (schema shadowsense.temporal_eval/1,
+// docs/temporal_gestures.md). Nothing else is evaluated in this mode.
 //
 // The segmenter is calibrated on frames rendered by the scene generator with --calib-seed, never
 // on the evaluated frames.
@@ -30,12 +33,14 @@
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/io/temporal_dataset.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sense/touch_state_machine.hpp>
 
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
 #include "common/json.hpp"
+#include "common/model_path.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -69,8 +74,9 @@ struct Options {
   double roc_gate = 0; // 0: picked on generator frames
   int roc_pick_frames = 120;
   fs::path temporal, temporal_confusion;
-  bool temporal_shapes = true;
-  double px_per_cm = 0; // 0: each sequence's own
+  std::string temporal_shapes = "file"; // file | none | model
+  fs::path model;                       // --temporal-shapes model: empty = the installed one
+  double px_per_cm = 0;                 // 0: each sequence's own
 };
 
 Options parse(int argc, char** argv) {
@@ -84,8 +90,9 @@ Options parse(int argc, char** argv) {
                 "the evaluated ones.");
   p.usage("ss_track_eval --input DIR [options]");
   p.usage("ss_track_eval --tracking DIR --slides DIR [options]");
-  p.usage("ss_track_eval --temporal DIR [--temporal-confusion DIR] [--temporal-shapes file|none] "
-          "[--px-per-cm X] [calibration options]");
+  p.usage(
+      "ss_track_eval --temporal DIR [--temporal-confusion DIR] [--temporal-shapes file|none|model] "
+      "[--model FILE] [--px-per-cm X] [--json PATH] [calibration options]");
   p.option("--input", "DIR", "folder holding tracking/ and slides/", data);
   p.alias("--data", "--input");
   p.option("--tracking", "DIR", "tracking dataset (instead of DIR/tracking)", o.tracking);
@@ -114,7 +121,6 @@ Options parse(int argc, char** argv) {
   p.option("--roc-pick-frames", "N", "generator frames (half hover) the edge gate is picked on",
            o.roc_pick_frames)
       .range(2, 100000);
-  std::string shapes = "file";
   p.option("--temporal", "DIR",
            "evaluate the temporal touch gestures on a temporal gesture dataset (docs/"
            "dataset_format.md; ss_synth --dataset temporal): per frame rate P/R/F1, confusion, "
@@ -125,25 +131,32 @@ Options parse(int argc, char** argv) {
            "DIR/temporal_confusion_<F>fps.png",
            o.temporal_confusion);
   p.option("--temporal-shapes", "SOURCE",
-           "--temporal: the hand-shape reading per frame: the dataset's shape column (file) or "
-           "none (palm vs finger from the contact area; no hug, punch or two_hands)",
-           shapes)
-      .choices({"file", "none"});
+           "--temporal: the hand-shape reading per frame: the dataset's shape column (file), "
+           "none (palm vs finger from the contact area; no hug, punch or two_hands) or the "
+           "classifier on the frame (model: the Runtime as ss_track runs it)",
+           o.temporal_shapes)
+      .choices({"file", "none", "model"});
+  p.option("--model", "FILE",
+           "--temporal-shapes model: the gesture model (default: " +
+               cli::default_model_help(argv[0]) + ")",
+           o.model);
   p.option("--px-per-cm", "X", "--temporal: image scale at the skin for the recogniser",
            o.px_per_cm)
       .range(0.01, 1000.0)
       .default_text("each sequence's px_per_cm in sequences.csv");
   p.parse(argc, argv);
-  o.temporal_shapes = shapes == "file";
   if (!o.temporal.empty()) {
     if (!data.empty() || p.given("--tracking") || p.given("--slides"))
       throw cli::UsageError("--temporal evaluates only the temporal dataset; leave out --input, "
                             "--tracking and --slides");
+    if (p.given("--model") && o.temporal_shapes != "model")
+      throw cli::UsageError("--model needs --temporal-shapes model");
     return o;
   }
-  if (p.given("--temporal-confusion") || p.given("--temporal-shapes") || p.given("--px-per-cm"))
+  if (p.given("--temporal-confusion") || p.given("--temporal-shapes") || p.given("--px-per-cm") ||
+      p.given("--model"))
     throw cli::UsageError(
-        "--temporal-confusion, --temporal-shapes and --px-per-cm need --temporal");
+        "--temporal-confusion, --temporal-shapes, --model and --px-per-cm need --temporal");
   if (!data.empty()) { // --tracking / --slides override one of the two
     if (!p.given("--tracking")) o.tracking = data / "tracking";
     if (!p.given("--slides")) o.slides = data / "slides";
@@ -397,6 +410,7 @@ struct TemporalRate {
   TemporalEvalResult result;
   int sequences = 0;
   double pipeline_ms = 0, decode_ms = 0; // summed over the frames
+  std::size_t classified = 0;            // frames the classifier ran on (--temporal-shapes model)
 };
 
 cv::Mat read_temporal_frame(const TemporalSequence& seq, const TemporalFrameRow& f) {
@@ -407,33 +421,50 @@ cv::Mat read_temporal_frame(const TemporalSequence& seq, const TemporalFrameRow&
 
 std::map<double, TemporalRate>
 evaluate_temporal_dataset(const Options& o, const std::vector<TemporalSequenceRow>& rows,
-                          const SimCalibration& cal) {
+                          const SimCalibration& cal, const std::optional<ModelFile>& model) {
   using clock = std::chrono::steady_clock;
   auto ms = [](clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); };
   std::map<double, TemporalRate> rates;
   for (const TemporalSequenceRow& row : rows) {
     const TemporalSequence seq = read_temporal_sequence(o.temporal, row);
     TemporalRate& rate = rates[row.fps];
-    TouchPipeline pipeline(segmenter_from(cal));
     TemporalGestureConfig tc;
     tc.px_per_cm = o.px_per_cm > 0 ? o.px_per_cm : row.px_per_cm;
-    TemporalGestureRecogniser recogniser(tc);
     TemporalEventLog log;
-    OutputGesture shape;
-    for (const TemporalFrameRow& f : seq.frames) {
-      const auto t0 = clock::now();
-      const cv::Mat img = read_temporal_frame(seq, f);
-      const auto t1 = clock::now();
-      const TouchFrame& touch = pipeline.update(img, f.timestamp_ms);
-      shape.available = o.temporal_shapes && !f.shape.empty();
-      shape.label = shape.available ? f.shape : std::string();
-      shape.confidence = static_cast<float>(f.shape_confidence);
-      log.add(recogniser.update(touch, shape));
-      const auto t2 = clock::now();
-      rate.decode_ms += ms(t1 - t0);
-      rate.pipeline_ms += ms(t2 - t1);
+    const double end_ms = seq.frames.back().timestamp_ms + 1000.0 / row.fps;
+    if (model) {
+      // The system as ss_track runs it: the classifier gated by the shadow feeds the recogniser.
+      Runtime sense(TouchPipeline{segmenter_from(cal)}, make_densenet_classifier(*model),
+                    RuntimeConfig{.temporal = tc});
+      for (const TemporalFrameRow& f : seq.frames) {
+        const auto t0 = clock::now();
+        const cv::Mat img = read_temporal_frame(seq, f);
+        const auto t1 = clock::now();
+        const RuntimeFrame& r = sense.update(img, f.timestamp_ms);
+        log.add(r.touch_gestures);
+        rate.classified += r.classified ? 1 : 0;
+        rate.decode_ms += ms(t1 - t0);
+        rate.pipeline_ms += ms(clock::now() - t1);
+      }
+      log.add(sense.flush(end_ms).touch_gestures);
+    } else {
+      TouchPipeline pipeline(segmenter_from(cal));
+      TemporalGestureRecogniser recogniser(tc);
+      OutputGesture shape;
+      for (const TemporalFrameRow& f : seq.frames) {
+        const auto t0 = clock::now();
+        const cv::Mat img = read_temporal_frame(seq, f);
+        const auto t1 = clock::now();
+        const TouchFrame& touch = pipeline.update(img, f.timestamp_ms);
+        shape.available = o.temporal_shapes == "file" && !f.shape.empty();
+        shape.label = shape.available ? f.shape : std::string();
+        shape.confidence = static_cast<float>(f.shape_confidence);
+        log.add(recogniser.update(touch, shape));
+        rate.decode_ms += ms(t1 - t0);
+        rate.pipeline_ms += ms(clock::now() - t1);
+      }
+      log.add(recogniser.flush(end_ms));
     }
-    log.add(recogniser.flush(seq.frames.back().timestamp_ms + 1000.0 / row.fps));
     std::vector<sim::TouchGestureTruth> truth;
     for (const TemporalGestureRow& g : seq.gestures)
       truth.push_back({g.gesture, g.track_id, g.start_ms, g.end_ms, g.repetitions, g.direction});
@@ -478,7 +509,49 @@ void write_temporal_confusion_png(const fs::path& path, const TemporalEvalResult
   frames::write_png_atomically(path, img); // temp + rename, checked
 }
 
-int run_temporal(const Options& o) {
+void write_temporal_json(const Options& o, const std::map<double, TemporalRate>& rates) {
+  cli::JsonWriter j;
+  j.begin_object().field("schema", "shadowsense.temporal_eval/1");
+  j.field("dataset", o.temporal.string()).field("shapes", o.temporal_shapes);
+  j.key("rates").begin_array();
+  for (const auto& [fps, rate] : rates) {
+    const TemporalEvalResult& r = rate.result;
+    const double frames = static_cast<double>(std::max<std::size_t>(1, r.frames));
+    j.begin_object().field("fps", fps).field("sequences", rate.sequences);
+    j.field("frames", r.frames).field("macro_f1", r.macro_f1());
+    j.field("repetition_errors", r.repetition_errors);
+    j.field("ms_per_frame", rate.pipeline_ms / frames);
+    j.field("decode_ms_per_frame", rate.decode_ms / frames);
+    j.field("classified_frames", rate.classified);
+    j.key("latency_ms").begin_object(cli::JsonWriter::compact);
+    j.field("p50", r.latency_quantile(TemporalEvalResult::n, 0.5));
+    j.field("p90", r.latency_quantile(TemporalEvalResult::n, 0.9));
+    j.field("max", r.latency_quantile(TemporalEvalResult::n, 1.0)).end_object();
+    j.key("gestures").begin_object();
+    for (std::size_t g = 0; g < TemporalEvalResult::n; ++g) {
+      j.key(std::string(to_string(all_touch_gestures[g]))).begin_object(cli::JsonWriter::compact);
+      j.field("tp", r.tp[g]).field("fp", r.fp[g]).field("fn", r.fn[g]);
+      j.field("precision", r.precision(g)).field("recall", r.recall(g)).field("f1", r.f1(g));
+      j.field("latency_p50_ms", r.latency_quantile(g, 0.5)).end_object();
+    }
+    j.end_object();
+    // Rows truth, columns predicted, in `labels` order (the last one: none).
+    j.key("labels").begin_array(cli::JsonWriter::compact);
+    for (TouchGesture g : all_touch_gestures) j.value(std::string(to_string(g)));
+    j.value("none").end_array();
+    j.key("confusion").begin_array();
+    for (const auto& row : r.confusion) {
+      j.begin_array(cli::JsonWriter::compact);
+      for (int v : row) j.value(v);
+      j.end_array();
+    }
+    j.end_array().end_object();
+  }
+  j.end_array().end_object();
+  j.save(o.json);
+}
+
+int run_temporal(const Options& o, const char* argv0) {
   // Refuse a missing or bad dataset before the calibration's rendering.
   const std::vector<TemporalSequenceRow> rows = read_temporal_sequences(o.temporal);
   detail::require<DatasetError>(!rows.empty(),
@@ -501,9 +574,20 @@ int run_temporal(const Options& o) {
             << " rig), seed " << o.calib_seed
             << (o.calibration_in.empty() ? ""
                                          : " (thresholds from " + o.calibration_in.string() + ")")
-            << "\nhand-shape reading: "
-            << (o.temporal_shapes ? "the dataset's shape column" : "none (contact area)") << "\n";
-  const std::map<double, TemporalRate> rates = evaluate_temporal_dataset(o, rows, cal);
+            << "\nhand-shape reading: ";
+  std::optional<ModelFile> model;
+  std::string model_what;
+  if (o.temporal_shapes == "model") {
+    const fs::path path = o.model.empty() ? cli::find_default_model(argv0, &model_what) : o.model;
+    model = ModelFile::load(path.string());
+    std::cout << "the classifier, " << path.string()
+              << (model_what.empty() ? "" : " (" + model_what + ")") << "\n";
+  } else {
+    std::cout << (o.temporal_shapes == "file" ? "the dataset's shape column"
+                                              : "none (contact area)")
+              << "\n";
+  }
+  const std::map<double, TemporalRate> rates = evaluate_temporal_dataset(o, rows, cal, model);
   for (const auto& [fps, rate] : rates) {
     const TemporalEvalResult& r = rate.result;
     std::printf("\n== temporal gestures at %g fps: %d sequences (rendered frames)\n", fps,
@@ -512,11 +596,14 @@ int run_temporal(const Options& o) {
     const double frames = static_cast<double>(std::max<std::size_t>(1, r.frames));
     std::printf("summary %g fps: macro-F1 %.4f, latency p50 %.0f ms, p90 %.0f ms, max %.0f ms, "
                 "repetition errors %d; %.3f ms per frame (segmenter + touch pipeline + "
-                "recogniser), %.3f ms per frame decoding the image\n",
+                "%srecogniser), %.3f ms per frame decoding the image\n",
                 fps, r.macro_f1(), r.latency_quantile(TemporalEvalResult::n, 0.5),
                 r.latency_quantile(TemporalEvalResult::n, 0.9),
                 r.latency_quantile(TemporalEvalResult::n, 1.0), r.repetition_errors,
-                rate.pipeline_ms / frames, rate.decode_ms / frames);
+                rate.pipeline_ms / frames, model ? "classifier + " : "", rate.decode_ms / frames);
+    if (model)
+      std::printf("classifier ran on %zu of %zu frames (gated by the shadow)\n", rate.classified,
+                  r.frames);
     if (!o.temporal_confusion.empty()) {
       char name[64], title[128];
       std::snprintf(name, sizeof name, "temporal_confusion_%gfps.png", fps);
@@ -526,6 +613,7 @@ int run_temporal(const Options& o) {
       write_temporal_confusion_png(o.temporal_confusion / name, r, title);
     }
   }
+  if (!o.json.empty()) write_temporal_json(o, rates);
   return 0;
 }
 
@@ -705,7 +793,7 @@ void write_json(const Options& o, const SegmenterCalibration& cal,
 int main(int argc, char** argv) {
   return cli::run("ss_track_eval", [&] {
     const Options o = parse(argc, argv);
-    if (!o.temporal.empty()) return run_temporal(o);
+    if (!o.temporal.empty()) return run_temporal(o, argv[0]);
     // The calibration frames are rendered with the rig whose frame size matches the data
     // (tracking box 200x205 or robot 635x350), taken from the first image.
     sim::Rig rig = sim::Rig::tracking_box();

@@ -1,14 +1,17 @@
 // The temporal gesture dataset (io/temporal_dataset.hpp, sim/touch_sequence_writer.hpp): a
 // small rendered dataset round-trips through writer and reader exactly as make_touch_sequence
 // made it; scoring the recogniser against the truth read back gives evaluate_temporal's figures;
-// ss_track_eval --temporal on it prints the figures of the same pipeline run here; bad files
+// ss_track_eval --temporal on it prints the figures of the same pipeline run here (with the
+// dataset's shape column, or with the classifier in the Runtime and --json); bad files
 // give a DatasetError naming file, line and column.
 #include <shadowsense/eval.hpp>
 #include <shadowsense/eval/temporal_eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/io/temporal_dataset.hpp>
+#include <shadowsense/runtime/densenet_runtime.hpp>
 #include <shadowsense/sim/touch_sequence_writer.hpp>
 
+#include "common/files.hpp"
 #include "common/run_program.hpp"
 
 #include <doctest/doctest.h>
@@ -202,6 +205,78 @@ TEST_CASE("ss_track_eval --temporal prints the figures of the pipeline run on th
     std::snprintf(png, sizeof png, "temporal_confusion_%gfps.png", fps);
     CHECK(cv::imread((work / "confusion" / png).string()).rows > 0);
   }
+}
+TEST_CASE("ss_track_eval --temporal --temporal-shapes model: the Runtime's events, also as JSON") {
+  const fs::path& dir = small_dataset();
+  const fs::path work = kDir / "program_model";
+  fs::create_directories(work);
+  sim::Renderer renderer(sim::Rig::robot());
+  const SimCalibration cal = calibrate_on_sim(renderer, 78, 20);
+  const fs::path calib = work / "skin.calib";
+  save_calibration(cal.config.calibration, calib.string());
+  const fs::path model_path = fs::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm";
+  const fs::path json = work / "temporal.json";
+  const tests::ProgramRun run = tests::run_program(
+      SHADOWSENSE_SS_TRACK_EVAL,
+      "--temporal " + tests::shell_quote(dir.string()) + " --calibration " +
+          tests::shell_quote(calib.string()) + " --calib-frames 10 --temporal-shapes model" +
+          " --model " + tests::shell_quote(model_path.string()) + " --json " +
+          tests::shell_quote(json.string()),
+      work);
+  INFO(run.err);
+  REQUIRE(run.status == 0);
+  const std::string text = tests::read_file(json);
+  CHECK(text.find("\"schema\": \"shadowsense.temporal_eval/1\"") != std::string::npos);
+  CHECK(text.find("\"shapes\": \"model\"") != std::string::npos);
+  const ModelFile model = ModelFile::load(model_path);
+  Segmenter::Config sc;
+  sc.calibration = load_calibration(calib.string());
+  sc.calibration.mode = SegmentMode::relative;
+  const std::vector<TemporalSequenceRow> rows = read_temporal_sequences(dir);
+  for (double fps : {15.0, 30.0}) {
+    TemporalEvalResult expected;
+    std::size_t classified = 0;
+    for (const TemporalSequenceRow& row : rows) {
+      if (row.fps != fps) continue;
+      const TemporalSequence seq = read_temporal_sequence(dir, row);
+      Runtime sense(TouchPipeline{Segmenter(sc)}, make_densenet_classifier(model),
+                    RuntimeConfig{.temporal = {.px_per_cm = row.px_per_cm}});
+      TemporalEventLog log;
+      for (const TemporalFrameRow& f : seq.frames) {
+        const RuntimeFrame& r =
+            sense.update(cv::imread(seq.image_path(f).string()), f.timestamp_ms);
+        log.add(r.touch_gestures);
+        classified += r.classified ? 1 : 0;
+      }
+      log.add(sense.flush(seq.frames.back().timestamp_ms + 1000.0 / fps).touch_gestures);
+      std::vector<sim::TouchGestureTruth> truth;
+      for (const TemporalGestureRow& g : seq.gestures)
+        truth.push_back({g.gesture, g.track_id, g.start_ms, g.end_ms, g.repetitions, g.direction});
+      score_temporal(truth, log.last(), 1000.0 / fps, TemporalTrackMatch::any_track, expected);
+      expected.frames += seq.frames.size();
+      ++expected.users;
+    }
+    CAPTURE(fps);
+    CHECK(classified > 0);
+    CHECK(run.out.find(format_temporal_eval(expected)) != std::string::npos);
+    CHECK(text.find("\"classified_frames\": " + std::to_string(classified)) != std::string::npos);
+    for (std::size_t g = 0; g < TemporalEvalResult::n; ++g) {
+      const std::string counts = "\"" + std::string(to_string(all_touch_gestures[g])) +
+                                 "\": {\"tp\": " + std::to_string(expected.tp[g]) +
+                                 ", \"fp\": " + std::to_string(expected.fp[g]) +
+                                 ", \"fn\": " + std::to_string(expected.fn[g]) + ",";
+      CAPTURE(counts);
+      CHECK(text.find(counts) != std::string::npos);
+    }
+  }
+  // --model belongs to the classifier's reading only.
+  const tests::ProgramRun misuse =
+      tests::run_program(SHADOWSENSE_SS_TRACK_EVAL,
+                         "--temporal " + tests::shell_quote(dir.string()) + " --model " +
+                             tests::shell_quote(model_path.string()),
+                         work);
+  CHECK(misuse.status == 2);
+  CHECK(misuse.err.find("--model needs --temporal-shapes model") != std::string::npos);
 }
 #endif
 
