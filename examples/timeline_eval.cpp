@@ -139,54 +139,24 @@ int main(int argc, char** argv) {
     }
 
     TemporalEvalResult out;
-    const std::size_t none = TemporalEvalResult::n;
     const double widen = 1000.0 / fps;
     const OutputGesture no_reading; // a pressure grid has no hand-shape reading
+    // The pre-registered rule (docs/validation_protocol.md, "Issue 23").
+    const TemporalScoring scoring{.match = TemporalTrackMatch::same_id,
+                                  .claim = TemporalClaim::all_overlapping,
+                                  .double_tap_as_tap = true,
+                                  .repetitions = false};
     for (auto& [seq, fs] : frames) {
       TemporalGestureRecogniser rec(config);
       TemporalEventLog log; // the last word per (track, start), as evaluate_temporal keeps it
       for (const TouchFrame& f : fs) log.add(rec.update(f, no_reading));
       log.add(rec.flush(fs.back().timestamp_ms + widen));
-      std::vector<GestureEvent> last = log.last();
-      for (GestureEvent& e : last)
-        if (e.gesture == TouchGesture::double_tap) e.gesture = TouchGesture::tap; // pre-registered
+      std::vector<sim::TouchGestureTruth> seq_truth;
+      for (const Truth& t : truth[seq])
+        seq_truth.push_back({t.gesture, t.track, t.start, t.end, 1, Direction::none});
+      score_temporal(seq_truth, log.last(), widen, scoring, out);
       out.frames += fs.size();
       ++out.users;
-      std::vector<bool> used(last.size(), false);
-      for (const Truth& t : truth[seq]) {
-        const auto tg = static_cast<std::size_t>(t.gesture);
-        bool hit = false;
-        std::size_t other = last.size();
-        for (std::size_t k = 0; k < last.size(); ++k) {
-          const GestureEvent& e = last[k];
-          if (used[k] || e.track_id != t.track) continue;
-          if (e.end_ms < t.start - widen || e.start_ms > t.end + widen) continue;
-          used[k] = true;
-          const auto pg = static_cast<std::size_t>(e.gesture);
-          if (pg == tg) {
-            if (!hit) {
-              hit = true;
-              ++out.tp[tg];
-              ++out.confusion[tg][tg];
-              out.latency_ms[tg].push_back(e.decided_ms - t.end);
-            } // further ones of the same gesture: repeated contacts of one capture, ignored
-          } else {
-            ++out.fp[pg];
-            if (other == last.size()) other = k;
-          }
-        }
-        if (!hit) {
-          ++out.fn[tg];
-          ++out.confusion[tg][other == last.size() ? none
-                                                   : static_cast<std::size_t>(last[other].gesture)];
-        }
-      }
-      for (std::size_t k = 0; k < last.size(); ++k)
-        if (!used[k]) {
-          const auto pg = static_cast<std::size_t>(last[k].gesture);
-          ++out.fp[pg];
-          ++out.confusion[none][pg];
-        }
     }
     std::cout << "sequences " << out.users << ", timeline rows " << tl.size() << ", truths "
               << tr.size() << " (double_tap counted as tap; no repetition scoring)\n"

@@ -57,3 +57,85 @@ TEST_CASE("temporal gestures on generated users at 15, 30 and 60 fps") {
     CHECK(r.latency_quantile(TemporalEvalResult::n, 0.0) >= 0);
   }
 }
+
+namespace {
+
+GestureEvent predicted(TouchGesture g, int track, double start, double end, int reps = 1) {
+  GestureEvent e;
+  e.gesture = g;
+  e.track_id = track;
+  e.start_ms = start;
+  e.end_ms = end;
+  e.decided_ms = end + 10;
+  e.repetitions = reps;
+  return e;
+}
+
+constexpr auto idx = [](TouchGesture g) { return static_cast<std::size_t>(g); };
+
+} // namespace
+
+TEST_CASE("score_temporal: best_one takes one prediction per truth, its own gesture first") {
+  using G = TouchGesture;
+  const std::vector<sim::TouchGestureTruth> truth = {{G::pat, 1, 1000, 2000, 3, Direction::none},
+                                                     {G::hold, 2, 3000, 5000, 1, Direction::none}};
+  // On track 1: a tap, then the pat (two repetitions: a repetition error), then another pat;
+  // on track 2 a tap only; on track 3 (no truth) a hit.
+  const std::vector<GestureEvent> p = {
+      predicted(G::tap, 1, 1000, 1100), predicted(G::pat, 1, 1200, 1900, 2),
+      predicted(G::pat, 1, 1950, 2020, 3), predicted(G::tap, 2, 3000, 3100),
+      predicted(G::hit, 3, 6000, 6050)};
+  TemporalEvalResult r;
+  score_temporal(truth, p, 33, TemporalTrackMatch::same_id, r);
+  CHECK(r.tp[idx(G::pat)] == 1);
+  CHECK(r.repetition_errors == 1); // the first pat found is the two-repetition one
+  CHECK(r.latency_ms[idx(G::pat)].empty());
+  CHECK(r.fn[idx(G::hold)] == 1);
+  CHECK(r.confusion[idx(G::hold)][idx(G::tap)] == 1);
+  // Left over: the first tap and the second pat on track 1, the hit on track 3.
+  CHECK(r.fp[idx(G::tap)] == 2); // track 2's tap (as the hold's confusion) + track 1's
+  CHECK(r.fp[idx(G::pat)] == 1);
+  CHECK(r.fp[idx(G::hit)] == 1);
+  CHECK(r.confusion[TemporalEvalResult::n][idx(G::hit)] == 1);
+
+  // any_track: the hold may take a prediction from another track (rendered frames).
+  TemporalEvalResult any;
+  score_temporal({{G::hold, 1, 3000, 5000, 1, Direction::none}},
+                 {predicted(G::hold, 7, 3000, 5000)}, 33, TemporalTrackMatch::any_track, any);
+  CHECK(any.tp[idx(G::hold)] == 1);
+  CHECK(any.latency_ms[idx(G::hold)] == std::vector<double>{10});
+}
+
+TEST_CASE("score_temporal: all_overlapping, the rule pre-registered for real timing") {
+  using G = TouchGesture;
+  const TemporalScoring rule{.match = TemporalTrackMatch::same_id,
+                             .claim = TemporalClaim::all_overlapping,
+                             .double_tap_as_tap = true,
+                             .repetitions = false};
+  const std::vector<sim::TouchGestureTruth> truth = {{G::tap, 1, 1000, 2000, 1, Direction::none},
+                                                     {G::rub, 2, 3000, 4000, 1, Direction::none},
+                                                     {G::hold, 3, 5000, 7000, 1, Direction::none}};
+  const std::vector<GestureEvent> p = {
+      predicted(G::double_tap, 1, 1000, 1300, 2), // a tap for this source: the true positive
+      predicted(G::tap, 1, 1500, 1600),           // the capture's repeated tap: ignored
+      predicted(G::stroke, 1, 1700, 1990),        // another gesture on the tap: a false positive
+      predicted(G::stroke, 2, 3000, 3500),        // the rub read as two strokes: two FPs, a miss
+      predicted(G::stroke, 2, 3600, 4000),
+      predicted(G::hold, 3, 7100, 9000), // starts 100 ms after the hold: outside 33 ms
+      predicted(G::tap, 4, 100, 200)};   // no truth on track 4
+  TemporalEvalResult r;
+  score_temporal(truth, p, 33, rule, r);
+  CHECK(r.tp[idx(G::tap)] == 1);
+  CHECK(r.fp[idx(G::tap)] == 1); // only track 4's
+  CHECK(r.latency_ms[idx(G::tap)] == std::vector<double>{1310 - 2000});
+  CHECK(r.repetition_errors == 0);
+  CHECK(r.fp[idx(G::stroke)] == 3);
+  CHECK(r.fn[idx(G::rub)] == 1);
+  CHECK(r.confusion[idx(G::rub)][idx(G::stroke)] == 1);
+  CHECK(r.fn[idx(G::hold)] == 1);
+  CHECK(r.confusion[idx(G::hold)][TemporalEvalResult::n] == 1);
+  CHECK(r.fp[idx(G::hold)] == 1);
+  CHECK(r.confusion[TemporalEvalResult::n][idx(G::hold)] == 1);
+  CHECK(r.confusion[TemporalEvalResult::n][idx(G::tap)] == 1);
+  CHECK(r.tp[idx(G::double_tap)] + r.fp[idx(G::double_tap)] + r.fn[idx(G::double_tap)] == 0);
+}

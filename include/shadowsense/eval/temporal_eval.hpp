@@ -17,9 +17,18 @@
 //             positive of the prediction; no prediction is a miss (column `none`). Predictions
 //             left over are false positives (row `none`).
 // TemporalEventLog: the last word per (track_id, start_ms) of a stream of events.
-// score_temporal(truth, predictions, widen_ms, match, result): the matching above for one
-//   sequence, added into result (ss_track_eval --temporal scores rendered frames with it,
-//   matching tracks with TemporalTrackMatch::any_track).
+// score_temporal(truth, predictions, widen_ms, scoring, result): the matching above for one
+//   sequence, added into result. TemporalScoring says how: which tracks a truth may take its
+//   prediction from (ss_track_eval --temporal: TemporalTrackMatch::any_track), and the claim
+//   rule - `best_one` above, or `all_overlapping`, the rule pre-registered for the real-timing
+//   sources (docs/validation_protocol.md, "Issue 23"; ss_timeline_eval): every unclaimed
+//   prediction on the truth's track overlapping it is its own; the first of the truth's gesture
+//   is the true positive (latency as above), further ones of that gesture are ignored, each of
+//   another gesture is a false positive; without one of its gesture the truth is a miss, counted
+//   in the confusion matrix under the first other gesture claimed (or `none`). Options:
+//   double_tap_as_tap (a double tap prediction counts as a tap) and repetitions (false: no
+//   repetition errors; every true positive's latency counts).
+//   score_temporal(truth, predictions, widen_ms, match, result) = best_one with that match.
 // format_temporal_eval(result) -> text: the per-gesture table, macro-F1, the confusion matrix
 //   and the latency quantiles.
 // Plain values; no shared state (any thread).
@@ -104,24 +113,93 @@ private:
 // hands never overlap in time).
 enum class TemporalTrackMatch { same_id, any_track };
 
+// Which predictions a truth takes (see the specification above).
+enum class TemporalClaim { best_one, all_overlapping };
+
+struct TemporalScoring {
+  TemporalTrackMatch match = TemporalTrackMatch::same_id;
+  TemporalClaim claim = TemporalClaim::best_one;
+  bool double_tap_as_tap = false; // a source that does not separate them (CoST, touch logs)
+  bool repetitions = true;        // count repetition errors of tap, double_tap and pat
+};
+
+namespace detail {
+
+inline bool same_track(TemporalTrackMatch match, int truth_id, int predicted_id) {
+  return match == TemporalTrackMatch::same_id ? truth_id == predicted_id
+                                              : (truth_id > 0) == (predicted_id > 0);
+}
+
+// The pre-registered rule of the real-timing sources: a truth claims every prediction on its
+// track that overlaps it.
+inline void score_all_overlapping(const std::vector<sim::TouchGestureTruth>& truth,
+                                  const std::vector<GestureEvent>& last, double widen_ms,
+                                  const TemporalScoring& scoring, TemporalEvalResult& out) {
+  const std::size_t none = TemporalEvalResult::n;
+  auto gesture_of = [&](const GestureEvent& e) {
+    return scoring.double_tap_as_tap && e.gesture == TouchGesture::double_tap ? TouchGesture::tap
+                                                                              : e.gesture;
+  };
+  std::vector<bool> used(last.size(), false);
+  for (const sim::TouchGestureTruth& t : truth) {
+    const auto tg = static_cast<std::size_t>(t.gesture);
+    bool hit = false;
+    std::size_t other = last.size();
+    for (std::size_t k = 0; k < last.size(); ++k) {
+      const GestureEvent& e = last[k];
+      if (used[k] || !same_track(scoring.match, t.track_id, e.track_id)) continue;
+      if (e.end_ms < t.start_ms - widen_ms || e.start_ms > t.end_ms + widen_ms) continue;
+      used[k] = true;
+      const auto pg = static_cast<std::size_t>(gesture_of(e));
+      if (pg == tg) {
+        if (hit) continue; // repeated contacts of one labelled capture
+        hit = true;
+        ++out.tp[tg];
+        ++out.confusion[tg][tg];
+        out.latency_ms[tg].push_back(e.decided_ms - t.end_ms);
+      } else {
+        ++out.fp[pg];
+        if (other == last.size()) other = k;
+      }
+    }
+    if (!hit) {
+      ++out.fn[tg];
+      ++out.confusion[tg][other == last.size() ? none
+                                               : static_cast<std::size_t>(gesture_of(last[other]))];
+    }
+  }
+  for (std::size_t k = 0; k < last.size(); ++k)
+    if (!used[k]) {
+      const auto pg = static_cast<std::size_t>(gesture_of(last[k]));
+      ++out.fp[pg];
+      ++out.confusion[none][pg];
+    }
+}
+
+} // namespace detail
+
 // Scores one sequence's collapsed predictions against its truth into `out` (as
 // evaluate_temporal says), widening each truth interval by widen_ms on each side.
 inline void score_temporal(const std::vector<sim::TouchGestureTruth>& truth,
                            const std::vector<GestureEvent>& predictions, double widen_ms,
-                           TemporalTrackMatch match, TemporalEvalResult& out) {
+                           const TemporalScoring& scoring, TemporalEvalResult& out) {
+  if (scoring.claim == TemporalClaim::all_overlapping)
+    return detail::score_all_overlapping(truth, predictions, widen_ms, scoring, out);
   const std::size_t none = TemporalEvalResult::n;
-  const std::vector<GestureEvent>& last = predictions;
+  std::vector<GestureEvent> mapped;
+  if (scoring.double_tap_as_tap) {
+    mapped = predictions;
+    for (GestureEvent& e : mapped)
+      if (e.gesture == TouchGesture::double_tap) e.gesture = TouchGesture::tap;
+  }
+  const std::vector<GestureEvent>& last = scoring.double_tap_as_tap ? mapped : predictions;
   std::vector<bool> used(last.size(), false);
-  auto same_track = [&](int truth_id, int predicted_id) {
-    return match == TemporalTrackMatch::same_id ? truth_id == predicted_id
-                                                : (truth_id > 0) == (predicted_id > 0);
-  };
   for (const sim::TouchGestureTruth& t : truth) {
     const auto tg = static_cast<std::size_t>(t.gesture);
     std::size_t best = last.size();
     for (std::size_t k = 0; k < last.size(); ++k) {
       const GestureEvent& p = last[k];
-      if (used[k] || !same_track(t.track_id, p.track_id)) continue;
+      if (used[k] || !detail::same_track(scoring.match, t.track_id, p.track_id)) continue;
       if (p.end_ms < t.start_ms - widen_ms || p.start_ms > t.end_ms + widen_ms) continue;
       if (best == last.size() || (p.gesture == t.gesture && last[best].gesture != t.gesture))
         best = k;
@@ -139,7 +217,7 @@ inline void score_temporal(const std::vector<sim::TouchGestureTruth>& truth,
       ++out.tp[tg];
       const bool counted = t.gesture == TouchGesture::tap ||
                            t.gesture == TouchGesture::double_tap || t.gesture == TouchGesture::pat;
-      if (counted && p.repetitions != t.repetitions)
+      if (scoring.repetitions && counted && p.repetitions != t.repetitions)
         ++out.repetition_errors; // e.g. a pat split in two: its event came before the end
       else
         out.latency_ms[tg].push_back(p.decided_ms - t.end_ms);
@@ -154,6 +232,12 @@ inline void score_temporal(const std::vector<sim::TouchGestureTruth>& truth,
       ++out.fp[pg];
       ++out.confusion[none][pg];
     }
+}
+
+inline void score_temporal(const std::vector<sim::TouchGestureTruth>& truth,
+                           const std::vector<GestureEvent>& predictions, double widen_ms,
+                           TemporalTrackMatch match, TemporalEvalResult& out) {
+  score_temporal(truth, predictions, widen_ms, TemporalScoring{.match = match}, out);
 }
 
 inline TemporalEvalResult evaluate_temporal(const sim::TouchSequenceConfig& config,
