@@ -1,6 +1,7 @@
 // The dataset format: writers (deterministic, validated, never half-written) and the strict
 // csv reader.
 #include <shadowsense/eval.hpp>
+#include <shadowsense/io/temporal_dataset.hpp>
 
 #include <doctest/doctest.h>
 
@@ -311,14 +312,27 @@ TEST_CASE("the csv reader rejects malformed rows naming file, line and column") 
 }
 
 namespace {
-// What the shared corpus checks: a metadata.csv with its images, or a sequences.csv with every
-// sequence and its images (tools/dataset_reader.py read_case does the same).
+// What the shared corpus checks: a metadata.csv with its images, a sequences.csv with every
+// sequence and its images, or a temporal sequences.csv with every sequence and the headers of
+// its frames' images, resolved as ss_track_eval --temporal reads them (examples/track_eval.cpp,
+// read_temporal_frame) (tools/dataset_reader.py read_case does the same).
 void read_case(const std::string& kind, const fs::path& csv) {
   if (kind == "metadata") {
     check_images(read_metadata(csv));
-  } else {
-    REQUIRE(kind == "sequences");
+  } else if (kind == "sequences") {
     for (const SequenceRow& s : read_sequences(csv)) check_images(read_sequence_metadata(csv, s));
+  } else {
+    REQUIRE(kind == "temporal");
+    const fs::path dir = csv.parent_path();
+    for (const TemporalSequenceRow& row : read_temporal_sequences(dir)) {
+      const TemporalSequence s = read_temporal_sequence(dir, row);
+      for (const TemporalFrameRow& f : s.frames) {
+        const std::string at = s.frames_csv.string() + ":" + std::to_string(f.line) + ": ";
+        const fs::path p =
+            detail::inside_folder(s.folder, f.file_name, at + "column 2 'file_name': ");
+        (void)detail::image_header(p, {}, at + "cannot read image: ", true);
+      }
+    }
   }
 }
 } // namespace
@@ -331,6 +345,7 @@ TEST_CASE("the shared bad-input corpus: the C++ reader gives the verdicts of cas
   REQUIRE(in);
   std::string line;
   int cases = 0, rejects = 0;
+  std::map<std::string, int> kinds;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
@@ -339,6 +354,7 @@ TEST_CASE("the shared bad-input corpus: the C++ reader gives the verdicts of cas
     std::getline(ls >> std::ws, expect);
     CAPTURE(line);
     ++cases;
+    ++kinds[kind];
     std::string got = "accept", message;
     try {
       read_case(kind, root / rel);
@@ -351,8 +367,9 @@ TEST_CASE("the shared bad-input corpus: the C++ reader gives the verdicts of cas
     CHECK(message.find(expect) != std::string::npos);
     rejects += got == "reject" ? 1 : 0;
   }
-  CHECK(cases == 23);
-  CHECK(rejects == 21);
+  CHECK(cases == 39);
+  CHECK(rejects == 36);
+  CHECK(kinds == std::map<std::string, int>{{"metadata", 17}, {"sequences", 6}, {"temporal", 16}});
 }
 
 TEST_CASE("bounded image reading: header sizes before decoding, no FIFO hang, no /dev/zero") {

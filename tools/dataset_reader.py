@@ -2,9 +2,10 @@
 """Strict reader of the shadowsense dataset format (docs/dataset_format.md), in Python.
 
 Applies the same rules, with the same kind of messages (file:line: column N 'name': ...), as
-the C++ reader in include/shadowsense/io/dataset.hpp (read_metadata, read_sequences,
-check_images, read_sequence_metadata): both run tests/data/bad_inputs/ with the same
-accept/reject verdicts (tests/data/bad_inputs/cases.txt, checked by `--check-corpus`).
+the C++ readers in include/shadowsense/io/dataset.hpp (read_metadata, read_sequences,
+check_images, read_sequence_metadata) and include/shadowsense/io/temporal_dataset.hpp
+(read_temporal_sequences, read_temporal_sequence): both run tests/data/bad_inputs/ with the
+same accept/reject verdicts (tests/data/bad_inputs/cases.txt, checked by `--check-corpus`).
 
 Library use:
     rows = read_metadata(csv_path)          # list of dicts, raises DatasetError
@@ -12,15 +13,26 @@ Library use:
     seqs = read_sequences(csv_path)
     md = read_sequence_metadata(sequences_csv, seq_row)
     rows_for_training(root)                 # what tools/train.py uses (SystemExit on error)
+  Temporal gesture sequences (OUT/temporal):
+    rows = read_temporal_sequences(dir_or_sequences_csv)   # the rows of sequences.csv
+    seq = read_temporal_sequence(dir_or_sequences_csv, row)
+        # frames.csv and gestures.csv checked (row counts against sequences.csv, strictly
+        # increasing frames and timestamps, track ids, intervals, ...); the images unread
+    check_temporal_images(seq)              # each frame's image header, as ss_track_eval
+                                            # --temporal resolves it (inside the folder)
 
 Command line:
-    dataset_reader.py CSV...                 read (metadata.csv or sequences.csv), exit 2 on error
+    dataset_reader.py CSV...                 read each metadata.csv, slide sequences.csv or
+                                             temporal sequences.csv (told apart by the header)
+                                             with every sequence and image header; exit 2 on
+                                             the first error
     dataset_reader.py --check-corpus DIR     run the shared bad-input corpus
 """
 
 import math
 import os
 import re
+import stat
 import struct
 import sys
 
@@ -31,9 +43,18 @@ METADATA_COLUMNS = ["file_name", "class", "user", "lighting", "lighting_level", 
 SLIDE_COLUMNS = ["gesture", "direction"]
 SEQUENCE_COLUMNS = ["sequence", "gesture", "direction", "num_frames", "distance_cm", "fps",
                     "user", "lighting", "lighting_level"]
+TEMPORAL_SEQUENCE_COLUMNS = ["sequence", "fps", "user", "frames", "gestures", "lighting_level",
+                             "px_per_cm"]
+TEMPORAL_FRAME_COLUMNS = ["frame", "file_name", "timestamp_ms", "duplicate", "shape",
+                          "shape_confidence"]
+TEMPORAL_GESTURE_COLUMNS = ["gesture", "track_id", "start_ms", "end_ms", "repetitions",
+                            "direction"]
 LIGHTING_LEVEL = {"daylight": 1.0, "dusk": 0.5, "night": 0.0}
 MAX_WIDTH = MAX_HEIGHT = 8192
 MAX_FILE_BYTES = 256 << 20
+MAX_CSV_BYTES = 1 << 30
+MAX_TIMESTAMP_MS = 1e12
+INT_MAX = 2147483647
 
 _INT = re.compile(r"-?[0-9]+\Z")
 _REAL = re.compile(r"-?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][-+]?[0-9]+)?\Z")
@@ -62,6 +83,8 @@ class _Row:
     def text(self, col):
         if self.empty(col):
             self.fail(col, "must not be empty")
+        if any(c in self.fields[col] for c in "\"\n\r"):
+            self.fail(col, "holds a quote or a line break; fields are never quoted in this format")
         return self.fields[col]
 
     def integer(self, col, lo, hi):
@@ -79,6 +102,8 @@ class _Row:
             v = float(s) if _REAL.match(s) else math.nan
         except (ValueError, OverflowError):
             v = math.nan
+        if v == 0 and re.search("[1-9]", re.split("[eE]", s)[0]):
+            v = math.nan  # underflow: std::from_chars reports it out of range
         if not math.isfinite(v):
             self.fail(col, "expected a finite number")
         if v < lo or v > hi:
@@ -109,14 +134,39 @@ def allowed_text(allowed):
 LIGHTINGS = ["daylight", "dusk", "night", "custom"]
 GESTURES = ["palm", "finger"]
 DIRECTIONS = ["left", "right", "front", "back"]
+TOUCH_GESTURES = ["tap", "double_tap", "pat", "stroke", "rub", "hold", "hit", "hug", "punch",
+                  "two_hands"]
+WHOLE_FRAME_GESTURES = ("hug", "punch", "two_hands")  # on track 0
+
+
+def _read_csv_bytes(path):
+    """A regular file of at most MAX_CSV_BYTES (no FIFO hang, no /dev/zero)."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError as e:
+        raise DatasetError(f"{path}: cannot open the csv file: {e.strerror}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise DatasetError(f"{path}: not a regular file (a folder, device or pipe); "
+                               "expected the csv file")
+        if st.st_size > MAX_CSV_BYTES:
+            raise DatasetError(f"{path}: the file has {st.st_size} bytes; the limit is "
+                               f"{MAX_CSV_BYTES}")
+        chunks, got = [], 0
+        while got < st.st_size:
+            b = os.pread(fd, st.st_size - got, got)
+            if not b:
+                break
+            chunks.append(b)
+            got += len(b)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def _lines(path):
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError:
-        raise DatasetError(f"{path}: cannot open the csv file") from None
+    data = _read_csv_bytes(path)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError:
@@ -248,7 +298,7 @@ def _where(csv_path, line, col, name):
 def _inside(folder, relative, at):
     base = os.path.realpath(folder)
     full = os.path.realpath(os.path.join(folder, relative))
-    if os.path.commonpath([base, full]) != base or full == base:
+    if os.path.commonpath([base, full]) != base:
         raise DatasetError(f"{at}'{relative}' resolves to '{full}', outside the dataset folder "
                            f"'{base}' (a symlink leaves it)")
     return os.path.join(folder, relative)
@@ -262,7 +312,6 @@ def image_header(path):
         raise DatasetError(f"{path}: cannot open the image: {e.strerror}") from None
     try:
         st = os.fstat(fd)
-        import stat
         if not stat.S_ISREG(st.st_mode):
             raise DatasetError(f"{path}: not a regular file (a folder, device or pipe); "
                                "expected the image")
@@ -382,15 +431,134 @@ def read_sequence_metadata(sequences_csv, seq):
     return csv_path, rows
 
 
+def _parse_rows(path, columns, parse_row):
+    """Each row of a csv with exactly `columns`, handed to parse_row(_Row, line)."""
+    lines = _lines(path)
+    header = lines[0].split(",")
+    if header != columns:
+        raise DatasetError(f"{path}:1: unexpected header '{lines[0]}'; expected "
+                           f"'{','.join(columns)}'")
+    for i, text in enumerate(lines[1:], start=2):
+        parse_row(_Row(path, i, header, _fields(path, i, text, len(columns))), i)
+
+
+def _temporal_root(dir_or_csv):
+    """The dataset folder and its sequences.csv, given either (a path named sequences.csv is
+    the csv)."""
+    if os.path.basename(dir_or_csv) == "sequences.csv":
+        return os.path.dirname(dir_or_csv), dir_or_csv
+    return dir_or_csv, os.path.join(dir_or_csv, "sequences.csv")
+
+
+def read_temporal_sequences(sequences_csv_or_dir):
+    """Rows of a temporal dataset's sequences.csv as dicts: sequence (folder, relative), fps,
+    user, frames, gestures (the row counts of the sequence's csv files), lighting_level (-1:
+    unknown), px_per_cm, line."""
+    _, path = _temporal_root(sequences_csv_or_dir)
+    rows = []
+
+    def parse(r, line):
+        d = {"line": line}
+        d["sequence"] = _check_relative(r, 0)
+        d["fps"] = r.real(1, 1e-3, 1000)
+        d["user"] = r.integer(2, 0, INT_MAX)
+        d["frames"] = r.integer(3, 1, 1 << 30)
+        d["gestures"] = r.integer(4, 0, 1 << 30)
+        d["lighting_level"] = -1.0 if r.empty(5) else r.real(5, 0, 1)
+        d["px_per_cm"] = r.real(6, 1e-3, 1e6)
+        rows.append(d)
+
+    _parse_rows(path, TEMPORAL_SEQUENCE_COLUMNS, parse)
+    return rows
+
+
+def read_temporal_sequence(root, row):
+    """One sequence of a temporal dataset (root: its folder or sequences.csv; row: from
+    read_temporal_sequences) as a dict: row, folder, frames_csv, gestures_csv, frames (dicts:
+    frame, file_name, timestamp_ms, duplicate (bool), shape ('' none), shape_confidence, line)
+    and gestures (dicts: gesture, track_id, start_ms, end_ms, repetitions, direction ('' none),
+    line). The images are not read (check_temporal_images)."""
+    root, sequences_csv = _temporal_root(root)
+    folder = _inside(root, row["sequence"], _where(sequences_csv, row["line"], 0, "sequence"))
+    seq = {"row": row, "folder": folder, "frames_csv": os.path.join(folder, "frames.csv"),
+           "gestures_csv": os.path.join(folder, "gestures.csv"), "frames": [], "gestures": []}
+    frames, gestures = seq["frames"], seq["gestures"]
+
+    def frame(r, line):
+        d = {"line": line}
+        d["frame"] = r.integer(0, 0, INT_MAX)
+        d["file_name"] = _check_relative(r, 1)
+        d["timestamp_ms"] = r.real(2, -MAX_TIMESTAMP_MS, MAX_TIMESTAMP_MS)
+        d["duplicate"] = r.integer(3, 0, 1) == 1
+        d["shape"] = "" if r.empty(4) else r.text(4)
+        if (d["shape"] == "") != r.empty(5):
+            r.fail(5, "must be given exactly when the shape column is")
+        d["shape_confidence"] = 0.0 if r.empty(5) else r.real(5, 0, 1)
+        if frames:
+            prev = frames[-1]
+            if not d["frame"] > prev["frame"]:
+                r.fail(0, "frame indices must be strictly increasing (the previous row has "
+                          f"{prev['frame']})")
+            if not d["timestamp_ms"] > prev["timestamp_ms"]:
+                r.fail(2, "timestamps must be strictly increasing (the previous row has "
+                          f"{prev['timestamp_ms']:.3f})")
+        frames.append(d)
+
+    def gesture(r, line):
+        d = {"line": line}
+        d["gesture"] = r.choice(0, TOUCH_GESTURES, "gesture")
+        d["track_id"] = r.integer(1, 0, INT_MAX)
+        if (d["gesture"] in WHOLE_FRAME_GESTURES) != (d["track_id"] == 0):
+            r.fail(1, "expected " + ("a track id > 0 for " if d["track_id"] == 0
+                                     else "track id 0 for ") + d["gesture"] +
+                   " (hug, punch and two_hands are whole-frame gestures on track 0, the others "
+                   "are on a hand's track)")
+        d["start_ms"] = r.real(2, -MAX_TIMESTAMP_MS, MAX_TIMESTAMP_MS)
+        d["end_ms"] = r.real(3, -MAX_TIMESTAMP_MS, MAX_TIMESTAMP_MS)
+        if not d["end_ms"] > d["start_ms"]:
+            r.fail(3, "must be after start_ms")
+        d["repetitions"] = r.integer(4, 1, 1000000)
+        d["direction"] = "" if r.empty(5) else r.choice(5, DIRECTIONS, "direction")
+        gestures.append(d)
+
+    _parse_rows(seq["frames_csv"], TEMPORAL_FRAME_COLUMNS, frame)
+    _parse_rows(seq["gestures_csv"], TEMPORAL_GESTURE_COLUMNS, gesture)
+    for csv, got, key, what, col in ((seq["frames_csv"], len(frames), "frames", "frame", 3),
+                                     (seq["gestures_csv"], len(gestures), "gestures", "gesture",
+                                      4)):
+        if got != row[key]:
+            raise DatasetError(f"{csv}: has {got} {what} rows; " +
+                               _where(sequences_csv, row["line"], col, key) +
+                               f"expects {row[key]} (a truncated or mismatched file)")
+    return seq
+
+
+def check_temporal_images(seq):
+    """Each frame's image resolved inside the sequence's folder (no symlink out) and its header
+    checked (a regular PNG/JPEG/BMP file within the limits), with ss_track_eval --temporal's
+    messages; returns nothing, raises DatasetError."""
+    for f in seq["frames"]:
+        at = f"{seq['frames_csv']}:{f['line']}: "
+        p = _inside(seq["folder"], f["file_name"], at + "column 2 'file_name': ")
+        try:
+            image_header(p)
+        except DatasetError as e:
+            raise DatasetError(at + "cannot read image: " + str(e)) from None
+
+
 def read_case(kind, path):
-    """What the corpus checks: a metadata.csv with its images, or a sequences.csv with every
-    sequence and its images."""
+    """What the corpus checks: a metadata.csv with its images, a sequences.csv with every
+    sequence and its images, or a temporal sequences.csv with every sequence and its images'
+    headers."""
     if kind == "metadata":
         check_images(path, read_metadata(path))
     elif kind == "sequences":
         for s in read_sequences(path):
             csv_path, rows = read_sequence_metadata(path, s)
             check_images(csv_path, rows)
+    elif kind == "temporal":
+        for row in read_temporal_sequences(path):
+            check_temporal_images(read_temporal_sequence(path, row))
     else:
         raise ValueError(f"unknown case kind {kind}")
 
@@ -433,6 +601,15 @@ def rows_for_training(root):
     return rows
 
 
+def _kind_of(path):
+    """metadata for a metadata.csv; a sequences.csv is a slide or a temporal dataset's, told
+    apart by its header (a header of neither kind gets the slide reader's message)."""
+    if os.path.basename(path) != "sequences.csv":
+        return "metadata"
+    header = _lines(path)[0].split(",")
+    return "temporal" if header == TEMPORAL_SEQUENCE_COLUMNS else "sequences"
+
+
 def main(argv):
     if not argv or argv[0] in ("-h", "--help"):
         print(__doc__.strip())
@@ -444,8 +621,7 @@ def main(argv):
         return 1 if run_corpus(argv[1]) else 0
     try:
         for p in argv:
-            kind = "sequences" if os.path.basename(p) == "sequences.csv" else "metadata"
-            read_case(kind, p)
+            read_case(_kind_of(p), p)
             print(f"{p}: ok")
     except DatasetError as e:
         print(str(e), file=sys.stderr)
