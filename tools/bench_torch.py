@@ -14,6 +14,8 @@ import time
 import torch
 import torchvision
 
+import ss_version
+
 
 def main():
     ap = argparse.ArgumentParser()
@@ -21,6 +23,7 @@ def main():
     ap.add_argument("--threads", nargs="+", type=int, default=[1, 2])
     ap.add_argument("--size", nargs=2, type=int, default=[150, 220], metavar=("H", "W"))
     ap.add_argument("--reps", type=int, default=10)
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     args = ap.parse_args()
     torch.manual_seed(0)
     x = torch.randn(1, 3, args.size[0], args.size[1])

@@ -27,6 +27,9 @@ Command line:
                                              with every sequence and image header; exit 2 on
                                              the first error
     dataset_reader.py --check-corpus DIR     run the shared bad-input corpus
+    dataset_reader.py --help | --version
+  Exit 0 when everything read is valid, 2 on bad data or a bad command line (message on
+  stderr), 1 when --check-corpus found wrong verdicts.
 """
 
 import math
@@ -35,6 +38,9 @@ import re
 import stat
 import struct
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import ss_version  # noqa: E402
 
 METADATA_COLUMNS = ["file_name", "class", "user", "lighting", "lighting_level", "session",
                     "frame_index", "timestamp_ms", "shadow_x", "shadow_y", "shadow_w",
@@ -611,9 +617,22 @@ def _kind_of(path):
 
 
 def main(argv):
-    if not argv or argv[0] in ("-h", "--help"):
+    if argv and argv[0] in ("-h", "--help"):
         print(__doc__.strip())
-        return 0 if argv else 2
+        return 0
+    if argv and argv[0] == "--version":
+        print(ss_version.line("dataset_reader.py"))
+        return 0
+    if not argv:
+        print("usage: dataset_reader.py CSV... | --check-corpus DIR (--help for more)",
+              file=sys.stderr)
+        return 2
+    unknown = [a for i, a in enumerate(argv)
+               if a.startswith("-") and (i, a) != (0, "--check-corpus")]
+    if unknown:
+        print(f"dataset_reader.py: unknown option '{unknown[0]}' (--help for usage)",
+              file=sys.stderr)
+        return 2
     if argv[0] == "--check-corpus":
         if len(argv) != 2:
             print("usage: dataset_reader.py --check-corpus DIR", file=sys.stderr)

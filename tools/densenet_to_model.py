@@ -386,6 +386,8 @@ def main(argv=None):
                     help=f"dark-frame rule threshold in 0..1 (default {DEFAULT_DARK_THRESHOLD}; "
                          "with --upgrade: 0, version 1's behaviour)")
     ap.add_argument("-o", "--output", required=True)
+    import ss_version  # tools/ss_version.py
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     args = ap.parse_args(argv)
     check_args(ap, args)
     if args.upgrade:

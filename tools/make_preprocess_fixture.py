@@ -18,6 +18,8 @@ import torch
 import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
+import ss_version
+
 MEAN = [0.485, 0.456, 0.406]
 STD = [0.229, 0.224, 0.225]
 
@@ -58,6 +60,7 @@ def main():
     ap.add_argument("-o", "--output", default=os.path.join(
         os.path.dirname(os.path.abspath(__file__)), "..", "tests", "data",
         "preprocess_golden.bin"))
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     args = ap.parse_args()
     if args.paper:
         h, w, resize, crop = 300, 400, (318, 235), (220, 150)

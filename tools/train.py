@@ -53,6 +53,7 @@ from torchvision.transforms import InterpolationMode
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dataset_reader  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
+import ss_version  # noqa: E402
 
 MEAN = [0.485, 0.456, 0.406]
 STD = [0.229, 0.224, 0.225]
@@ -413,6 +414,7 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     args = ap.parse_args(argv)
     d2m.check_preprocessing(ap.error, args.resize, args.crop, args.contrast, args.brightness,
                             MEAN, STD, d2m.DEFAULT_LIGHTING_TARGET, args.dark_threshold)

@@ -31,6 +31,8 @@ except ImportError:  # pragma: no cover
     sys.exit(2)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import handsil  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
 
 BASE = "Example_Datasets/Human_Fingers_1000_200_200"
 SPLITS = {"training_set": "train", "testing_set": "heldout"}
@@ -43,6 +45,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--src", required=True, help="folder holding Example_Datasets/")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     rows, skipped = [], {}
     for sdir, split in SPLITS.items():

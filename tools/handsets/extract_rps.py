@@ -29,6 +29,8 @@ except ImportError:  # pragma: no cover
     sys.exit(2)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import handsil  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
 
 POSES = {"rock": "punch", "paper": "palm"}
 HEADER = ["file", "pose", "source", "split", "person", "source_file", "width_px", "height_px",
@@ -50,6 +52,7 @@ def main():
     ap.add_argument("--src", required=True, help="folder with rock/ and paper/")
     ap.add_argument("--out", required=True)
     ap.add_argument("--heldout-share", type=float, default=0.2)
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     if not 0 <= a.heldout_share <= 1:
         ap.error("--heldout-share must be in [0, 1]")

@@ -11,6 +11,7 @@ exported from the model file read back into torchvision.
 
 usage: /usr/bin/python3 tools/onnxruntime_bench/make_models.py OUT
 """
+import argparse
 import hashlib
 import json
 import os
@@ -22,6 +23,7 @@ import torch
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 sys.path.insert(0, os.path.join(ROOT, "tools"))
+import ss_version  # noqa: E402
 import train  # noqa: E402  (read_model_file / load_backbone)
 
 
@@ -40,10 +42,11 @@ def atomic_write(path, data):
 
 
 def main(argv):
-    if len(argv) != 2 or argv[1] in ("-h", "--help"):
-        print(__doc__)
-        return 0 if len(argv) == 2 else 2
-    out = argv[1]
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("out", metavar="OUT", help="folder to write the models into")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
+    out = ap.parse_args(argv[1:]).out
     os.makedirs(out, exist_ok=True)
     models = []
     for name, h, w in (("densenet121", 150, 220), ("densenet161", 150, 220)):

@@ -23,6 +23,8 @@ import sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))  # tools/
+import ss_version  # noqa: E402
 
 
 def run_json(cmd, env=None):
@@ -45,6 +47,7 @@ def main(argv):
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--iterations", type=int, default=10)
     ap.add_argument("--threads", default="1,2")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args(argv)
     if a.rounds < 1 or a.iterations < 1:
         ap.error("--rounds and --iterations must be >= 1")

@@ -27,10 +27,12 @@ import numpy as np
 
 try:
     import cv2
-    import h5py
 except ImportError as e:  # pragma: no cover
-    sys.stderr.write(f"extract_silhouettes: {e}; install python3-opencv python3-h5py\n")
+    sys.stderr.write(f"extract_silhouettes: {e}; install python3-opencv\n")
     sys.exit(2)
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
 
 SOURCE_CLASSES = {"fist": 0, "thumb": 1, "pistol": 2, "three": 3, "four": 4, "five": 5, "peace": 6}
 POSES = {"punch": ["fist"], "point": ["pistol"], "palm": ["five", "four"]}
@@ -83,9 +85,15 @@ def main():
     ap.add_argument("--hdf5", required=True)
     ap.add_argument("--out", required=True)
     ap.add_argument("--per-pose", type=int, default=80)
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     if a.per_pose < 1:
         ap.error("--per-pose must be >= 1")
+    try:
+        import h5py
+    except ImportError as e:
+        sys.stderr.write(f"extract_silhouettes: {e}; install python3-h5py\n")
+        return 2
     try:
         f = h5py.File(a.hdf5, "r")
         arrays = {"Xt": (f["Xt"][:], f["yt"][:]), "Xv": (f["Xv"][:], f["yv"][:])}

@@ -38,7 +38,9 @@ except ImportError:  # pragma: no cover
     sys.stderr.write("render.py: needs python3-opencv (tools/install-debian-deps.sh --python)\n")
     sys.exit(2)
 
-VERSION = "realhand-render 1"
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
+
 GESTURES = ["nothing", "hug", "palm", "point", "punch", "two_hands"]
 TRACK = ["nothing", "hover", "palm", "fist", "finger"]
 DIRECTIONS = {"left": (-1.0, 0.0), "right": (1.0, 0.0), "front": (0.0, -1.0), "back": (0.0, 1.0)}
@@ -672,7 +674,7 @@ def main(argv):
     ap.add_argument("--only", choices=["gestures", "tracking", "slides"])
     ap.add_argument("--workers", type=int, default=1,
                     help="worker processes; the files are identical for any value")
-    ap.add_argument("--version", action="version", version=VERSION)
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args(argv)
     for k in ("users", "frames_per_user", "slides", "workers"):
         if getattr(a, k) < 1:

@@ -31,6 +31,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import render as R  # noqa: E402
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
 
 HOVER_CM = 3.0
 PX_PER_CM_TIMELINE = 7.6
@@ -88,6 +90,7 @@ def main():
     ap.add_argument("--hands", default="data/realhand", help="silhouette folder (render.py)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--max-sequences", type=int, default=0, help="0: all")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     if a.max_sequences < 0:
         fail("--max-sequences must be >= 0")

@@ -17,7 +17,11 @@ Usage:
 """
 import argparse
 import csv
+import os
 import sys
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
+import ss_version  # noqa: E402
 
 GESTURES = ["tap", "double_tap", "pat", "stroke", "rub", "hold", "hit", "hug", "punch",
             "two_hands"]
@@ -54,6 +58,7 @@ def main():
     ap.add_argument("--truth", required=True)
     ap.add_argument("--fps", type=float, required=True)
     ap.add_argument("events", nargs="+", help="SEQ=ss_track CSV of that sequence")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     if not 5 <= a.fps <= 240:
         fail("--fps must be in [5, 240]")

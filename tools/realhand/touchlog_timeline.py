@@ -326,6 +326,9 @@ def main():
     src.add_argument("--aosp", help="frameworks/native libs/input/tests/VelocityTracker_test.cpp")
     ap.add_argument("--out", required=True, help="output folder (created)")
     ap.add_argument("--fps", type=float, default=30.0, help="output frame rate (5..240)")
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    import ss_version  # tools/ss_version.py
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
     if not (5 <= a.fps <= 240):
         fail("--fps must be in [5, 240], got %g" % a.fps)
