@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The command-line contract of every Python program in tools/ (the C++ programs' rule,
 examples/common/cli.hpp): --help prints to stdout and exits 0; --version prints exactly
-"<file name> (shadowsense) <major>.<minor>.<patch>" and exits 0, the numbers being the
+"<file name> shadowsense <major>.<minor>.<patch>" and exits 0, the numbers being the
 SHADOWSENSE_VERSION_* macros of include/shadowsense/core/version.hpp; an unknown option exits 2
 with the program's name on stderr and nothing on stdout. None of the three writes a file (each
 runs in an empty folder, which must stay empty, and no file under tests/data/ may change).
@@ -137,7 +137,7 @@ def check(rel, option, r, version):
         if r.stderr:
             errs.append(f"{what}: wrote to stderr: {r.stderr.strip()}")
     elif option == "--version":
-        expected = f"{name} (shadowsense) {version}\n"
+        expected = f"{name} shadowsense {version}\n"
         if r.returncode != 0:
             errs.append(f"{what}: exit {r.returncode}, expected 0; stderr: {r.stderr.strip()}")
         if r.stdout != expected:
@@ -165,9 +165,9 @@ def check_unknown_version(tools):
                             "import ss_version; print(ss_version.line('x.py'))"],
                            cwd=os.path.join(d, "tools"), capture_output=True, text=True,
                            timeout=60)
-    if r.returncode != 0 or r.stdout != "x.py (shadowsense) unknown\n":
+    if r.returncode != 0 or r.stdout != "x.py shadowsense unknown\n":
         return [f"ss_version.py without the header: exit {r.returncode}, printed "
-                f"{r.stdout!r}, expected 'x.py (shadowsense) unknown'; stderr: {r.stderr}"]
+                f"{r.stdout!r}, expected 'x.py shadowsense unknown'; stderr: {r.stderr}"]
     return []
 
 

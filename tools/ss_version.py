@@ -4,7 +4,7 @@ shadowsense::version_string, examples/common/cli.hpp).
 version() -> the `version_string` of include/shadowsense/core/version.hpp, found relative to
     this file (tools/ss_version.py); "unknown" when the header is missing or has no
     version_string (a copy of the tools outside the repository). Never raises.
-line(prog) -> "<prog> (shadowsense) <version>", the line --version prints.
+line(prog) -> "<prog> shadowsense <version>" (as the C++ programs print it), the line --version prints.
 
 Scripts in tools/ import it directly; scripts in tools/<sub>/ put tools/ on sys.path first:
     sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -30,4 +30,4 @@ def version(header=HEADER):
 
 
 def line(prog):
-    return f"{prog} (shadowsense) {version()}"
+    return f"{prog} shadowsense {version()}"
