@@ -8,10 +8,10 @@
 //              (DRAM); STREAM's byte count (copy 2 x 4 B, triad 3 x 4 B per element; the
 //              write-allocate read is not counted); per level the larger of copy and triad.
 //              Also the DRAM figure on 2 threads (wall time; not used by the floors: the frame
-//              runs on one core).
+//              runs on one core). Best of several samples, as STREAM reports it.
 //   peak       the library's own GEMM micro-kernel (whichever gemm.hpp's dispatch picks) on
 //              in-cache operands: one A panel (K x mr) and one B panel (K x nr), K = 256,
-//              called back to back; 2 mr nr K FLOP per call.
+//              called back to back; 2 mr nr K FLOP per call; the best of 7 samples.
 // Per stage, from the data shapes (the model below), bytes moved and FLOPs, then
 //   floor = max(bytes / bandwidth, FLOPs / peak)
 // where the bandwidth is that of the smallest cache level holding the stage's working set
@@ -112,19 +112,6 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// Median over `rounds` of the per-call CPU ms of `calls` calls of step(i), after one warm-up
-// pass of all calls.
-double median_cpu_ms(int calls, int rounds, const std::function<void(int)>& step) {
-  for (int i = 0; i < calls; ++i) step(i);
-  std::vector<double> per_call;
-  for (int r = 0; r < rounds; ++r) {
-    const double c0 = thread_cpu_ms();
-    for (int i = 0; i < calls; ++i) step(i);
-    per_call.push_back((thread_cpu_ms() - c0) / calls);
-  }
-  return median(per_call);
-}
-
 // ---- machine ----
 
 std::string cpu_model() {
@@ -211,8 +198,9 @@ struct Bandwidth {
   double best() const { return std::max(copy_gbs, triad_gbs); }
 };
 
-// Copy and triad over arrays of n floats each: GB/s (1e9 B/s) from the median CPU time of
-// `samples` samples, each `reps` passes (about 256 MB of traffic, at least one pass).
+// Copy and triad over arrays of n floats each: GB/s (1e9 B/s) from the best CPU time of
+// `samples` samples, each `reps` passes (about 256 MB of traffic, at least one pass). The best,
+// as STREAM reports it: the machine's capability, which other load only ever lowers.
 Bandwidth measure_bandwidth(std::size_t n, int samples) {
   std::vector<float> a(n, 1.0f), b(n, 2.0f), c(n, 0.5f);
   const int reps = static_cast<int>(std::max<std::size_t>(1, (256u << 20) / (12 * n)));
@@ -224,7 +212,7 @@ Bandwidth measure_bandwidth(std::size_t n, int samples) {
       for (int r = 0; r < reps; ++r) pass();
       ms.push_back(thread_cpu_ms() - c0);
     }
-    return bytes_per_pass * reps / (median(ms) * 1e-3) / 1e9;
+    return bytes_per_pass * reps / (*std::min_element(ms.begin(), ms.end()) * 1e-3) / 1e9;
   };
   Bandwidth bw;
   bw.array_bytes = n * sizeof(float);
@@ -236,7 +224,7 @@ Bandwidth measure_bandwidth(std::size_t n, int samples) {
 }
 
 // Triad on `threads` threads, each over its own arrays of n floats: GB/s from wall time (the
-// median of 3 samples of all threads' passes).
+// best of 5 samples of all threads' passes).
 double triad_threads_gbs(std::size_t n, int threads) {
   std::vector<std::vector<float>> a(threads, std::vector<float>(n, 1.0f)),
       b(threads, std::vector<float>(n, 2.0f)), c(threads, std::vector<float>(n, 0.5f));
@@ -251,13 +239,13 @@ double triad_threads_gbs(std::size_t n, int threads) {
   };
   all();
   std::vector<double> ms;
-  for (int s = 0; s < 3; ++s) {
+  for (int s = 0; s < 5; ++s) {
     const auto t0 = std::chrono::steady_clock::now();
     all();
     ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
-  return 12.0 * double(n) * threads / (median(ms) * 1e-3) / 1e9;
+  return 12.0 * double(n) * threads / (*std::min_element(ms.begin(), ms.end()) * 1e-3) / 1e9;
 }
 
 // ---- micro-kernel peak ----
@@ -285,7 +273,7 @@ double kernel_peak_gflops(const ss::detail::MicroKernel& k, int samples) {
     ms.push_back(thread_cpu_ms() - c0);
   }
   if (sink == -1.0f) std::fputs("", stderr);
-  return flop * calls / (median(ms) * 1e-3) / 1e9;
+  return flop * calls / (*std::min_element(ms.begin(), ms.end()) * 1e-3) / 1e9; // best, as above
 }
 
 // ---- stages ----
@@ -359,6 +347,32 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
   return out;
 }
 
+// The forward pass's GEMM FLOPs as the library executes them at a 3 x h x w input: the 3x3
+// convolutions by the method DenseNet's automatic choice takes per block (winograd.hpp):
+// F(t x t, 3x3) is (t + 2)^2 GEMMs of growth x inner over the tile count, the direct method
+// runs on the padded grid (2 extra columns per row); everything else as densenet_stages counts
+// it. The last, partly empty GEMM panels and the Winograd transforms are not counted.
+double executed_flops(const ss::DenseNet& net, int h, int w) {
+  const ss::DenseNetArchitecture& a = net.architecture();
+  const int nr = ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic).nr;
+  const int k = a.growth_rate, inner = a.bn_size * a.growth_rate;
+  double total = 0;
+  for (const Stage& s : densenet_stages(net, h, w)) total += s.flops;
+  const int h0 = (h - 1) / 2 + 1, w0 = (w - 1) / 2 + 1;
+  int H = (h0 - 1) / 2 + 1, W = (w0 - 1) / 2 + 1;
+  for (std::size_t b = 0; b < a.block_config.size(); ++b) {
+    const int tile = ss::detail::winograd_tile(H, W, k, nr);
+    const double direct = 2.0 * k * inner * 9.0 * H * W;
+    const double executed = tile ? 2.0 * (tile + 2) * (tile + 2) * k * inner *
+                                       (double((H + tile - 1) / tile) * ((W + tile - 1) / tile))
+                                 : 2.0 * k * inner * 9.0 * H * (W + 2);
+    total += a.block_config[b] * (executed - direct);
+    H /= 2;
+    W /= 2;
+  }
+  return total;
+}
+
 struct Result {
   std::string cpu, isa, compiler, date, load_before, load_after, model;
   std::size_t l2 = 0, llc = 0;
@@ -366,7 +380,9 @@ struct Result {
   double dram_2t_gbs = 0, peak_gflops = 0;
   int frame_w = 0, frame_h = 0, in_w = 0, in_h = 0, frames = 0, rounds = 0;
   std::vector<Stage> stages;
-  double forward_gflops = 0;
+  double staged_sum_ms = 0;  // the DenseNet stages' medians added up
+  double pipeline_ms = 0;    // TouchPipeline::update (segment + the rest)
+  double executed_flops = 0; // the forward's GEMM FLOPs as the library runs them
 };
 
 void apply_floors(Result& r) {
@@ -398,14 +414,14 @@ std::string markdown(const Result& r) {
   o << "- Machine: " << r.cpu << "; L2 " << (r.l2 >> 10) << " KiB, LLC " << (r.llc >> 10)
     << " KiB (per cpu0's sysfs); compiler " << r.compiler << ".\n";
   o << "- GEMM micro-kernel: **" << r.isa << "**, peak " << fmt("%.1f", r.peak_gflops)
-    << " GFLOP/s on one core (K = 256 panels in cache).\n";
+    << " GFLOP/s on one core (K = 256 panels in cache, best of 7 samples).\n";
   auto bwline = [&](const char* what, const Bandwidth& b) {
     o << "  - " << what << " (" << fmt("%.2f", double(b.array_bytes) / (1 << 20))
       << " MiB per array): copy " << fmt("%.1f", b.copy_gbs) << ", triad "
       << fmt("%.1f", b.triad_gbs) << " GB/s\n";
   };
-  o << "- Memory bandwidth, one core (stream-style, CPU time; the floors use the larger of copy "
-       "and triad):\n";
+  o << "- Memory bandwidth, one core (stream-style, best CPU time of the samples; the floors use "
+       "the larger of copy and triad):\n";
   bwline("L2", r.bw_l2);
   bwline("LLC", r.bw_llc);
   bwline("DRAM", r.bw_dram);
@@ -416,28 +432,46 @@ std::string markdown(const Result& r) {
     << " frames x " << r.rounds << " rounds, 1 thread, median CPU ms per frame.\n";
   o << "- Load average (1/5/15 min) before / after: " << r.load_before << " / " << r.load_after
     << ".\n\n";
-  o << "| stage | MB moved | working set MB | MFLOP | bound (level) | floor ms | measured ms | "
+  o << "| stage | MB moved | working set MB | MFLOP | bound | floor ms | measured ms | "
        "measured / floor | GFLOP/s | of kernel peak |\n";
   o << "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Stage& s : r.stages) {
-    const bool has_flops = s.flops > 0;
+    const bool rate = s.flops > 0 && s.name != "frame (whole)";
     const std::string name = s.sum ? "**" + s.name + "**" : s.name;
     o << "| " << name << " | " << fmt("%.3f", s.bytes / 1e6) << " | "
       << (s.sum ? std::string("-") : fmt("%.3f", s.working_set / 1e6)) << " | "
-      << (has_flops ? fmt("%.1f", s.flops / 1e6) : std::string("-")) << " | "
-      << (s.sum ? std::string("sum of stages")
-                : std::string(s.compute_bound ? "compute" : "memory") + " (" + level_name(s.level) +
-                      ")")
+      << (s.flops > 0 ? fmt("%.2f", s.flops / 1e6) : std::string("-")) << " | "
+      << (s.sum             ? std::string("sum of stages")
+          : s.compute_bound ? std::string("compute")
+                            : std::string("memory (") + level_name(s.level) + ")")
       << " | " << fmt("%.4f", s.floor_ms) << " | " << fmt("%.4f", s.measured_ms) << " | "
       << fmt("%.1f", s.measured_ms / s.floor_ms) << " | "
-      << (has_flops ? fmt("%.1f", s.flops / s.measured_ms / 1e6) : std::string("-")) << " | "
-      << (has_flops ? fmt("%.0f%%", 100.0 * s.flops / s.measured_ms / 1e6 / r.peak_gflops)
-                    : std::string("-"))
+      << (rate ? fmt("%.1f", s.flops / s.measured_ms / 1e6) : std::string("-")) << " | "
+      << (rate ? fmt("%.0f%%", 100.0 * s.flops / s.measured_ms / 1e6 / r.peak_gflops)
+               : std::string("-"))
       << " |\n";
   }
-  o << "\nFloor = max(MB moved / bandwidth of the level holding the working set, MFLOP / kernel "
-       "peak); forward and frame: the sums of their stages' floors. Bytes and FLOP model: the "
-       "comment at the top of bench/roofline.cpp.\n";
+  const Stage* fw = nullptr;
+  for (const Stage& s : r.stages)
+    if (s.name == "forward (whole)") fw = &s;
+  o << "\nFloor = max(MB moved / bandwidth of the smallest level holding the working set, MFLOP "
+       "/ kernel peak); forward and frame: the sums of their stages' floors. MFLOP count the "
+       "3x3 convolutions as direct ones. Bytes and FLOP model: the comment at the top of "
+       "bench/roofline.cpp.\n\n";
+  if (fw) {
+    o << "- The DenseNet stages' medians add up to " << fmt("%.4f", r.staged_sum_ms)
+      << " ms against " << fmt("%.4f", fw->measured_ms)
+      << " ms for the whole forward pass (timed in the same rounds).\n";
+    o << "- Forward pass counted as the library executes it (Winograd's GEMMs at their tile "
+         "counts, the direct 3x3 on its padded grid; transforms and partly empty last panels "
+         "not counted): "
+      << fmt("%.2f", r.executed_flops / 1e6) << " MFLOP, "
+      << fmt("%.1f", r.executed_flops / fw->measured_ms / 1e6) << " GFLOP/s = **"
+      << fmt("%.0f%%", 100.0 * r.executed_flops / fw->measured_ms / 1e6 / r.peak_gflops)
+      << "** of the micro-kernel's peak on one core.\n";
+  }
+  o << "- TouchPipeline::update took " << fmt("%.4f", r.pipeline_ms)
+    << " ms; \"pipeline (rest)\" is that minus the segmenter's median.\n";
   o << end_marker << "\n";
   return o.str();
 }
@@ -596,54 +630,95 @@ int main(int argc, char** argv) {
     Stage segment{"segment"};
     segment.bytes = 36 * px;
     segment.working_set = 30 * px;
-    segment.measured_ms = median_cpu_ms(frames, rounds, [&](int i) {
-      segmenter.segment(frame(i), seg);
-      sink += seg.shadows.size();
-    });
     Stage rest{"pipeline (rest)"};
     rest.bytes = double((r.frame_h + 3) / 4) * r.frame_w * 3;
     rest.working_set = rest.bytes;
-    const double pipeline_ms = median_cpu_ms(frames, rounds, [&](int i) {
-      sink += pipeline.update(frame(i), t_ms += 33.0).tracks.size();
-    });
-    rest.measured_ms = std::max(0.0, pipeline_ms - segment.measured_ms);
     Stage encode{"encode"};
     encode.bytes = 3 * px + 12.0 * r.in_w * r.in_h;
     encode.working_set = encode.bytes;
-    encode.measured_ms =
-        median_cpu_ms(frames, rounds, [&](int i) { encoder.run(frame(i), input); });
-    encoder.run(images[0], input);
-
     std::vector<Stage> net_stages = densenet_stages(net, input.h(), input.w());
-    net.begin_stages(input);
-    for (int s = 0; s < net.stage_count(); ++s) net.run_stage(s);
-    // Enough calls per round that a round of a short stage is not all clock overhead.
-    const int stage_calls = std::max(frames, 20);
-    for (int s = 0; s < net.stage_count(); ++s) {
+    const int n_net = net.stage_count();
+    for (int s = 0; s < n_net; ++s)
       if (net.stage_name(s) != net_stages[static_cast<std::size_t>(s)].name)
         throw ss::Error("roofline: stage " + std::to_string(s) + " is " + net.stage_name(s) +
                         ", the bytes model's is " + net_stages[static_cast<std::size_t>(s)].name);
-      net_stages[static_cast<std::size_t>(s)].measured_ms =
-          median_cpu_ms(stage_calls, rounds, [&](int) { net.run_stage(s); });
-    }
     Stage forward{"forward (whole)"};
     forward.sum = true;
     for (const Stage& s : net_stages) {
       forward.bytes += s.bytes;
       forward.flops += s.flops;
     }
-    forward.measured_ms = median_cpu_ms(stage_calls, rounds, [&](int) {
-      sink += static_cast<std::size_t>(net.logits(input)[0] > 0);
-    });
     Stage whole{"frame (whole)"};
     whole.sum = true;
     whole.bytes = segment.bytes + rest.bytes + encode.bytes + forward.bytes;
     whole.flops = forward.flops;
-    whole.measured_ms = median_cpu_ms(frames, rounds, [&](int i) {
-      sink += pipeline.update(frame(i), t_ms += 33.0).tracks.size();
-      classifier.classify(frame(i), result);
-      sink += static_cast<std::size_t>(result.index);
-    });
+
+    // Every measurement once per round, one after the other, so all of them see the same load;
+    // one warm-up round first. The DenseNet stages are timed in sequence inside staged passes
+    // (each stage's inputs as warm as in a forward pass), each stage with its own clock reads.
+    // At least 20 passes per round: a round of the shortest stage is then not clock overhead.
+    const int passes = std::max(frames, 20);
+    std::vector<std::vector<double>> t_seg, t_pipe, t_enc, t_fwd, t_frame, t_net(n_net);
+    std::vector<double> per_stage(static_cast<std::size_t>(n_net));
+    auto timed = [](int calls, const std::function<void(int)>& step) {
+      const double c0 = thread_cpu_ms();
+      for (int i = 0; i < calls; ++i) step(i);
+      return (thread_cpu_ms() - c0) / calls;
+    };
+    for (int round = -1; round < rounds; ++round) {
+      const double seg_ms = timed(frames, [&](int i) {
+        segmenter.segment(frame(i), seg);
+        sink += seg.shadows.size();
+      });
+      const double pipe_ms = timed(
+          frames, [&](int i) { sink += pipeline.update(frame(i), t_ms += 33.0).tracks.size(); });
+      const double enc_ms = timed(frames, [&](int i) { encoder.run(frame(i), input); });
+      encoder.run(images[0], input);
+      std::fill(per_stage.begin(), per_stage.end(), 0.0);
+      for (int p = 0; p < passes; ++p) {
+        net.begin_stages(input);
+        for (int s = 0; s < n_net; ++s) {
+          const double c0 = thread_cpu_ms();
+          net.run_stage(s);
+          per_stage[static_cast<std::size_t>(s)] += thread_cpu_ms() - c0;
+        }
+        sink += static_cast<std::size_t>(net.stage_logits()[0] > 0);
+      }
+      const double fwd_ms =
+          timed(passes, [&](int) { sink += static_cast<std::size_t>(net.logits(input)[0] > 0); });
+      const double frame_ms = timed(frames, [&](int i) {
+        sink += pipeline.update(frame(i), t_ms += 33.0).tracks.size();
+        classifier.classify(frame(i), result);
+        sink += static_cast<std::size_t>(result.index);
+      });
+      if (round < 0) continue; // warm-up
+      t_seg.push_back({seg_ms});
+      t_pipe.push_back({pipe_ms});
+      t_enc.push_back({enc_ms});
+      t_fwd.push_back({fwd_ms});
+      t_frame.push_back({frame_ms});
+      for (int s = 0; s < n_net; ++s)
+        t_net[static_cast<std::size_t>(s)].push_back(per_stage[static_cast<std::size_t>(s)] /
+                                                     passes);
+    }
+    auto med = [](const std::vector<std::vector<double>>& v) {
+      std::vector<double> x;
+      for (const auto& e : v) x.push_back(e[0]);
+      return median(x);
+    };
+    segment.measured_ms = med(t_seg);
+    rest.measured_ms = std::max(0.0, med(t_pipe) - segment.measured_ms);
+    encode.measured_ms = med(t_enc);
+    forward.measured_ms = med(t_fwd);
+    whole.measured_ms = med(t_frame);
+    r.staged_sum_ms = 0;
+    for (int s = 0; s < n_net; ++s) {
+      net_stages[static_cast<std::size_t>(s)].measured_ms =
+          median(t_net[static_cast<std::size_t>(s)]);
+      r.staged_sum_ms += net_stages[static_cast<std::size_t>(s)].measured_ms;
+    }
+    r.executed_flops = executed_flops(net, input.h(), input.w());
+    r.pipeline_ms = med(t_pipe);
 
     r.stages = {segment, rest, encode};
     r.stages.insert(r.stages.end(), net_stages.begin(), net_stages.end());
@@ -651,11 +726,11 @@ int main(int argc, char** argv) {
     r.stages.push_back(whole);
     apply_floors(r);
     // Sums: forward = the DenseNet stages' floors; frame = segment + rest + encode + forward.
-    const std::size_t n_net = net_stages.size();
-    Stage& fw = r.stages[3 + n_net];
-    Stage& fr = r.stages[4 + n_net];
+    const auto nn = static_cast<std::size_t>(n_net);
+    Stage& fw = r.stages[3 + nn];
+    Stage& fr = r.stages[4 + nn];
     fw.floor_ms = 0;
-    for (std::size_t i = 3; i < 3 + n_net; ++i) fw.floor_ms += r.stages[i].floor_ms;
+    for (std::size_t i = 3; i < 3 + nn; ++i) fw.floor_ms += r.stages[i].floor_ms;
     fr.floor_ms = r.stages[0].floor_ms + r.stages[1].floor_ms + r.stages[2].floor_ms + fw.floor_ms;
     r.load_after = load_average();
 
