@@ -373,12 +373,50 @@ double executed_flops(const ss::DenseNet& net, int h, int w) {
   return total;
 }
 
+// "growth 12, blocks 4-4-4, ...; block1 22x40 F(4x4, 3x3), ..." at a 3 x h x w input.
+std::string describe(const ss::DenseNet& net, int h, int w) {
+  const ss::DenseNetArchitecture& a = net.architecture();
+  const int nr = ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic).nr;
+  std::string blocks, sizes;
+  int H = ((h - 1) / 2 + 1 - 1) / 2 + 1, W = ((w - 1) / 2 + 1 - 1) / 2 + 1;
+  for (std::size_t b = 0; b < a.block_config.size(); ++b) {
+    // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on the one-line sum.
+    if (b) {
+      blocks += '-';
+      sizes += ", ";
+    }
+    blocks += std::to_string(a.block_config[b]);
+    const int tile = ss::detail::winograd_tile(H, W, a.growth_rate, nr);
+    sizes += "block";
+    sizes += std::to_string(b + 1);
+    sizes += ' ';
+    sizes += std::to_string(H);
+    sizes += 'x';
+    sizes += std::to_string(W);
+    if (tile) {
+      sizes += " F(";
+      sizes += std::to_string(tile);
+      sizes += 'x';
+      sizes += std::to_string(tile);
+      sizes += ", 3x3)";
+    } else {
+      sizes += " direct 3x3";
+    }
+    H /= 2;
+    W /= 2;
+  }
+  return "DenseNet growth " + std::to_string(a.growth_rate) + ", blocks " + blocks + ", " +
+         std::to_string(a.init_features) + " initial features, bn_size " +
+         std::to_string(a.bn_size) + ", " + std::to_string(a.num_classes) + " classes; " + sizes;
+}
+
 struct Result {
   std::string cpu, isa, compiler, date, load_before, load_after, model;
   std::size_t l2 = 0, llc = 0;
   Bandwidth bw_l2, bw_llc, bw_dram;
   double dram_2t_gbs = 0, peak_gflops = 0;
   int frame_w = 0, frame_h = 0, in_w = 0, in_h = 0, frames = 0, rounds = 0;
+  std::string architecture; // the network and each block's size and 3x3 method
   std::vector<Stage> stages;
   double staged_sum_ms = 0;  // the DenseNet stages' medians added up
   double pipeline_ms = 0;    // TouchPipeline::update (segment + the rest)
@@ -430,6 +468,7 @@ std::string markdown(const Result& r) {
   o << "- Model " << r.model << ": frames " << r.frame_w << "x" << r.frame_h
     << " (robot rig generator), network input " << r.in_w << "x" << r.in_h << "; " << r.frames
     << " frames x " << r.rounds << " rounds, 1 thread, median CPU ms per frame.\n";
+  o << "- Network: " << r.architecture << ".\n";
   o << "- Load average (1/5/15 min) before / after: " << r.load_before << " / " << r.load_after
     << ".\n\n";
   o << "| stage | MB moved | working set MB | MFLOP | bound | floor ms | measured ms | "
@@ -718,6 +757,7 @@ int main(int argc, char** argv) {
       r.staged_sum_ms += net_stages[static_cast<std::size_t>(s)].measured_ms;
     }
     r.executed_flops = executed_flops(net, input.h(), input.w());
+    r.architecture = describe(net, input.h(), input.w());
     r.pipeline_ms = med(t_pipe);
 
     r.stages = {segment, rest, encode};
