@@ -11,7 +11,9 @@
 //              runs on one core). Best of several samples, as STREAM reports it.
 //   peak       the library's own GEMM micro-kernel (whichever gemm.hpp's dispatch picks) on
 //              in-cache operands: one A panel (K x mr) and one B panel (K x nr), K = 256,
-//              called back to back; 2 mr nr K FLOP per call; the best of 7 samples.
+//              called back to back; 2 mr nr K FLOP per call; the best of 7 samples. Also at
+//              K = the bottleneck width (the K of the Winograd GEMMs), where the tile's
+//              loads and stores weigh more.
 // Per stage, from the data shapes (the model below), bytes moved and FLOPs, then
 //   floor = max(bytes / bandwidth, FLOPs / peak)
 // where the bandwidth is that of the smallest cache level holding the stage's working set
@@ -50,7 +52,9 @@
 // them by Winograd with 2.25-4x fewer multiply-adds, so a block can run under its compute
 // floor); the transitions with the pool first, as the library computes them (torchvision's
 // order is 4x the multiply-adds); BatchNorm, ReLU and pooling not counted (a few operations per
-// element against >= 100 multiply-adds per output). The segmenter's and encoder's work is byte
+// element against >= 100 multiply-adds per output). A second count, "executed", is the GEMM
+// work as the library runs it (densenet_stages), and its rate against the peak. The
+// segmenter's and encoder's work is byte
 // and element-wise arithmetic that the GEMM kernel's peak does not bound: no FLOPs counted,
 // their floor is the bytes term.
 //
@@ -250,8 +254,7 @@ double triad_threads_gbs(std::size_t n, int threads) {
 
 // ---- micro-kernel peak ----
 
-double kernel_peak_gflops(const ss::detail::MicroKernel& k, int samples) {
-  constexpr int K = 256;
+double kernel_peak_gflops(const ss::detail::MicroKernel& k, int samples, int K) {
   std::vector<float> a(static_cast<std::size_t>(K) * k.mr), b(static_cast<std::size_t>(K) * k.nr),
       out(static_cast<std::size_t>(k.mr) * k.nr);
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = 1e-3f * float(i % 97);
@@ -286,6 +289,7 @@ const char* level_name(Level l) {
 struct Stage {
   std::string name;
   double bytes = 0, flops = 0, working_set = 0; // working_set: bytes of distinct arrays
+  double executed = 0; // GEMM FLOPs as the library runs them (DenseNet stages; densenet_stages)
   double measured_ms = 0;
   // filled by the floor computation
   Level level = Level::dram;
@@ -294,9 +298,15 @@ struct Stage {
   bool sum = false; // a sum of stages (forward, frame): floor = sum of its parts' floors
 };
 
-// The DenseNet stages' bytes and FLOPs at a 3 x h x w input (the bytes model above).
+// The DenseNet stages' bytes and FLOPs at a 3 x h x w input (the bytes model above), and their
+// GEMM FLOPs as the library executes them: the 3x3 convolutions by the method DenseNet's
+// automatic choice takes per block (winograd.hpp): F(t x t, 3x3) is (t + 2)^2 GEMMs of growth
+// x inner over the tile count, the direct method runs on the padded grid (2 extra columns per
+// row); conv0 on its grid of pitch w0 + 3. The partly empty last GEMM panels, the Winograd
+// transforms and the element-wise work are not counted.
 std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
   const ss::DenseNetArchitecture& a = net.architecture();
+  const int nr = ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic).nr;
   constexpr double f = 4.0;
   std::vector<Stage> out;
   const int h0 = (h - 1) / 2 + 1, w0 = (w - 1) / 2 + 1;
@@ -308,6 +318,7 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
     s.bytes = f * (in + wts + 2 * c0 + p0);
     s.working_set = f * (in + wts + c0 + p0);
     s.flops = 2.0 * wts * h0 * w0;
+    s.executed = 2.0 * wts * h0 * (w0 + 3);
     out.push_back(s);
   }
   const int k = a.growth_rate, inner = a.bn_size * a.growth_rate;
@@ -316,12 +327,17 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
     Stage s{"block" + std::to_string(b + 1)};
     const double hw = double(H) * W;
     double wts = 0;
+    const int tile = ss::detail::winograd_tile(H, W, k, nr);
+    const double conv3x3 = tile ? 2.0 * (tile + 2) * (tile + 2) * k * inner *
+                                      (double((H + tile - 1) / tile) * ((W + tile - 1) / tile))
+                                : 2.0 * k * inner * 9.0 * H * (W + 2);
     for (int l = 0; l < a.block_config[b]; ++l) {
       const double cin = c + l * k;
       const double lw = inner * cin + k * inner * 9.0;
       wts += lw;
       s.bytes += f * (cin * hw + 2.0 * inner * hw + k * hw + lw);
       s.flops += 2.0 * (inner * cin * hw + k * inner * 9.0 * hw);
+      s.executed += 2.0 * inner * cin * hw + conv3x3;
     }
     c += a.block_config[b] * k;
     s.working_set = f * (double(c) * hw + inner * hw + wts);
@@ -332,6 +348,7 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
       t.bytes = f * (double(c) * hw + double(c / 2) * ohw + tw);
       t.working_set = t.bytes;
       t.flops = 2.0 * tw * ohw;
+      t.executed = t.flops;
       out.push_back(t);
       c /= 2;
       H /= 2;
@@ -343,34 +360,9 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
   hd.bytes = f * (double(c) * H * W + fc + a.num_classes);
   hd.working_set = hd.bytes;
   hd.flops = 2.0 * fc;
+  hd.executed = hd.flops;
   out.push_back(hd);
   return out;
-}
-
-// The forward pass's GEMM FLOPs as the library executes them at a 3 x h x w input: the 3x3
-// convolutions by the method DenseNet's automatic choice takes per block (winograd.hpp):
-// F(t x t, 3x3) is (t + 2)^2 GEMMs of growth x inner over the tile count, the direct method
-// runs on the padded grid (2 extra columns per row); everything else as densenet_stages counts
-// it. The last, partly empty GEMM panels and the Winograd transforms are not counted.
-double executed_flops(const ss::DenseNet& net, int h, int w) {
-  const ss::DenseNetArchitecture& a = net.architecture();
-  const int nr = ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic).nr;
-  const int k = a.growth_rate, inner = a.bn_size * a.growth_rate;
-  double total = 0;
-  for (const Stage& s : densenet_stages(net, h, w)) total += s.flops;
-  const int h0 = (h - 1) / 2 + 1, w0 = (w - 1) / 2 + 1;
-  int H = (h0 - 1) / 2 + 1, W = (w0 - 1) / 2 + 1;
-  for (std::size_t b = 0; b < a.block_config.size(); ++b) {
-    const int tile = ss::detail::winograd_tile(H, W, k, nr);
-    const double direct = 2.0 * k * inner * 9.0 * H * W;
-    const double executed = tile ? 2.0 * (tile + 2) * (tile + 2) * k * inner *
-                                       (double((H + tile - 1) / tile) * ((W + tile - 1) / tile))
-                                 : 2.0 * k * inner * 9.0 * H * (W + 2);
-    total += a.block_config[b] * (executed - direct);
-    H /= 2;
-    W /= 2;
-  }
-  return total;
 }
 
 // "growth 12, blocks 4-4-4, ...; block1 22x40 F(4x4, 3x3), ..." at a 3 x h x w input.
@@ -415,12 +407,13 @@ struct Result {
   std::size_t l2 = 0, llc = 0;
   Bandwidth bw_l2, bw_llc, bw_dram;
   double dram_2t_gbs = 0, peak_gflops = 0;
+  int inner = 0;           // the dense layers' bottleneck width (the Winograd GEMMs' K)
+  double inner_gflops = 0; // the micro-kernel at K = inner
   int frame_w = 0, frame_h = 0, in_w = 0, in_h = 0, frames = 0, rounds = 0;
   std::string architecture; // the network and each block's size and 3x3 method
   std::vector<Stage> stages;
-  double staged_sum_ms = 0;  // the DenseNet stages' medians added up
-  double pipeline_ms = 0;    // TouchPipeline::update (segment + the rest)
-  double executed_flops = 0; // the forward's GEMM FLOPs as the library runs them
+  double staged_sum_ms = 0; // the DenseNet stages' medians added up
+  double pipeline_ms = 0;   // TouchPipeline::update (segment + the rest)
 };
 
 void apply_floors(Result& r) {
@@ -452,7 +445,9 @@ std::string markdown(const Result& r) {
   o << "- Machine: " << r.cpu << "; L2 " << (r.l2 >> 10) << " KiB, LLC " << (r.llc >> 10)
     << " KiB (per cpu0's sysfs); compiler " << r.compiler << ".\n";
   o << "- GEMM micro-kernel: **" << r.isa << "**, peak " << fmt("%.1f", r.peak_gflops)
-    << " GFLOP/s on one core (K = 256 panels in cache, best of 7 samples).\n";
+    << " GFLOP/s on one core (K = 256 panels in cache, best of 7 samples); at K = " << r.inner
+    << " (the bottleneck width: the K of every Winograd GEMM) " << fmt("%.1f", r.inner_gflops)
+    << " GFLOP/s.\n";
   auto bwline = [&](const char* what, const Bandwidth& b) {
     o << "  - " << what << " (" << fmt("%.2f", double(b.array_bytes) / (1 << 20))
       << " MiB per array): copy " << fmt("%.1f", b.copy_gbs) << ", triad "
@@ -472,11 +467,12 @@ std::string markdown(const Result& r) {
   o << "- Load average (1/5/15 min) before / after: " << r.load_before << " / " << r.load_after
     << ".\n\n";
   o << "| stage | MB moved | working set MB | MFLOP | bound | floor ms | measured ms | "
-       "measured / floor | GFLOP/s | of kernel peak |\n";
-  o << "|---|---|---|---|---|---|---|---|---|---|\n";
+       "measured / floor | MFLOP executed | GFLOP/s executed | of kernel peak |\n";
+  o << "|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const Stage& s : r.stages) {
-    const bool rate = s.flops > 0 && s.name != "frame (whole)";
+    const bool rate = s.executed > 0 && s.name != "frame (whole)";
     const std::string name = s.sum ? "**" + s.name + "**" : s.name;
+    const double gflops = s.executed / s.measured_ms / 1e6;
     o << "| " << name << " | " << fmt("%.3f", s.bytes / 1e6) << " | "
       << (s.sum ? std::string("-") : fmt("%.3f", s.working_set / 1e6)) << " | "
       << (s.flops > 0 ? fmt("%.2f", s.flops / 1e6) : std::string("-")) << " | "
@@ -485,29 +481,31 @@ std::string markdown(const Result& r) {
                             : std::string("memory (") + level_name(s.level) + ")")
       << " | " << fmt("%.4f", s.floor_ms) << " | " << fmt("%.4f", s.measured_ms) << " | "
       << fmt("%.1f", s.measured_ms / s.floor_ms) << " | "
-      << (rate ? fmt("%.1f", s.flops / s.measured_ms / 1e6) : std::string("-")) << " | "
-      << (rate ? fmt("%.0f%%", 100.0 * s.flops / s.measured_ms / 1e6 / r.peak_gflops)
-               : std::string("-"))
-      << " |\n";
+      << (rate ? fmt("%.2f", s.executed / 1e6) : std::string("-")) << " | "
+      << (rate ? fmt("%.1f", gflops) : std::string("-")) << " | "
+      << (rate ? fmt("%.0f%%", 100.0 * gflops / r.peak_gflops) : std::string("-")) << " |\n";
   }
   const Stage* fw = nullptr;
   for (const Stage& s : r.stages)
     if (s.name == "forward (whole)") fw = &s;
   o << "\nFloor = max(MB moved / bandwidth of the smallest level holding the working set, MFLOP "
-       "/ kernel peak); forward and frame: the sums of their stages' floors. MFLOP count the "
-       "3x3 convolutions as direct ones. Bytes and FLOP model: the comment at the top of "
-       "bench/roofline.cpp.\n\n";
+       "/ kernel peak), the MFLOP counting the 3x3 convolutions as direct ones; forward and "
+       "frame: the sums of their stages' floors. MFLOP executed: the GEMM work as the library "
+       "runs it (Winograd's GEMMs at their tile counts, the direct 3x3 and conv0 on their "
+       "padded grids; transforms, partly empty last panels and element-wise work not "
+       "counted), and its rate against the micro-kernel's peak. Bytes and FLOP model: the "
+       "comment at the top of bench/roofline.cpp.\n\n";
   if (fw) {
     o << "- The DenseNet stages' medians add up to " << fmt("%.4f", r.staged_sum_ms)
       << " ms against " << fmt("%.4f", fw->measured_ms)
       << " ms for the whole forward pass (timed in the same rounds).\n";
-    o << "- Forward pass counted as the library executes it (Winograd's GEMMs at their tile "
-         "counts, the direct 3x3 on its padded grid; transforms and partly empty last panels "
-         "not counted): "
-      << fmt("%.2f", r.executed_flops / 1e6) << " MFLOP, "
-      << fmt("%.1f", r.executed_flops / fw->measured_ms / 1e6) << " GFLOP/s = **"
-      << fmt("%.0f%%", 100.0 * r.executed_flops / fw->measured_ms / 1e6 / r.peak_gflops)
-      << "** of the micro-kernel's peak on one core.\n";
+    o << "- Forward pass: " << fmt("%.1f", fw->executed / fw->measured_ms / 1e6)
+      << " GFLOP/s executed = **"
+      << fmt("%.0f%%", 100.0 * fw->executed / fw->measured_ms / 1e6 / r.peak_gflops)
+      << "** of the micro-kernel's peak on one core ("
+      << fmt("%.1f", fw->flops / fw->measured_ms / 1e6)
+      << " GFLOP/s = " << fmt("%.0f%%", 100.0 * fw->flops / fw->measured_ms / 1e6 / r.peak_gflops)
+      << " counting direct-convolution FLOPs).\n";
   }
   o << "- TouchPipeline::update took " << fmt("%.4f", r.pipeline_ms)
     << " ms; \"pipeline (rest)\" is that minus the segmenter's median.\n";
@@ -537,9 +535,10 @@ std::string json(const Result& r) {
     << ", \"bandwidth\": {\"l2\": " << bwj(r.bw_l2) << ", \"llc\": " << bwj(r.bw_llc)
     << ", \"dram\": " << bwj(r.bw_dram)
     << ", \"dram_triad_2_threads_gbs\": " << fmt("%.3f", r.dram_2t_gbs)
-    << "}, \"kernel_peak_gflops\": " << fmt("%.3f", r.peak_gflops) << ", \"model\": " << q(r.model)
-    << ", \"frame\": [" << r.frame_w << ", " << r.frame_h << "], \"input\": [" << r.in_w << ", "
-    << r.in_h << "], \"stages\": [";
+    << "}, \"kernel_peak_gflops\": " << fmt("%.3f", r.peak_gflops)
+    << ", \"kernel_gflops_at_inner_k\": [" << r.inner << ", " << fmt("%.3f", r.inner_gflops) << "]"
+    << ", \"model\": " << q(r.model) << ", \"frame\": [" << r.frame_w << ", " << r.frame_h
+    << "], \"input\": [" << r.in_w << ", " << r.in_h << "], \"stages\": [";
   for (std::size_t i = 0; i < r.stages.size(); ++i) {
     const Stage& s = r.stages[i];
     o << (i ? ", " : "") << "{\"stage\": " << q(s.name) << ", \"bytes\": " << fmt("%.0f", s.bytes)
@@ -638,8 +637,11 @@ int main(int argc, char** argv) {
         dram_mb ? std::size_t(dram_mb) << 20 : std::max<std::size_t>(2 * llc, 32u << 20);
     r.bw_dram = measure_bandwidth(dram_bytes / sizeof(float), 5);
     r.dram_2t_gbs = triad_threads_gbs(dram_bytes / sizeof(float) / 2, 2);
-    r.peak_gflops =
-        kernel_peak_gflops(ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic), 7);
+    const ss::detail::MicroKernel mk =
+        ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic);
+    r.peak_gflops = kernel_peak_gflops(mk, 7, 256);
+    r.inner = model.architecture.bn_size * model.architecture.growth_rate;
+    r.inner_gflops = kernel_peak_gflops(mk, 7, r.inner);
 
     // The frames and stages, as bench/frame_time.cpp.
     ss::sim::Renderer renderer(ss::sim::Rig::robot());
@@ -686,6 +688,7 @@ int main(int argc, char** argv) {
     for (const Stage& s : net_stages) {
       forward.bytes += s.bytes;
       forward.flops += s.flops;
+      forward.executed += s.executed;
     }
     Stage whole{"frame (whole)"};
     whole.sum = true;
@@ -756,7 +759,6 @@ int main(int argc, char** argv) {
           median(t_net[static_cast<std::size_t>(s)]);
       r.staged_sum_ms += net_stages[static_cast<std::size_t>(s)].measured_ms;
     }
-    r.executed_flops = executed_flops(net, input.h(), input.w());
     r.architecture = describe(net, input.h(), input.w());
     r.pipeline_ms = med(t_pipe);
 
