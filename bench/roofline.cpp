@@ -11,9 +11,10 @@
 //              runs on one core). Best of several samples, as STREAM reports it.
 //   peak       the library's own GEMM micro-kernel (whichever gemm.hpp's dispatch picks) on
 //              in-cache operands: one A panel (K x mr) and one B panel (K x nr), K = 256,
-//              called back to back; 2 mr nr K FLOP per call; the best of 7 samples. Also at
-//              K = the bottleneck width (the K of the Winograd GEMMs), where the tile's
-//              loads and stores weigh more.
+//              called back to back; 2 mr nr K FLOP per call; the best of 25 samples of
+//              about 1 ms (short samples: on a shared machine some fall between other work).
+//              Also at K = the bottleneck width (the K of the Winograd GEMMs), where the
+//              tile's loads and stores weigh more.
 // Per stage, from the data shapes (the model below), bytes moved and FLOPs, then
 //   floor = max(bytes / bandwidth, FLOPs / peak)
 // where the bandwidth is that of the smallest cache level holding the stage's working set
@@ -260,7 +261,7 @@ double kernel_peak_gflops(const ss::detail::MicroKernel& k, int samples, int K) 
   for (std::size_t i = 0; i < a.size(); ++i) a[i] = 1e-3f * float(i % 97);
   for (std::size_t i = 0; i < b.size(); ++i) b[i] = 1e-3f * float(i % 89);
   const double flop = 2.0 * k.mr * k.nr * K;
-  const int calls = static_cast<int>(std::max(1.0, 4e8 / flop)); // about 0.4 GFLOP per sample
+  const int calls = static_cast<int>(std::max(1.0, 1e8 / flop)); // about 0.1 GFLOP per sample
   float sink = 0;
   auto sample = [&] {
     for (int i = 0; i < calls; ++i) {
@@ -445,7 +446,7 @@ std::string markdown(const Result& r) {
   o << "- Machine: " << r.cpu << "; L2 " << (r.l2 >> 10) << " KiB, LLC " << (r.llc >> 10)
     << " KiB (per cpu0's sysfs); compiler " << r.compiler << ".\n";
   o << "- GEMM micro-kernel: **" << r.isa << "**, peak " << fmt("%.1f", r.peak_gflops)
-    << " GFLOP/s on one core (K = 256 panels in cache, best of 7 samples); at K = " << r.inner
+    << " GFLOP/s on one core (K = 256 panels in cache, best of 25 samples); at K = " << r.inner
     << " (the bottleneck width: the K of every Winograd GEMM) " << fmt("%.1f", r.inner_gflops)
     << " GFLOP/s.\n";
   auto bwline = [&](const char* what, const Bandwidth& b) {
@@ -639,9 +640,9 @@ int main(int argc, char** argv) {
     r.dram_2t_gbs = triad_threads_gbs(dram_bytes / sizeof(float) / 2, 2);
     const ss::detail::MicroKernel mk =
         ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic);
-    r.peak_gflops = kernel_peak_gflops(mk, 7, 256);
+    r.peak_gflops = kernel_peak_gflops(mk, 25, 256);
     r.inner = model.architecture.bn_size * model.architecture.growth_rate;
-    r.inner_gflops = kernel_peak_gflops(mk, 7, r.inner);
+    r.inner_gflops = kernel_peak_gflops(mk, 25, r.inner);
 
     // The frames and stages, as bench/frame_time.cpp.
     ss::sim::Renderer renderer(ss::sim::Rig::robot());
