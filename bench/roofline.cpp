@@ -18,9 +18,10 @@
 // Per stage, from the data shapes (the model below), bytes moved and FLOPs, then
 //   floor = max(bytes / bandwidth, FLOPs / peak)
 // where the bandwidth is that of the smallest cache level holding the stage's working set
-// (the arrays it touches; the frame-to-frame steady state keeps them there: all of a
-// 635 x 350 frame's DenseNet activations fit in L2, the segmenter's float planes only in the
-// LLC), and the measured median CPU time on one core (as bench/frame_time.cpp times it).
+// (the arrays it touches; the frame-to-frame steady state keeps them there: at the shipped
+// model's 160 x 88 input the DenseNet's activations fit in about 512 KiB, a 635 x 350 frame's
+// segmenter arrays need 6.7 MB), and the measured median CPU time on one core (as
+// bench/frame_time.cpp times it).
 // The whole forward pass's floor is the sum of its stages' floors, the whole frame's the sum
 // of segmenter, rest of pipeline, encoder and forward.
 //
