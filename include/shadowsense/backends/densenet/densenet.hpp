@@ -45,9 +45,10 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-// One instance per thread of the caller: logits()/features() reuse internal buffers, so
-// concurrent calls on the same instance are not allowed (the instance's own worker threads,
-// Config::threads, are managed internally). Movable, not copyable.
+// One instance per thread of the caller: logits()/features() and a staged run
+// (begin_stages/run_stage) reuse internal buffers, so concurrent calls on the same instance are
+// not allowed (the instance's own worker threads, Config::threads, are managed internally).
+// Movable, not copyable.
 class DenseNet {
 public:
   // How the dense layers' 3x3 convolutions are computed: automatic picks per block what
