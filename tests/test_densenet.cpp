@@ -232,3 +232,62 @@ TEST_CASE("features() are what the classifier sees: logits = W * features + b") 
       CHECK(acc == doctest::Approx(m.self_test->logits[i * 7 + o]).epsilon(1e-5));
     }
 }
+
+TEST_CASE("the stages run one at a time give logits() bit for bit, and run again the same") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  Tensor x(1, 3, 41, 57);
+  for (std::size_t i = 0; i < x.size(); ++i) x.data()[i] = std::sin(0.21f * i) + 0.1f;
+  for (auto kernel : available_kernels())
+    for (int threads : {1, 2})
+      for (auto conv : {DenseNet::Conv3x3::automatic, DenseNet::Conv3x3::direct,
+                        DenseNet::Conv3x3::winograd, DenseNet::Conv3x3::winograd4x4}) {
+        DenseNet net(m, {.threads = threads, .kernel = kernel, .conv3x3 = conv});
+        CAPTURE(net.kernel_name());
+        CAPTURE(threads);
+        CAPTURE(static_cast<int>(conv));
+        const std::vector<float> whole(net.logits(x).begin(), net.logits(x).end());
+        const int stages = net.stage_count();
+        REQUIRE(stages == 2 * static_cast<int>(m.architecture.block_config.size()) + 1);
+        CHECK(net.stage_name(0) == "conv0+pool0");
+        CHECK(net.stage_name(1) == "block1");
+        CHECK(net.stage_name(2) == "transition1");
+        CHECK(net.stage_name(stages - 2) ==
+              "block" + std::to_string(m.architecture.block_config.size()));
+        CHECK(net.stage_name(stages - 1) == "head");
+        // A fresh instance: the staged run sizes its own buffers.
+        DenseNet staged(m, {.threads = threads, .kernel = kernel, .conv3x3 = conv});
+        staged.begin_stages(x);
+        for (int s = 0; s < stages; ++s) staged.run_stage(s);
+        auto got = staged.stage_logits();
+        REQUIRE(got.size() == whole.size());
+        for (std::size_t i = 0; i < whole.size(); ++i) CHECK(got[i] == whole[i]);
+        // Every stage repeated (as the roofline bench times them) leaves the same logits.
+        for (int s = 0; s < stages; ++s)
+          for (int rep = 0; rep < 2; ++rep) staged.run_stage(s);
+        got = staged.stage_logits();
+        for (std::size_t i = 0; i < whole.size(); ++i) CHECK(got[i] == whole[i]);
+        // On the instance logits() ran on: the same again.
+        net.begin_stages(x);
+        for (int s = 0; s < stages; ++s) net.run_stage(s);
+        for (std::size_t i = 0; i < whole.size(); ++i) CHECK(net.stage_logits()[i] == whole[i]);
+      }
+}
+
+TEST_CASE("staged runs refuse misuse with errors naming it") {
+  const auto m = ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  DenseNet net(m, {.run_self_test = false});
+  Tensor x(1, 3, 41, 57);
+  for (float& v : x.values()) v = 0.5f;
+  CHECK_THROWS_WITH_AS(net.run_stage(0), doctest::Contains("begin_stages() first"), Error);
+  CHECK_THROWS_WITH_AS(net.stage_name(net.stage_count()), doctest::Contains("expected 0.."),
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(net.begin_stages(Tensor(2, 3, 41, 57)),
+                       doctest::Contains("expected one image"), InvalidArgument);
+  net.begin_stages(x);
+  CHECK_THROWS_WITH_AS(net.run_stage(2), doctest::Contains("before stage 0 ran"), Error);
+  CHECK_THROWS_WITH_AS(net.run_stage(-1), doctest::Contains("expected 0.."), InvalidArgument);
+  net.run_stage(0);
+  net.run_stage(1);
+  (void)net.logits(x); // ends the staged run
+  CHECK_THROWS_WITH_AS(net.run_stage(2), doctest::Contains("begin_stages() first"), Error);
+}

@@ -21,6 +21,11 @@
 // - a transition's average pool is applied before its 1x1 convolution (both are linear, so the
 //   result is the same up to rounding) which costs 4x fewer multiply-adds.
 // - all buffers are sized at construction for the largest input seen so far and reused.
+//
+// Profiling: stage_count(), begin_stages(), run_stage() and stage_logits() run one pass a
+// stage at a time (conv0+pool0, each dense block, each transition, the head) so each can be
+// timed alone (bench/roofline.cpp); specified at their declarations below. logits() does not
+// use them.
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm.hpp>
@@ -40,9 +45,10 @@
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-// One instance per thread of the caller: logits()/features() reuse internal buffers, so
-// concurrent calls on the same instance are not allowed (the instance's own worker threads,
-// Config::threads, are managed internally). Movable, not copyable.
+// One instance per thread of the caller: logits()/features() and a staged run
+// (begin_stages/run_stage) reuse internal buffers, so concurrent calls on the same instance are
+// not allowed (the instance's own worker threads, Config::threads, are managed internally).
+// Movable, not copyable.
 class DenseNet {
 public:
   // How the dense layers' 3x3 convolutions are computed: automatic picks per block what
@@ -134,21 +140,78 @@ public:
   std::span<const float> classifier_weight() const { return classifier_w_; }
   std::span<const float> classifier_bias() const { return classifier_b_; }
 
+  // Stages of one forward pass, to time each alone (bench/roofline.cpp). The pass is stages
+  // 0 .. stage_count() - 1 in order: "conv0+pool0" (the input into conv0's phases, conv0 +
+  // norm0 + relu0, pool0), then per dense block b "block<b+1>" (its dense layers) and, after
+  // every block but the last, "transition<b+1>", then "head" (norm5, ReLU, global average
+  // pool, classifier). logits() does not go through these functions: it calls the same
+  // private steps directly, so the hook costs it one pointer store per call.
+  // stage_count() -> 2 * blocks + 1.
+  // stage_name(s)
+  //   requires: 0 <= s < stage_count() (else InvalidArgument).
+  // begin_stages(input)
+  //   requires: what logits() requires, and input.n() == 1 (else InvalidArgument). `input`
+  //             stays alive and unchanged while stage 0 may run.
+  //   ensures:  the buffers are sized for the input; run_stage() may be called.
+  // run_stage(s)
+  //   requires: 0 <= s < stage_count() (else InvalidArgument); begin_stages() called and no
+  //             logits()/features() since (they end a staged run), and stages 0 .. s - 1 ran
+  //             since begin_stages() (else Error naming the problem).
+  //   ensures:  stage s recomputed from what the earlier stages left in the buffers. A stage
+  //             run again repeats the same work with the same result (so it can be timed
+  //             alone). After stages 0 .. stage_count() - 1, stage_logits() holds bit for bit
+  //             what logits(input) returns (same threads, kernel and 3x3 method).
+  // stage_logits() -> the logits the last "head" stage wrote (num_classes values; unchecked
+  //   for NaN/Inf, which logits() checks).
+  int stage_count() const { return 2 * static_cast<int>(blocks_.size()) + 1; }
+  std::string stage_name(int s) const {
+    require_stage(s, "stage_name");
+    if (s == 0) return "conv0+pool0";
+    if (s == stage_count() - 1) return "head";
+    return (s % 2 ? "block" : "transition") + std::to_string((s + 1) / 2);
+  }
+  void begin_stages(const Tensor& input) {
+    if (!(!input.empty() && input.n() == 1))
+      SHADOWSENSE_THROW(
+          InvalidArgument("DenseNet::begin_stages: input is " +
+                          (input.empty() ? std::string("empty") : input.shape_string()) +
+                          ", expected one image (1 x 3 x h x w)"));
+    run_checks(input);
+    logits_.resize(static_cast<std::size_t>(arch_.num_classes));
+    features_.resize(static_cast<std::size_t>(feature_size()));
+    stage_input_ = input.image(0).data();
+    stages_done_ = 0;
+  }
+  void run_stage(int s) {
+    require_stage(s, "run_stage");
+    if (!stage_input_)
+      SHADOWSENSE_THROW(Error("DenseNet::run_stage: no staged run (call begin_stages() first; "
+                              "logits() and features() end a staged run)"));
+    if (s > stages_done_)
+      SHADOWSENSE_THROW(Error("DenseNet::run_stage: stage " + std::to_string(s) + " before stage " +
+                              std::to_string(stages_done_) + " ran; expected the stages in order"));
+    if (s == 0) {
+      load_input(stage_input_);
+      conv0();
+      pool0();
+    } else if (s == stage_count() - 1) {
+      head(features_, logits_);
+    } else if (const auto b = static_cast<std::size_t>((s - 1) / 2); s % 2) {
+      for (std::size_t l = 0; l < blocks_[b].layers.size(); ++l) {
+        bottleneck_conv(b, l);
+        growth_conv(b, l);
+      }
+    } else {
+      transition(b);
+    }
+    stages_done_ = std::max(stages_done_, s + 1);
+  }
+  std::span<const float> stage_logits() const { return logits_; }
+
 private:
   void run(const Tensor& input) {
-    if (!(!input.empty() && input.c() == 3))
-      SHADOWSENSE_THROW(InvalidArgument(
-          "DenseNet: input is " + (input.empty() ? std::string("empty") : input.shape_string()) +
-          ", expected n x 3 x h x w"));
-    if (!(accepts(input.h(), input.w())))
-      SHADOWSENSE_THROW(
-          InvalidArgument("DenseNet: input " + input.shape_string() +
-                          " is too small for the pooling stages, expected h and w with "
-                          "ceil(ceil(size / 2) / 2) >= " +
-                          std::to_string(1 << (arch_.block_config.size() - 1))));
-    detail::require(input.all_finite(),
-                    "DenseNet: input holds NaN or Inf values, expected finite numbers");
-    ensure_buffers(input.h(), input.w());
+    stage_input_ = nullptr; // ends a staged run (run_stage)
+    run_checks(input);
     const auto classes = static_cast<std::size_t>(arch_.num_classes);
     const auto c = static_cast<std::size_t>(feature_size());
     logits_.resize(static_cast<std::size_t>(input.n()) * classes);
@@ -167,6 +230,23 @@ private:
                                   " for a finite input, expected a finite number: the model's "
                                   "weights (or the input's magnitude) overflow float"));
     }
+  }
+
+  // The input checks of logits(), then the buffers sized for the input.
+  void run_checks(const Tensor& input) {
+    if (!(!input.empty() && input.c() == 3))
+      SHADOWSENSE_THROW(InvalidArgument(
+          "DenseNet: input is " + (input.empty() ? std::string("empty") : input.shape_string()) +
+          ", expected n x 3 x h x w"));
+    if (!(accepts(input.h(), input.w())))
+      SHADOWSENSE_THROW(
+          InvalidArgument("DenseNet: input " + input.shape_string() +
+                          " is too small for the pooling stages, expected h and w with "
+                          "ceil(ceil(size / 2) / 2) >= " +
+                          std::to_string(1 << (arch_.block_config.size() - 1))));
+    detail::require(input.all_finite(),
+                    "DenseNet: input holds NaN or Inf values, expected finite numbers");
+    ensure_buffers(input.h(), input.w());
   }
 
 public:
@@ -743,6 +823,13 @@ private:
     }
   }
 
+  void require_stage(int s, const char* what) const {
+    if (!(s >= 0 && s < stage_count()))
+      SHADOWSENSE_THROW(InvalidArgument("DenseNet::" + std::string(what) + ": stage " +
+                                        std::to_string(s) + ", expected 0.." +
+                                        std::to_string(stage_count() - 1)));
+  }
+
   Config config_;
   DenseNetArchitecture arch_;
   std::vector<std::string> class_names_;
@@ -776,7 +863,9 @@ private:
   std::vector<int> block_tile_; // per block: its 3x3 method, 0 (direct) or the Winograd tile
   std::vector<int> block_pw_;   // per block: the padded bottleneck's row stride
   std::vector<std::size_t>
-      block_plane_; // per block: floats from one bottleneck channel to the next
+      block_plane_;                    // per block: floats from one bottleneck channel to the next
+  const float* stage_input_ = nullptr; // the staged run's image (begin_stages), or none
+  int stages_done_ = 0;                // stages of the staged run done so far
 };
 
 SHADOWSENSE_NAMESPACE_END
