@@ -547,6 +547,7 @@ using Segmenter = BasicSegmenter<CalibratedRule>;
 
 SHADOWSENSE_NAMESPACE_END
 
-// Calibration (fit and file) used to live in this header; keep including it for existing users.
-#include <shadowsense/sense/calibration.hpp>
+// The calibration file (load_calibration, save_calibration) used to live in this header; keep
+// including it for existing users. It needs only pixel_rule.hpp. The fit (calibration.hpp) uses
+// the Segmenter, so it includes this header and not the other way round: include it directly.
 #include <shadowsense/sense/calibration_file.hpp>
