@@ -1,0 +1,122 @@
+// The segmenter's per-row kernels for x86-64 with AVX2 (segment_kernels_portable.hpp has the
+// contracts; the results are the same bytes and floats). Each function carries a function-level
+// target attribute, so the library needs no -march flag; segment_kernels.hpp calls them only
+// after checking the CPU (__builtin_cpu_supports). AVX2 without FMA: the relative rule rounds
+// after every multiply and add, as the portable kernel does. Compiled only with GCC/Clang on x86
+// (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
+//
+// relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
+//   rest with the portable loop.
+// hsum_row_avx2<K>, vsum_row_avx2<K>: the portable loop bodies compiled for AVX2 (the compiler
+//   vectorises them 16 lanes of 16 bits a step).
+// No state; callable from any thread.
+#pragma once
+
+#include <shadowsense/sense/segment_kernels_portable.hpp>
+
+#include <array>
+#include <cstdint>
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define SHADOWSENSE_SEGMENT_X86 1
+#include <immintrin.h>
+#else
+#define SHADOWSENSE_SEGMENT_X86 0
+#endif
+
+#if SHADOWSENSE_SEGMENT_X86
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+
+// pshufb masks taking channel c of 16 packed BGR pixels from 16-byte chunk j (-128: none).
+constexpr std::array<std::array<std::array<std::int8_t, 16>, 3>, 3> bgr_split_masks() {
+  std::array<std::array<std::array<std::int8_t, 16>, 3>, 3> m{};
+  for (int c = 0; c < 3; ++c)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 16; ++i) {
+        const int at = 3 * i + c;
+        m[static_cast<std::size_t>(c)][static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] =
+            at / 16 == j ? static_cast<std::int8_t>(at % 16) : std::int8_t{-128};
+      }
+  return m;
+}
+inline constexpr auto kBgrSplit = bgr_split_masks();
+
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
+relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
+                  const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
+                  float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+  const __m256 gb = _mm256_set1_ps(p.gb), gg = _mm256_set1_ps(p.gg), gr = _mm256_set1_ps(p.gr);
+  const __m256 third = _mm256_set1_ps(1.f / 3.f), one = _mm256_set1_ps(1.f);
+  const __m256 ts = _mm256_set1_ps(p.shadow), tc = _mm256_set1_ps(p.contact),
+               tw = _mm256_set1_ps(p.warmth);
+  const __m256i zero = _mm256_setzero_si256();
+  auto mask_of = [](std::size_t c, std::size_t j) {
+    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[c][j].data()));
+  };
+  const __m128i mb0 = mask_of(0, 0), mb1 = mask_of(0, 1), mb2 = mask_of(0, 2);
+  const __m128i mg0 = mask_of(1, 0), mg1 = mask_of(1, 1), mg2 = mask_of(1, 2);
+  const __m128i mr0 = mask_of(2, 0), mr1 = mask_of(2, 1), mr2 = mask_of(2, 2);
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    const auto* src = reinterpret_cast<const __m128i*>(bgr + 3 * x);
+    const __m128i a0 = _mm_loadu_si128(src), a1 = _mm_loadu_si128(src + 1),
+                  a2 = _mm_loadu_si128(src + 2);
+    const __m128i b8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mb0), _mm_shuffle_epi8(a1, mb1)),
+                     _mm_shuffle_epi8(a2, mb2));
+    const __m128i g8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mg0), _mm_shuffle_epi8(a1, mg1)),
+                     _mm_shuffle_epi8(a2, mg2));
+    const __m128i r8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mr0), _mm_shuffle_epi8(a1, mr1)),
+                     _mm_shuffle_epi8(a2, mr2));
+    const __m128i s8 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
+    __m256i cmask[2], smask[2];
+    for (int h = 0; h < 2; ++h) {
+      const int o = x + 8 * h;
+      auto widen = [h](__m128i v) {
+        return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(h == 0 ? v : _mm_srli_si128(v, 8)));
+      };
+      const __m256 qb = _mm256_mul_ps(_mm256_mul_ps(widen(b8), _mm256_loadu_ps(ipb + o)), gb);
+      const __m256 qg = _mm256_mul_ps(_mm256_mul_ps(widen(g8), _mm256_loadu_ps(ipg + o)), gg);
+      const __m256 qr = _mm256_mul_ps(_mm256_mul_ps(widen(r8), _mm256_loadu_ps(ipr + o)), gr);
+      const __m256i s32 = _mm256_cvtepu8_epi32(h == 0 ? s8 : _mm_srli_si128(s8, 8));
+      const __m256 on_skin =
+          _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(s32, zero)), one);
+      const __m256 d =
+          _mm256_sub_ps(on_skin, _mm256_mul_ps(_mm256_add_ps(_mm256_add_ps(qb, qg), qr), third));
+      const __m256 wt = _mm256_sub_ps(qr, qb);
+      _mm256_storeu_ps(dk + o, d);
+      _mm256_storeu_ps(wm + o, wt);
+      cmask[h] = _mm256_castps_si256(
+          _mm256_and_ps(_mm256_cmp_ps(d, tc, _CMP_GE_OQ), _mm256_cmp_ps(wt, tw, _CMP_GE_OQ)));
+      smask[h] = _mm256_castps_si256(_mm256_cmp_ps(d, ts, _CMP_GE_OQ));
+    }
+    // 2 x 8 lanes of 0 / -1 to 16 bytes in pixel order (the packs work within 128-bit halves).
+    auto to_bytes = [](__m256i lo, __m256i hi) {
+      const __m256i p16 = _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+      return _mm_packs_epi16(_mm256_castsi256_si128(p16), _mm256_extracti128_si256(p16, 1));
+    };
+    const __m128i c = _mm_and_si128(to_bytes(cmask[0], cmask[1]), s8);
+    const __m128i s = _mm_or_si128(_mm_and_si128(to_bytes(smask[0], smask[1]), s8), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), s);
+  }
+  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+}
+
+template <int K>
+__attribute__((target("avx2"))) inline void hsum_row_avx2(const std::uint8_t* pad, int w,
+                                                          std::uint16_t* out) {
+  hsum_row_body<K>(pad, w, out);
+}
+template <int K>
+__attribute__((target("avx2"))) inline void vsum_row_avx2(const std::uint16_t* const* rows, int w,
+                                                          std::uint8_t* mask, std::uint8_t* marks) {
+  vsum_row_body<K>(rows, w, mask, marks);
+}
+
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END
+#endif
