@@ -8,6 +8,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <random>
@@ -198,4 +199,46 @@ TEST_CASE("segment_kernels: automatic picks the vector kernel the CPU runs; othe
   CHECK_FALSE(segment_cpu_has(SegmentKernelKind::neon));
   CHECK_THROWS_AS(segment_kernels(SegmentKernelKind::neon), InvalidArgument);
 #endif
+}
+
+TEST_CASE("reference_bins: every kernel equals the definition, clamped at both ends") {
+  std::mt19937 rng(8);
+  const int w = 37, h = 23;
+  const std::size_t step = 3 * w + 5; // rows with padding, as in a sub-image
+  std::vector<std::uint8_t> frame(step * h);
+  std::uniform_int_distribution<int> byte(0, 255), col(1, w - 1), row(0, h - 1), pick(0, 9);
+  std::uniform_real_distribution<float> inv(0.5f, 2.f), big(4.1f, 60.f);
+  for (auto& b : frame) b = static_cast<std::uint8_t>(byte(rng));
+  for (const int n : {0, 1, 7, 8, 9, 63, 200}) {
+    CAPTURE(n);
+    const auto un = static_cast<std::size_t>(n);
+    std::vector<std::int32_t> ys(un), xs(un);
+    std::vector<float> ib(un), ig(un), ir(un);
+    for (std::size_t i = 0; i < un; ++i) {
+      ys[i] = i + 1 == un ? h - 1 : row(rng); // the last pixel of the frame too
+      xs[i] = i + 1 == un ? w - 1 : col(rng);
+      for (std::vector<float>* p : {&ib, &ig, &ir})
+        (*p)[i] = pick(rng) == 0 ? 0.f : pick(rng) == 0 ? big(rng) : inv(rng);
+    }
+    std::vector<SegmentKernelKind> kinds = vector_kinds();
+    kinds.push_back(SegmentKernelKind::portable);
+    for (const SegmentKernelKind kind : kinds) {
+      CAPTURE(segment_kernel_name(kind));
+      std::vector<std::uint16_t> bins(3 * un, 9999);
+      segment_kernels(kind).reference_bins(frame.data(), step, ys.data(), xs.data(), ib.data(),
+                                           ig.data(), ir.data(), n, bins.data(), bins.data() + un,
+                                           bins.data() + 2 * un);
+      int bad = 0;
+      for (std::size_t i = 0; i < un; ++i) {
+        const std::uint8_t* px = frame.data() + static_cast<std::size_t>(ys[i]) * step +
+                                 3 * static_cast<std::size_t>(xs[i]);
+        const std::array<float, 3> iv{ib[i], ig[i], ir[i]};
+        for (std::size_t k = 0; k < 3; ++k) {
+          const int expected = std::clamp(static_cast<int>(product(px[k], iv[k], 4.f)), 0, 1023);
+          bad += bins[k * un + i] != expected;
+        }
+      }
+      CHECK(bad == 0);
+    }
+  }
 }

@@ -89,6 +89,8 @@ cv::Mat skin_of(const Segmenter& s, cv::Size size) {
 int check_frame(Segmenter& one, BasicSegmenter<WholeFrameOnly>& multi, const cv::Mat& frame) {
   // The reference reads the model as it is before this frame (the adaptive update comes after).
   const std::array<cv::Mat, 4> planes = model_planes(one, frame.size());
+  cv::Mat inverse_profile;
+  if (one.has_empty_skin()) cv::merge(planes.data(), 3, inverse_profile);
   const cv::Mat skin = skin_of(one, frame.size()).clone();
   Segmentation a, b;
   one.segment(frame, a);
@@ -103,6 +105,8 @@ int check_frame(Segmenter& one, BasicSegmenter<WholeFrameOnly>& multi, const cv:
   const SegmenterCalibration& c = one.config().calibration;
   if (c.mode == SegmentMode::relative) {
     const cv::Vec3f ref = one.last_reference();
+    if (!inverse_profile.empty())
+      CHECK(ref == reference_colour(frame, inverse_profile, c.reference_percentile));
     const RelativeRule rule{c.shadow_darkness, c.contact_darkness, c.contact_warmth, c.by_light};
     const ReferenceMasks r = reference_relative_masks(frame, planes, skin, ref,
                                                       rule.thresholds_at(detail::luminance(ref)),

@@ -65,31 +65,39 @@ struct SegmentKernels {
   RelativeRowFn relative_row;
   HsumRowFn hsum3, hsum5;
   VsumRowFn vsum3, vsum5;
+  ReferenceBinsFn reference_bins;
 };
 
 inline SegmentKernels make_segment_kernels(SegmentKernelKind kind) {
   switch (kind) {
 #if SHADOWSENSE_SEGMENT_X86
   case SegmentKernelKind::avx2:
-    return {kind,
-            relative_row_avx2,
-            hsum_row_avx2<3>,
-            hsum_row_avx2<5>,
-            vsum_row_avx2<3>,
-            vsum_row_avx2<5>};
+    return {.kind = kind,
+            .relative_row = relative_row_avx2,
+            .hsum3 = hsum_row_avx2<3>,
+            .hsum5 = hsum_row_avx2<5>,
+            .vsum3 = vsum_row_avx2<3>,
+            .vsum5 = vsum_row_avx2<5>,
+            .reference_bins = reference_bins_avx2};
 #endif
 #if SHADOWSENSE_SEGMENT_NEON
-  case SegmentKernelKind::neon:
-    return {kind,
-            relative_row_neon,
-            hsum_row_portable<3>,
-            hsum_row_portable<5>,
-            vsum_row_portable<3>,
-            vsum_row_portable<5>};
+  case SegmentKernelKind::neon: // NEON has no gather: the reference's samples stay portable
+    return {.kind = kind,
+            .relative_row = relative_row_neon,
+            .hsum3 = hsum_row_portable<3>,
+            .hsum5 = hsum_row_portable<5>,
+            .vsum3 = vsum_row_portable<3>,
+            .vsum5 = vsum_row_portable<5>,
+            .reference_bins = reference_bins_portable};
 #endif
   default:
-    return {SegmentKernelKind::portable, relative_row_portable, hsum_row_portable<3>,
-            hsum_row_portable<5>,        vsum_row_portable<3>,  vsum_row_portable<5>};
+    return {.kind = SegmentKernelKind::portable,
+            .relative_row = relative_row_portable,
+            .hsum3 = hsum_row_portable<3>,
+            .hsum5 = hsum_row_portable<5>,
+            .vsum3 = vsum_row_portable<3>,
+            .vsum5 = vsum_row_portable<5>,
+            .reference_bins = reference_bins_portable};
   }
 }
 

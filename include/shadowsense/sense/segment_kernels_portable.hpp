@@ -25,6 +25,12 @@
 //             (2040 for K = 3, 32640 for K = 5), else 0; marks[x] (when given) = 1 or 0 alike.
 //             This is OpenCV's 8-bit Gaussian of size K followed by a threshold at 127
 //             (mask_smoothing.hpp says why).
+// reference_bins(frame, step, ys, xs, ib, ig, ir, n, bb, bg, br)
+//   requires: for i < n, (ys[i], xs[i]) a pixel of the 8-bit BGR frame (rows step bytes apart)
+//             with xs[i] >= 1; ib, ig, ir n floats >= 0 and < 64; bb, bg, br n values each.
+//   ensures:  bb[i] = min(int(B * ib[i] * 4), 1023) for that pixel's B (float products,
+//             truncated toward zero), likewise bg (G) and br (R): the quarter-unit histogram bin
+//             of the pixel over the empty-skin model (the segmenter's per-frame reference).
 // No state; callable from any thread.
 #pragma once
 
@@ -155,6 +161,38 @@ template <int K>
 inline void vsum_row_portable(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
                               std::uint8_t* marks) {
   vsum_row_body<K>(rows, w, mask, marks);
+}
+
+using ReferenceBinsFn = void (*)(const std::uint8_t* frame, std::size_t step,
+                                 const std::int32_t* ys, const std::int32_t* xs, const float* ib,
+                                 const float* ig, const float* ir, int n, std::uint16_t* bb,
+                                 std::uint16_t* bg, std::uint16_t* br);
+
+SHADOWSENSE_STRICT_FP inline int reference_bin(std::uint8_t v, float inv) {
+  SHADOWSENSE_STRICT_FP_BODY
+  const int b = static_cast<int>(static_cast<float>(v) * inv * 4.f);
+  return b < 0 ? 0 : b > 1023 ? 1023 : b;
+}
+
+// Samples [i0, n) of reference_bins (the vector kernel finishes with it).
+inline void reference_bins_tail(const std::uint8_t* frame, std::size_t step, const std::int32_t* ys,
+                                const std::int32_t* xs, const float* ib, const float* ig,
+                                const float* ir, int i0, int n, std::uint16_t* bb,
+                                std::uint16_t* bg, std::uint16_t* br) {
+  for (int i = i0; i < n; ++i) {
+    const std::uint8_t* px =
+        frame + static_cast<std::size_t>(ys[i]) * step + 3 * static_cast<std::size_t>(xs[i]);
+    bb[i] = static_cast<std::uint16_t>(reference_bin(px[0], ib[i]));
+    bg[i] = static_cast<std::uint16_t>(reference_bin(px[1], ig[i]));
+    br[i] = static_cast<std::uint16_t>(reference_bin(px[2], ir[i]));
+  }
+}
+
+inline void reference_bins_portable(const std::uint8_t* frame, std::size_t step,
+                                    const std::int32_t* ys, const std::int32_t* xs, const float* ib,
+                                    const float* ig, const float* ir, int n, std::uint16_t* bb,
+                                    std::uint16_t* bg, std::uint16_t* br) {
+  reference_bins_tail(frame, step, ys, xs, ib, ig, ir, 0, n, bb, bg, br);
 }
 
 } // namespace detail

@@ -7,6 +7,7 @@
 //
 // relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
 //   rest with the portable loop.
+// reference_bins_avx2: 8 samples a step (a 32-bit gather per sample).
 // hsum_row_avx2<K>, vsum_row_avx2<K>: the portable loop bodies compiled for AVX2 (the compiler
 //   vectorises them 16 lanes of 16 bits a step).
 // No state; callable from any thread.
@@ -104,6 +105,46 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
     _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), s);
   }
   relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+}
+
+// 8 samples a step: one 32-bit gather per sample from the byte before B (so B, G, R are bytes
+// 1..3 and nothing past the pixel is read), then the three channels' bins.
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
+reference_bins_avx2(const std::uint8_t* frame, std::size_t step, const std::int32_t* ys,
+                    const std::int32_t* xs, const float* ib, const float* ig, const float* ir,
+                    int n, std::uint16_t* bb, std::uint16_t* bg, std::uint16_t* br) {
+  int i = 0;
+  // Offsets y step + 3 x in 32 bits: certain for rows of up to 32767 bytes (y < 65536, the
+  // segmenter's largest side); wider frames take the scalar loop.
+  if (step <= 0x7fffffffull / 65536) {
+    const __m256i vstep = _mm256_set1_epi32(static_cast<int>(step)), three = _mm256_set1_epi32(3);
+    const __m256i byte = _mm256_set1_epi32(255), zero = _mm256_setzero_si256(),
+                  top = _mm256_set1_epi32(1023);
+    const __m256 four = _mm256_set1_ps(4.f);
+    const auto* base = reinterpret_cast<const int*>(frame);
+    const __m256i minus_one = _mm256_set1_epi32(-1);
+    auto bins = [&](__m256i v, const float* inv) {
+      const __m256 f =
+          _mm256_mul_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(v), _mm256_loadu_ps(inv)), four);
+      return _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(f), zero), top);
+    };
+    auto store = [](std::uint16_t* dst, __m256i v) { // 8 x 32 bits (< 1024) to 8 x 16 bits
+      const __m128i packed =
+          _mm_packus_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), packed);
+    };
+    for (; i + 8 <= n; i += 8) {
+      const __m256i y = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ys + i));
+      const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(xs + i));
+      const __m256i off = _mm256_add_epi32(
+          _mm256_add_epi32(_mm256_mullo_epi32(y, vstep), _mm256_mullo_epi32(x, three)), minus_one);
+      const __m256i px = _mm256_i32gather_epi32(base, off, 1);
+      store(bb + i, bins(_mm256_and_si256(_mm256_srli_epi32(px, 8), byte), ib + i));
+      store(bg + i, bins(_mm256_and_si256(_mm256_srli_epi32(px, 16), byte), ig + i));
+      store(br + i, bins(_mm256_srli_epi32(px, 24), ir + i));
+    }
+  }
+  reference_bins_tail(frame, step, ys, xs, ib, ig, ir, i, n, bb, bg, br);
 }
 
 template <int K>

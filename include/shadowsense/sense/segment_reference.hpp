@@ -10,6 +10,12 @@
 //   ensures:  the shadow and contact masks after smoothing (0/255), and the darkness and warmth
 //             planes, of RelativeRule with those thresholds: the Segmenter's
 //             shadow_mask, contact_mask, darkness() and warmth() for that frame.
+// reference_colour(bgr, inverse_profile, percentile)
+//   requires: bgr CV_8UC3; inverse_profile CV_32FC3 of its size (1 / the empty-skin model, 0 off
+//             the skin); percentile in (0, 1].
+//   ensures:  the frame's reference colour as the segmenter computes it: per channel, that
+//             percentile of B / model (quarter-unit bins) over every third pixel of every third
+//             row on the skin.
 // reference_contours(mask): cv::findContours(mask, RETR_EXTERNAL, CHAIN_APPROX_SIMPLE).
 // Plain functions; any thread.
 #pragma once
@@ -19,7 +25,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -64,6 +72,35 @@ reference_relative_masks(const cv::Mat& bgr, const std::array<cv::Mat, 4>& inver
       cv::threshold(blurred, *m, 127, 255, cv::THRESH_BINARY);
     }
   return out;
+}
+
+inline cv::Vec3f reference_colour(const cv::Mat& bgr, const cv::Mat& inverse_profile,
+                                  float percentile) {
+  constexpr int bins = 1024;
+  std::array<std::vector<int>, 3> hist;
+  for (auto& h : hist) h.assign(bins, 0);
+  int n = 0;
+  for (int y = 1; y < bgr.rows; y += 3)
+    for (int x = 1; x < bgr.cols; x += 3) {
+      const cv::Vec3f inv = inverse_profile.at<cv::Vec3f>(y, x);
+      if (inv[0] == 0.f) continue;
+      const cv::Vec3b px = bgr.at<cv::Vec3b>(y, x);
+      for (int k = 0; k < 3; ++k)
+        ++hist[static_cast<std::size_t>(k)][static_cast<std::size_t>(
+            std::clamp(static_cast<int>(px[k] * inv[k] * 4.f), 0, bins - 1))];
+      ++n;
+    }
+  const int target = std::max(1, static_cast<int>(std::ceil(percentile * n)));
+  cv::Vec3f ref;
+  for (int k = 0; k < 3; ++k) {
+    int above = n, v = bins - 1;
+    for (; v > 0; --v) {
+      above -= hist[static_cast<std::size_t>(k)][static_cast<std::size_t>(v)];
+      if (above < target) break;
+    }
+    ref[k] = std::max(1.0f, (static_cast<float>(v) + 0.5f) * 0.25f);
+  }
+  return ref;
 }
 
 inline std::vector<std::vector<cv::Point>> reference_contours(const cv::Mat& mask) {

@@ -67,6 +67,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -332,13 +333,17 @@ private:
     const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
     int n = 0;
     if (prof) { // the model's precomputed sample grid (on the skin only), contiguous in memory
-      for (const RefSample& r : ref_samples_) {
-        const uchar* px = src_->ptr<uchar>(r.y) + 3 * r.x;
-        for (int k = 0; k < 3; ++k)
-          ++hist[k][static_cast<std::size_t>(
-              std::clamp(static_cast<int>(px[k] * r.inv[k] * 4.f), 0, bins - 1))];
+      n = static_cast<int>(ref_y_.size());
+      const auto un = static_cast<std::size_t>(n);
+      ref_bins_.resize(3 * un);
+      segment_kernels().reference_bins(src_->ptr<uchar>(0), src_->step[0], ref_y_.data(),
+                                       ref_x_.data(), ref_inv_[0].data(), ref_inv_[1].data(),
+                                       ref_inv_[2].data(), n, ref_bins_.data(),
+                                       ref_bins_.data() + un, ref_bins_.data() + 2 * un);
+      for (std::size_t k = 0; k < 3; ++k) {
+        int* h = hist[k].data();
+        for (const std::uint16_t b : std::span(ref_bins_).subspan(k * un, un)) ++h[b];
       }
-      n = static_cast<int>(ref_samples_.size());
     } else {
       for (int y = 1; y < src_->rows; y += 3) {
         const uchar* row = src_->ptr<uchar>(y);
@@ -502,11 +507,17 @@ private:
 
   // The pixels (every third of every third row, on the skin) that set each frame's gain.
   void refresh_ref_samples() {
-    ref_samples_.clear();
+    ref_y_.clear();
+    ref_x_.clear();
+    for (auto& v : ref_inv_) v.clear();
     for (int y = 1; y < inv_profile_.rows; y += 3) {
       const cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
       for (int x = 1; x < inv_profile_.cols; x += 3)
-        if (ip[x][0] != 0.f) ref_samples_.push_back({y, x, ip[x]});
+        if (ip[x][0] != 0.f) {
+          ref_y_.push_back(y);
+          ref_x_.push_back(x);
+          for (int k = 0; k < 3; ++k) ref_inv_[static_cast<std::size_t>(k)].push_back(ip[x][k]);
+        }
     }
   }
 
@@ -573,11 +584,11 @@ private:
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
-  struct RefSample {
-    int y, x;
-    cv::Vec3f inv;
-  };
-  std::vector<RefSample> ref_samples_;
+  // The reference's samples (row, column, inverse model per channel), one array each for the
+  // vector kernel, and their histogram bins per channel (scratch).
+  std::vector<std::int32_t> ref_y_, ref_x_;
+  std::array<std::vector<float>, 3> ref_inv_;
+  mutable std::vector<std::uint16_t> ref_bins_;
   cv::Vec3f gain_{1, 1, 1};
   float frame_shadow_threshold_ = 0;
   mutable std::array<std::vector<int>, 3> hist_;
