@@ -166,9 +166,11 @@ TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written ou
         for (int t = 0; t < K; ++t)
           rows[static_cast<std::size_t>(t)] = h[static_cast<std::size_t>(t)].data();
         std::vector<std::uint8_t> mask(static_cast<std::size_t>(w), 7), marks(mask);
-        (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask.data(), marks.data());
+        const bool any = (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask.data(), marks.data());
         std::vector<std::uint8_t> mask_only(static_cast<std::size_t>(w), 7);
-        (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask_only.data(), nullptr);
+        const bool any_only =
+            (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask_only.data(), nullptr);
+        int lit_here = 0;
         for (int x = 0; x < w; ++x) {
           int v = 0;
           for (int t = 0; t < K; ++t)
@@ -176,10 +178,12 @@ TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written ou
                  h[static_cast<std::size_t>(t)][static_cast<std::size_t>(x)];
           const bool lit = v >= on;
           set += lit;
+          lit_here += lit;
           const auto ux = static_cast<std::size_t>(x);
           bad += mask[ux] != (lit ? 255 : 0) || marks[ux] != (lit ? 1 : 0) ||
                  mask_only[ux] != mask[ux];
         }
+        bad += any != (lit_here > 0) || any_only != any;
       }
       CHECK(bad == 0);
       CHECK(set > 0);

@@ -24,7 +24,9 @@
 //   prepare requires cols, rows >= 1; returns where row y of the 0/1 image goes (marks +
 //   y * marks_stride(), cols bytes; the frame of 0 around it is set). scan requires every row
 //   written with 0 or 1; ensures what find(mask) ensures for the mask whose non-zero pixels
-//   are the 1s.
+//   are the 1s. row_flags() (rows bytes, all 1 after prepare): the caller may set row y's to 0
+//   when that row holds no 1, and the scan skips it (an empty row starts no border and its
+//   pixels are never marked, since tracing marks border pixels only, which are 1s).
 // Threading: holds scratch buffers; one instance per thread (a BlobFinder owns one).
 #pragma once
 
@@ -72,10 +74,12 @@ public:
       std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
       row[0] = row[w - 1] = 0;
     }
+    row_flags_.assign(static_cast<std::size_t>(rows), 1);
     // Character types may alias: the caller writes 0/1 bytes.
     return reinterpret_cast<std::uint8_t*>(img + uw + 1);
   }
   std::size_t marks_stride() const { return stride_; }
+  std::uint8_t* row_flags() { return row_flags_.data(); }
 
   void scan() {
     points_.clear();
@@ -85,6 +89,7 @@ public:
     const std::size_t uw = stride_;
     // The raster scan of OpenCV's scanner in RETR_EXTERNAL mode.
     for (int y = 1; y < h - 1; ++y) {
+      if (!row_flags_[static_cast<std::size_t>(y - 1)]) continue; // no 1 in this row
       std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
       int prev = 0, lnbd = 0; // lnbd: column of the last met border pixel in this row
       for (int x = 1; x < w - 1; ++x) {
@@ -191,11 +196,12 @@ private:
     found_.push_back(f);
   }
 
-  std::vector<std::int8_t> image_; // the padded mask: 0/1, then border marks
-  int cols_ = 0, rows_ = 0;        // the mask's size (prepare)
-  std::size_t stride_ = 0;         // cols_ + 2
-  std::vector<cv::Point> points_;  // every contour's points, in the order found
-  std::vector<Found> found_;       // in the order found (the reverse of OpenCV's output)
+  std::vector<std::int8_t> image_;      // the padded mask: 0/1, then border marks
+  int cols_ = 0, rows_ = 0;             // the mask's size (prepare)
+  std::size_t stride_ = 0;              // cols_ + 2
+  std::vector<std::uint8_t> row_flags_; // 0: the row holds no 1 (skipped by the scan)
+  std::vector<cv::Point> points_;       // every contour's points, in the order found
+  std::vector<Found> found_;            // in the order found (the reverse of OpenCV's output)
 };
 
 SHADOWSENSE_NAMESPACE_END

@@ -28,13 +28,14 @@
 //   sizes the row kernels of segment_kernels.hpp do; apply() handles every other case).
 // begin(mask, k, marks, marks_stride)
 //   requires: streams(k, mask.size()); mask CV_8UC1, allocated; marks null or rows of at least
-//             mask.cols bytes, marks_stride apart.
+//             mask.cols bytes, marks_stride apart; row_flags null or mask.rows bytes.
 //   then, for y = 0 .. rows - 1 in order: write raw row y (w bytes, any values) into row(),
 //   then push(); then end().
 //   ensures:  after end(), mask is what apply(raw mask, k) gives (k <= 1: the raw mask), and
-//             marks row y holds 1 where mask row y is non-zero, else 0. Rows of mask are written
-//             as soon as they are final (row y - k / 2 at the push of row y), so mask may be the
-//             raw mask's own storage only through apply().
+//             marks row y holds 1 where mask row y is non-zero, else 0, and row_flags[y]
+//             (when given) is 1 when mask row y has a non-zero pixel, else 0. Rows of mask are
+//             written as soon as they are final (row y - k / 2 at the push of row y), so mask may
+//             be the raw mask's own storage only through apply().
 // Threading: a MaskSmoother holds scratch rows; one instance per thread (a Segmenter owns one).
 #pragma once
 
@@ -138,13 +139,15 @@ public:
     return k <= 1 || ((k == 3 || k == 5) && size.width >= 2 && size.height >= 2);
   }
 
-  void begin(cv::Mat& mask, int k, std::uint8_t* marks = nullptr, std::size_t marks_stride = 0) {
+  void begin(cv::Mat& mask, int k, std::uint8_t* marks = nullptr, std::size_t marks_stride = 0,
+             std::uint8_t* row_flags = nullptr) {
     detail::require(mask.type() == CV_8UC1 && !mask.empty() && streams(k, mask.size()),
                     "MaskSmoother::begin: expected a CV_8UC1 mask of at least 2 x 2 and a kernel "
                     "size of 0, 1, 3 or 5");
     mask_ = &mask;
     marks_ = marks;
     marks_stride_ = marks_stride;
+    row_flags_ = row_flags;
     stream_k_ = k <= 1 ? 1 : k;
     next_ = 0;
     const auto uw = static_cast<std::size_t>(mask.cols);
@@ -167,7 +170,9 @@ public:
       if (marks_) {
         const uchar* src = mask_->ptr<uchar>(y);
         std::uint8_t* m = marks_ + static_cast<std::size_t>(y) * marks_stride_;
-        for (int x = 0; x < w; ++x) m[x] = std::min<uchar>(src[x], 1);
+        std::uint8_t any = 0;
+        for (int x = 0; x < w; ++x) any |= m[x] = std::min<uchar>(src[x], 1);
+        if (row_flags_) row_flags_[y] = any;
       }
       return;
     }
@@ -216,8 +221,9 @@ private:
     std::array<const std::uint16_t*, 5> rows{};
     for (int t = 0; t < stream_k_; ++t)
       rows[static_cast<std::size_t>(t)] = ring_row(std::clamp(y + t - r, 0, h - 1));
-    vsum_(rows.data(), mask_->cols, mask_->ptr<uchar>(y),
-          marks_ ? marks_ + static_cast<std::size_t>(y) * marks_stride_ : nullptr);
+    const bool any = vsum_(rows.data(), mask_->cols, mask_->ptr<uchar>(y),
+                           marks_ ? marks_ + static_cast<std::size_t>(y) * marks_stride_ : nullptr);
+    if (row_flags_) row_flags_[y] = any ? 1 : 0;
   }
 
   // A pass's taps in 16-bit lanes: K = 1 is one tap of 256 (a side of length 1 is not
@@ -299,6 +305,7 @@ private:
   cv::Mat* mask_ = nullptr;
   std::uint8_t* marks_ = nullptr;
   std::size_t marks_stride_ = 0;
+  std::uint8_t* row_flags_ = nullptr; // per row: 0 when the final row is all 0 (or null)
   int stream_k_ = 1, next_ = 0;
   detail::HsumRowFn hsum_ = nullptr;
   detail::VsumRowFn vsum_ = nullptr;

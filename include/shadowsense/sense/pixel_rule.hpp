@@ -21,6 +21,10 @@
 //               means shadow in this frame, used for the blobs' opacity); a rule without them
 //               releases out.darkness (then blobs carry darkness 0 and the model does not adapt).
 //   Optional member `bool uses_reference() const`: false skips the per-frame reference.
+//   Optional row interface (RowPixelRule below): begin_rows + classify_row, so the segmenter can
+//   classify, smooth and scan row by row in one pass over the frame. The library's three rules
+//   have it; RelativeRule's per-pixel work is segment_kernels.hpp's relative_row (AVX2, NEON or
+//   portable, picked at run time, the same floats and bytes from each).
 //
 // Models here:
 //  * RelativeRule (the default): each pixel over the lit, empty skin's colour there, q = I /

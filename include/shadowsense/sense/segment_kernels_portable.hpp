@@ -23,6 +23,7 @@
 //             null.
 //   ensures:  V = sum over t of wt[t] rows[t][x] (exact in 16 bits); mask[x] = 255 when V >= on
 //             (2040 for K = 3, 32640 for K = 5), else 0; marks[x] (when given) = 1 or 0 alike.
+//             Returns whether any mask[x] is 255.
 //             This is OpenCV's 8-bit Gaussian of size K followed by a threshold at 127
 //             (mask_smoothing.hpp says why).
 // reference_bins(frame, step, ys, xs, ib, ig, ir, n, bb, bg, br)
@@ -125,32 +126,37 @@ SHADOWSENSE_ALWAYS_INLINE void hsum_row_body(const std::uint8_t* __restrict pad,
 }
 
 template <int K>
-SHADOWSENSE_ALWAYS_INLINE void vsum_row_body(const std::uint16_t* const* rows, int w,
+SHADOWSENSE_ALWAYS_INLINE bool vsum_row_body(const std::uint16_t* const* rows, int w,
                                              std::uint8_t* __restrict mask,
                                              std::uint8_t* __restrict marks) {
   static_assert(K == 3 || K == 5);
   constexpr std::array<std::uint16_t, 5> wt = smoothing_weights<K>;
   std::array<const std::uint16_t* __restrict, K> in{};
   for (std::size_t t = 0; t < K; ++t) in[t] = rows[t];
+  std::uint8_t any = 0;
   if (marks) {
     for (int x = 0; x < w; ++x) {
       std::uint16_t v = 0;
       for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
-      const bool on = v >= smoothing_on<K>;
-      mask[x] = on ? 255 : 0;
-      marks[x] = on ? 1 : 0;
+      const std::uint8_t on = v >= smoothing_on<K> ? 1 : 0;
+      mask[x] = static_cast<std::uint8_t>(-on);
+      marks[x] = on;
+      any |= on;
     }
   } else {
     for (int x = 0; x < w; ++x) {
       std::uint16_t v = 0;
       for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
-      mask[x] = v >= smoothing_on<K> ? 255 : 0;
+      const std::uint8_t on = v >= smoothing_on<K> ? 1 : 0;
+      mask[x] = static_cast<std::uint8_t>(-on);
+      any |= on;
     }
   }
+  return any != 0;
 }
 
 using HsumRowFn = void (*)(const std::uint8_t* pad, int w, std::uint16_t* out);
-using VsumRowFn = void (*)(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
+using VsumRowFn = bool (*)(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
                            std::uint8_t* marks);
 
 template <int K>
@@ -158,9 +164,9 @@ inline void hsum_row_portable(const std::uint8_t* pad, int w, std::uint16_t* out
   hsum_row_body<K>(pad, w, out);
 }
 template <int K>
-inline void vsum_row_portable(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
+inline bool vsum_row_portable(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
                               std::uint8_t* marks) {
-  vsum_row_body<K>(rows, w, mask, marks);
+  return vsum_row_body<K>(rows, w, mask, marks);
 }
 
 using ReferenceBinsFn = void (*)(const std::uint8_t* frame, std::size_t step,

@@ -153,9 +153,9 @@ __attribute__((target("avx2"))) inline void hsum_row_avx2(const std::uint8_t* pa
   hsum_row_body<K>(pad, w, out);
 }
 template <int K>
-__attribute__((target("avx2"))) inline void vsum_row_avx2(const std::uint16_t* const* rows, int w,
+__attribute__((target("avx2"))) inline bool vsum_row_avx2(const std::uint16_t* const* rows, int w,
                                                           std::uint8_t* mask, std::uint8_t* marks) {
-  vsum_row_body<K>(rows, w, mask, marks);
+  return vsum_row_body<K>(rows, w, mask, marks);
 }
 
 } // namespace detail

@@ -6,6 +6,14 @@
 // border_following.hpp), equal to OpenCV's bit for bit and point for point, without per-frame
 // allocations.
 //
+// One pass over the frame: when the rule has the row interface (RowPixelRule, pixel_rule.hpp:
+// both of the library's rules) and mask_blur is 0, 1, 3 or 5 (default 5), each row is
+// classified, smoothed and written to the masks and to the contour images while it is in cache
+// (the per-row kernels: segment_kernels.hpp, AVX2 / NEON / portable); otherwise the rule runs
+// over the whole frame and the masks are smoothed and scanned in passes of their own. Both give
+// the same masks, features and blobs (tests/test_segment_one_pass.cpp, against
+// segment_reference.hpp).
+//
 // BasicSegmenter<Rule> does everything around the per-pixel decision, which a PixelRule makes
 // (pixel_rule.hpp): the empty-skin model, the per-frame reference, mask clean-up, blobs
 // (blobs.hpp), shadow opacity and hover height (hover_height.hpp). `Segmenter` is
@@ -407,8 +415,10 @@ private:
     ExternalContours& cc = contact_finder_.contours_input();
     std::uint8_t* const shadow_marks = sc.prepare(w, h);
     std::uint8_t* const contact_marks = cc.prepare(w, h);
-    shadow_smoother_.begin(out.shadow_mask, config_.mask_blur, shadow_marks, sc.marks_stride());
-    contact_smoother_.begin(out.contact_mask, config_.mask_blur, contact_marks, cc.marks_stride());
+    shadow_smoother_.begin(out.shadow_mask, config_.mask_blur, shadow_marks, sc.marks_stride(),
+                           sc.row_flags());
+    contact_smoother_.begin(out.contact_mask, config_.mask_blur, contact_marks, cc.marks_stride(),
+                            cc.row_flags());
     for (int y = 0; y < h; ++y) {
       rule_.classify_row(in, st, o, y, shadow_smoother_.row(), contact_smoother_.row());
       shadow_smoother_.push();
