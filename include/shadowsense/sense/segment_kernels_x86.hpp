@@ -43,6 +43,31 @@ constexpr std::array<std::array<std::array<std::int8_t, 16>, 3>, 3> bgr_split_ma
 }
 inline constexpr auto kBgrSplit = bgr_split_masks();
 
+// Helpers as functions, not lambdas: a lambda does not take its caller's target attribute.
+// The low 8 bytes of v as 8 floats.
+__attribute__((target("avx2"))) inline __m256 widen_bytes_avx2(__m128i v) {
+  return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
+}
+// 2 x 8 lanes of 0 / -1 to 16 bytes in pixel order (the packs work within 128-bit halves).
+__attribute__((target("avx2"))) inline __m128i lanes_to_bytes_avx2(__m256i lo, __m256i hi) {
+  const __m256i p16 = _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+  return _mm_packs_epi16(_mm256_castsi256_si128(p16), _mm256_extracti128_si256(p16, 1));
+}
+// min(max(int(v * inv * 4), 0), 1023) for 8 samples.
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline __m256i
+quarter_bins_avx2(__m256i v, const float* inv) {
+  const __m256 f = _mm256_mul_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(v), _mm256_loadu_ps(inv)),
+                                 _mm256_set1_ps(4.f));
+  return _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(f), _mm256_setzero_si256()),
+                          _mm256_set1_epi32(1023));
+}
+// 8 x 32 bits (< 1024) to 8 x 16 bits.
+__attribute__((target("avx2"))) inline void store_u16_avx2(std::uint16_t* dst, __m256i v) {
+  const __m128i packed =
+      _mm_packus_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), packed);
+}
+
 __attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
 relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
                   const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
@@ -52,12 +77,15 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
   const __m256 ts = _mm256_set1_ps(p.shadow), tc = _mm256_set1_ps(p.contact),
                tw = _mm256_set1_ps(p.warmth);
   const __m256i zero = _mm256_setzero_si256();
-  auto mask_of = [](std::size_t c, std::size_t j) {
-    return _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[c][j].data()));
-  };
-  const __m128i mb0 = mask_of(0, 0), mb1 = mask_of(0, 1), mb2 = mask_of(0, 2);
-  const __m128i mg0 = mask_of(1, 0), mg1 = mask_of(1, 1), mg2 = mask_of(1, 2);
-  const __m128i mr0 = mask_of(2, 0), mr1 = mask_of(2, 1), mr2 = mask_of(2, 2);
+  const __m128i mb0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][0].data())),
+                mb1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][1].data())),
+                mb2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][2].data()));
+  const __m128i mg0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][0].data())),
+                mg1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][1].data())),
+                mg2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][2].data()));
+  const __m128i mr0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][0].data())),
+                mr1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][1].data())),
+                mr2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][2].data()));
   int x = 0;
   for (; x + 16 <= w; x += 16) {
     const auto* src = reinterpret_cast<const __m128i*>(bgr + 3 * x);
@@ -76,12 +104,15 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
     __m256i cmask[2], smask[2];
     for (int h = 0; h < 2; ++h) {
       const int o = x + 8 * h;
-      auto widen = [h](__m128i v) {
-        return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(h == 0 ? v : _mm_srli_si128(v, 8)));
-      };
-      const __m256 qb = _mm256_mul_ps(_mm256_mul_ps(widen(b8), _mm256_loadu_ps(ipb + o)), gb);
-      const __m256 qg = _mm256_mul_ps(_mm256_mul_ps(widen(g8), _mm256_loadu_ps(ipg + o)), gg);
-      const __m256 qr = _mm256_mul_ps(_mm256_mul_ps(widen(r8), _mm256_loadu_ps(ipr + o)), gr);
+      const __m128i bh = h == 0 ? b8 : _mm_srli_si128(b8, 8),
+                    gh = h == 0 ? g8 : _mm_srli_si128(g8, 8),
+                    rh = h == 0 ? r8 : _mm_srli_si128(r8, 8);
+      const __m256 qb =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(bh), _mm256_loadu_ps(ipb + o)), gb);
+      const __m256 qg =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(gh), _mm256_loadu_ps(ipg + o)), gg);
+      const __m256 qr =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(rh), _mm256_loadu_ps(ipr + o)), gr);
       const __m256i s32 = _mm256_cvtepu8_epi32(h == 0 ? s8 : _mm_srli_si128(s8, 8));
       const __m256 on_skin =
           _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(s32, zero)), one);
@@ -94,13 +125,8 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
           _mm256_and_ps(_mm256_cmp_ps(d, tc, _CMP_GE_OQ), _mm256_cmp_ps(wt, tw, _CMP_GE_OQ)));
       smask[h] = _mm256_castps_si256(_mm256_cmp_ps(d, ts, _CMP_GE_OQ));
     }
-    // 2 x 8 lanes of 0 / -1 to 16 bytes in pixel order (the packs work within 128-bit halves).
-    auto to_bytes = [](__m256i lo, __m256i hi) {
-      const __m256i p16 = _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
-      return _mm_packs_epi16(_mm256_castsi256_si128(p16), _mm256_extracti128_si256(p16, 1));
-    };
-    const __m128i c = _mm_and_si128(to_bytes(cmask[0], cmask[1]), s8);
-    const __m128i s = _mm_or_si128(_mm_and_si128(to_bytes(smask[0], smask[1]), s8), c);
+    const __m128i c = _mm_and_si128(lanes_to_bytes_avx2(cmask[0], cmask[1]), s8);
+    const __m128i s = _mm_or_si128(_mm_and_si128(lanes_to_bytes_avx2(smask[0], smask[1]), s8), c);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), s);
   }
@@ -118,30 +144,20 @@ reference_bins_avx2(const std::uint8_t* frame, std::size_t step, const std::int3
   // segmenter's largest side); wider frames take the scalar loop.
   if (step <= 0x7fffffffull / 65536) {
     const __m256i vstep = _mm256_set1_epi32(static_cast<int>(step)), three = _mm256_set1_epi32(3);
-    const __m256i byte = _mm256_set1_epi32(255), zero = _mm256_setzero_si256(),
-                  top = _mm256_set1_epi32(1023);
-    const __m256 four = _mm256_set1_ps(4.f);
+    const __m256i byte = _mm256_set1_epi32(255);
     const auto* base = reinterpret_cast<const int*>(frame);
     const __m256i minus_one = _mm256_set1_epi32(-1);
-    auto bins = [&](__m256i v, const float* inv) {
-      const __m256 f =
-          _mm256_mul_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(v), _mm256_loadu_ps(inv)), four);
-      return _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(f), zero), top);
-    };
-    auto store = [](std::uint16_t* dst, __m256i v) { // 8 x 32 bits (< 1024) to 8 x 16 bits
-      const __m128i packed =
-          _mm_packus_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), packed);
-    };
     for (; i + 8 <= n; i += 8) {
       const __m256i y = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ys + i));
       const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(xs + i));
       const __m256i off = _mm256_add_epi32(
           _mm256_add_epi32(_mm256_mullo_epi32(y, vstep), _mm256_mullo_epi32(x, three)), minus_one);
       const __m256i px = _mm256_i32gather_epi32(base, off, 1);
-      store(bb + i, bins(_mm256_and_si256(_mm256_srli_epi32(px, 8), byte), ib + i));
-      store(bg + i, bins(_mm256_and_si256(_mm256_srli_epi32(px, 16), byte), ig + i));
-      store(br + i, bins(_mm256_srli_epi32(px, 24), ir + i));
+      store_u16_avx2(bb + i,
+                     quarter_bins_avx2(_mm256_and_si256(_mm256_srli_epi32(px, 8), byte), ib + i));
+      store_u16_avx2(bg + i,
+                     quarter_bins_avx2(_mm256_and_si256(_mm256_srli_epi32(px, 16), byte), ig + i));
+      store_u16_avx2(br + i, quarter_bins_avx2(_mm256_srli_epi32(px, 24), ir + i));
     }
   }
   reference_bins_tail(frame, step, ys, xs, ib, ig, ir, i, n, bb, bg, br);
