@@ -1,5 +1,6 @@
 // Shadow/contact segmentation on hand-built frames whose truth is known by construction:
 // fabric with noise, a blurred neutral shadow and sharp warm contact discs.
+#include <shadowsense/sense/calibration.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 
 #include <doctest/doctest.h>

@@ -48,6 +48,7 @@
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/calibration.hpp>
 #include <shadowsense/sense/segmenter.hpp>
 #include <shadowsense/sim/sim.hpp>
 

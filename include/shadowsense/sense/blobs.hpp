@@ -13,6 +13,8 @@
 //             whose members are connected by box gaps (Chebyshev distance between boxes, 0 when
 //             touching or overlapping) <= merge_gap, each with the union box of its members.
 //             Groups' member spans stay valid until the next find().
+// find_prepared(mask, ...): the same, with the contour image already written through
+//   contours_input().prepare (the segmenter's one pass); mask is still read for the areas.
 //   cost:     the contours plus sorting, then a sweep along x over the kept boxes: O(n log n) for
 //             scattered blobs; never more than max_contours^2 / 2 box comparisons.
 // A BlobFinder holds scratch buffers: one instance per thread (it lives inside a Segmenter).
@@ -90,10 +92,17 @@ public:
   };
 
   void find(const cv::Mat& mask, double min_area, int merge_gap, std::size_t max_contours) {
+    contours_.find(mask);
+    find_prepared(mask, min_area, merge_gap, max_contours, false);
+  }
+  // For find_prepared: prepare() the contour image here, write its rows.
+  ExternalContours& contours_input() { return contours_; }
+  void find_prepared(const cv::Mat& mask, double min_area, int merge_gap, std::size_t max_contours,
+                     bool scan = true) {
     kept_.clear();
     groups_.clear();
     dropped_ = 0;
-    contours_.find(mask);
+    if (scan) contours_.scan();
     for (std::size_t i = 0; i < contours_.size(); ++i) {
       const cv::Rect r = contours_.box(i);
       const double area = cv::countNonZero(mask(r)); // pixels, not the polygon's area

@@ -18,6 +18,15 @@
 //   ensures:  size() contours; contour(i) its points (image coordinates) and box(i) their
 //             bounding box (cv::boundingRect of the points), in cv::findContours' order.
 //   throws:   InvalidArgument for a bad mask.
+// prepare(cols, rows) -> marks, marks_stride(), then scan(): find(mask) in two steps, for a
+//   caller that makes the mask row by row (the segmenter's one pass writes each final mask row
+//   here as it goes, so the mask is not read again).
+//   prepare requires cols, rows >= 1; returns where row y of the 0/1 image goes (marks +
+//   y * marks_stride(), cols bytes; the frame of 0 around it is set). scan requires every row
+//   written with 0 or 1; ensures what find(mask) ensures for the mask whose non-zero pixels
+//   are the 1s. row_flags() (rows bytes, all 1 after prepare): the caller may set row y's to 0
+//   when that row holds no 1, and the scan skips it (an empty row starts no border and its
+//   pixels are never marked, since tracing marks border pixels only, which are 1s).
 // Threading: holds scratch buffers; one instance per thread (a BlobFinder owns one).
 #pragma once
 
@@ -39,25 +48,48 @@ public:
   void find(const cv::Mat& mask) {
     detail::require(mask.type() == CV_8UC1 && !mask.empty(),
                     "ExternalContours::find: expected a non-empty CV_8UC1 mask");
-    points_.clear();
-    found_.clear();
-    const int w = mask.cols + 2, h = mask.rows + 2;
+    std::uint8_t* marks = prepare(mask.cols, mask.rows);
+    const int cols = mask.cols; // a local: byte stores below could alias mask.cols
+    for (int y = 0; y < mask.rows; ++y) {
+      const uchar* __restrict src = mask.ptr<uchar>(y);
+      std::uint8_t* __restrict dst = marks + static_cast<std::size_t>(y) * stride_;
+      for (int x = 0; x < cols; ++x) dst[x] = std::min<uchar>(src[x], 1); // 0/1 (vectorises)
+    }
+    scan();
+  }
+
+  std::uint8_t* prepare(int cols, int rows) {
+    detail::require(cols >= 1 && rows >= 1, "ExternalContours::prepare: expected a non-empty size");
+    cols_ = cols;
+    rows_ = rows;
+    const int w = cols + 2, h = rows + 2;
     const auto uw = static_cast<std::size_t>(w);
+    stride_ = uw;
     image_.resize(uw * static_cast<std::size_t>(h));
     std::int8_t* img = image_.data();
     std::fill(img, img + uw, 0); // the frame of 0 around the mask
     std::fill(img + (static_cast<std::size_t>(h) - 1) * uw, img + static_cast<std::size_t>(h) * uw,
               0);
-    const int cols = mask.cols; // a local: byte stores below could alias mask.cols
-    for (int y = 0; y < mask.rows; ++y) {
-      const uchar* __restrict src = mask.ptr<uchar>(y);
-      std::int8_t* __restrict dst = img + static_cast<std::size_t>(y + 1) * uw;
-      dst[0] = dst[w - 1] = 0;
-      for (int x = 0; x < cols; ++x) // 0/1 (min vectorises)
-        dst[x + 1] = static_cast<std::int8_t>(std::min<uchar>(src[x], 1));
+    for (int y = 1; y < h - 1; ++y) {
+      std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
+      row[0] = row[w - 1] = 0;
     }
+    row_flags_.assign(static_cast<std::size_t>(rows), 1);
+    // Character types may alias: the caller writes 0/1 bytes.
+    return reinterpret_cast<std::uint8_t*>(img + uw + 1);
+  }
+  std::size_t marks_stride() const { return stride_; }
+  std::uint8_t* row_flags() { return row_flags_.data(); }
+
+  void scan() {
+    points_.clear();
+    found_.clear();
+    const int w = cols_ + 2, h = rows_ + 2;
+    std::int8_t* img = image_.data();
+    const std::size_t uw = stride_;
     // The raster scan of OpenCV's scanner in RETR_EXTERNAL mode.
     for (int y = 1; y < h - 1; ++y) {
+      if (!row_flags_[static_cast<std::size_t>(y - 1)]) continue; // no 1 in this row
       std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
       int prev = 0, lnbd = 0; // lnbd: column of the last met border pixel in this row
       for (int x = 1; x < w - 1; ++x) {
@@ -164,9 +196,12 @@ private:
     found_.push_back(f);
   }
 
-  std::vector<std::int8_t> image_; // the padded mask: 0/1, then border marks
-  std::vector<cv::Point> points_;  // every contour's points, in the order found
-  std::vector<Found> found_;       // in the order found (the reverse of OpenCV's output)
+  std::vector<std::int8_t> image_;      // the padded mask: 0/1, then border marks
+  int cols_ = 0, rows_ = 0;             // the mask's size (prepare)
+  std::size_t stride_ = 0;              // cols_ + 2
+  std::vector<std::uint8_t> row_flags_; // 0: the row holds no 1 (skipped by the scan)
+  std::vector<cv::Point> points_;       // every contour's points, in the order found
+  std::vector<Found> found_;            // in the order found (the reverse of OpenCV's output)
 };
 
 SHADOWSENSE_NAMESPACE_END

@@ -23,10 +23,24 @@
 //   ensures:  k <= 1: mask unchanged. Else mask = 255 where the blurred value is > 127, else 0,
 //             in place.
 //   throws:   InvalidArgument for a bad mask or k.
+// Row by row (the segmenter's one pass: each row is smoothed while it is still in cache):
+// MaskSmoother::streams(k, size): true when k is 0, 1, 3 or 5 and both sides are >= 2 (the
+//   sizes the row kernels of segment_kernels.hpp do; apply() handles every other case).
+// begin(mask, k, marks, marks_stride)
+//   requires: streams(k, mask.size()); mask CV_8UC1, allocated; marks null or rows of at least
+//             mask.cols bytes, marks_stride apart; row_flags null or mask.rows bytes.
+//   then, for y = 0 .. rows - 1 in order: write raw row y (w bytes, any values) into row(),
+//   then push(); then end().
+//   ensures:  after end(), mask is what apply(raw mask, k) gives (k <= 1: the raw mask), and
+//             marks row y holds 1 where mask row y is non-zero, else 0, and row_flags[y]
+//             (when given) is 1 when mask row y has a non-zero pixel, else 0. Rows of mask are
+//             written as soon as they are final (row y - k / 2 at the push of row y), so mask may
+//             be the raw mask's own storage only through apply().
 // Threading: a MaskSmoother holds scratch rows; one instance per thread (a Segmenter owns one).
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/segment_kernels.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -102,22 +116,83 @@ public:
       k_ = k;
     }
     const int w = mask.cols, h = mask.rows;
+    if (streams(k, mask.size())) { // the default sizes: row by row, all in 16 bits
+      begin(mask, k);
+      for (int y = 0; y < h; ++y) {
+        std::copy(mask.ptr<uchar>(y), mask.ptr<uchar>(y) + w, row()); // row y is still raw
+        push();
+      }
+      end();
+      return;
+    }
     // OpenCV leaves a side of length 1 unblurred (replicated borders).
     const int kx = w == 1 ? 1 : k, ky = h == 1 ? 1 : k;
     const auto uw = static_cast<std::size_t>(w);
     horizontal_.resize(uw * static_cast<std::size_t>(h));
     padded_.resize(uw + static_cast<std::size_t>(kx - 1));
-    if (kx == k && ky == k &&
-        (k == 3 || k == 5)) { // the default size: all in 16 bits, constant taps
-      k == 3 ? small<3>(mask) : small<5>(mask);
-      return;
-    }
     // The common sizes unrolled (one pass per row, vectorised).
     with_unrolled(kx, [&](auto n) { horizontal<decltype(n)::value>(mask); });
     with_unrolled(ky, [&](auto n) { vertical<decltype(n)::value>(mask); });
   }
 
+  static bool streams(int k, cv::Size size) {
+    return k <= 1 || ((k == 3 || k == 5) && size.width >= 2 && size.height >= 2);
+  }
+
+  void begin(cv::Mat& mask, int k, std::uint8_t* marks = nullptr, std::size_t marks_stride = 0,
+             std::uint8_t* row_flags = nullptr) {
+    detail::require(mask.type() == CV_8UC1 && !mask.empty() && streams(k, mask.size()),
+                    "MaskSmoother::begin: expected a CV_8UC1 mask of at least 2 x 2 and a kernel "
+                    "size of 0, 1, 3 or 5");
+    mask_ = &mask;
+    marks_ = marks;
+    marks_stride_ = marks_stride;
+    row_flags_ = row_flags;
+    stream_k_ = k <= 1 ? 1 : k;
+    next_ = 0;
+    const auto uw = static_cast<std::size_t>(mask.cols);
+    if (stream_k_ > 1) {
+      padded_.resize(uw + static_cast<std::size_t>(stream_k_ - 1));
+      ring_.resize(uw * static_cast<std::size_t>(stream_k_));
+      const detail::SegmentKernels& kern = segment_kernels();
+      hsum_ = stream_k_ == 3 ? kern.hsum3 : kern.hsum5;
+      vsum_ = stream_k_ == 3 ? kern.vsum3 : kern.vsum5;
+    }
+  }
+  // Where the raw row goes: k <= 1 straight into the mask, else a row with room for the
+  // replicated ends.
+  std::uint8_t* row() {
+    return stream_k_ == 1 ? mask_->ptr<uchar>(next_) : padded_.data() + stream_k_ / 2;
+  }
+  void push() {
+    const int w = mask_->cols, r = stream_k_ / 2, y = next_++;
+    if (stream_k_ == 1) {
+      if (marks_) {
+        const uchar* src = mask_->ptr<uchar>(y);
+        std::uint8_t* m = marks_ + static_cast<std::size_t>(y) * marks_stride_;
+        std::uint8_t any = 0;
+        for (int x = 0; x < w; ++x) any |= m[x] = std::min<uchar>(src[x], 1);
+        if (row_flags_) row_flags_[y] = any;
+      }
+      return;
+    }
+    std::uint8_t* pad = padded_.data();
+    std::fill(pad, pad + r, pad[r]);
+    std::fill(pad + r + w, pad + 2 * r + w, pad[r + w - 1]);
+    hsum_(pad, w, ring_row(y));
+    if (y >= r) emit(y - r);
+  }
+  void end() {
+    if (stream_k_ > 1)
+      for (int y = std::max(0, mask_->rows - stream_k_ / 2); y < mask_->rows; ++y) emit(y);
+    mask_ = nullptr;
+  }
+
 private:
+  // k = 3 and 5 (the row kernels): the taps are g w with g = 64, w = (1 2 1) and g = 16,
+  // w = (1 4 6 4 1). With g taken out, h' = sum w p < 2^12 and V = sum w h' < 2^16, and
+  // acc = g^2 V; so out > 127 exactly when V >= (2^23 - 2^15) / g^2 (2040 and 32640, both
+  // exact).
   // f(std::integral_constant<int, size>) for the unrolled sizes 1, 3, 5 and 7, else
   // f(std::integral_constant<int, 0>) (the generic loop).
   template <class F>
@@ -135,45 +210,20 @@ private:
       return f(std::integral_constant<int, 0>{});
     }
   }
-  // k = 3 and 5: the taps are g w with g = 64, w = (1 2 1) and g = 16, w = (1 4 6 4 1). With g
-  // taken out, h' = sum w p < 2^12 and V = sum w h' < 2^16, and acc = g^2 V; so out > 127
-  // exactly when V >= (2^23 - 2^15) / g^2 (2040 and 32640, both exact).
-  template <int K>
-  void small(cv::Mat& mask) {
-    static_assert(K == 3 || K == 5);
-    constexpr std::array<std::uint16_t, 5> wt = K == 3
-                                                    ? std::array<std::uint16_t, 5>{1, 2, 1, 0, 0}
-                                                    : std::array<std::uint16_t, 5>{1, 4, 6, 4, 1};
-    constexpr std::uint16_t on = K == 3 ? 2040 : 32640;
-    constexpr int r = K / 2;
-    const int w = mask.cols, h = mask.rows;
-    const auto uw = static_cast<std::size_t>(w);
-    for (int y = 0; y < h; ++y) {
-      const uchar* src = mask.ptr<uchar>(y);
-      std::uint8_t* __restrict pad = padded_.data();
-      std::fill(pad, pad + r, src[0]);
-      std::copy(src, src + w, pad + r);
-      std::fill(pad + r + w, pad + 2 * r + w, src[w - 1]);
-      std::uint16_t* __restrict out = horizontal_.data() + static_cast<std::size_t>(y) * uw;
-      for (int x = 0; x < w; ++x) {
-        std::uint16_t sum = 0;
-        for (std::size_t t = 0; t < K; ++t)
-          sum = static_cast<std::uint16_t>(sum + wt[t] * pad[static_cast<std::size_t>(x) + t]);
-        out[x] = sum;
-      }
-    }
-    for (int y = 0; y < h; ++y) {
-      std::array<const std::uint16_t* __restrict, K> in{};
-      for (int t = 0; t < K; ++t)
-        in[static_cast<std::size_t>(t)] =
-            horizontal_.data() + static_cast<std::size_t>(std::clamp(y + t - r, 0, h - 1)) * uw;
-      uchar* __restrict dst = mask.ptr<uchar>(y);
-      for (int x = 0; x < w; ++x) {
-        std::uint16_t v = 0;
-        for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
-        dst[x] = v >= on ? 255 : 0;
-      }
-    }
+  std::uint16_t* ring_row(int y) {
+    return ring_.data() +
+           static_cast<std::size_t>(y % stream_k_) * static_cast<std::size_t>(mask_->cols);
+  }
+  // Final row y of the mask from the horizontal sums of rows y - r .. y + r (clamped: the
+  // replicated top and bottom rows), all in the ring.
+  void emit(int y) {
+    const int h = mask_->rows, r = stream_k_ / 2;
+    std::array<const std::uint16_t*, 5> rows{};
+    for (int t = 0; t < stream_k_; ++t)
+      rows[static_cast<std::size_t>(t)] = ring_row(std::clamp(y + t - r, 0, h - 1));
+    const bool any = vsum_(rows.data(), mask_->cols, mask_->ptr<uchar>(y),
+                           marks_ ? marks_ + static_cast<std::size_t>(y) * marks_stride_ : nullptr);
+    if (row_flags_) row_flags_[y] = any ? 1 : 0;
   }
 
   // A pass's taps in 16-bit lanes: K = 1 is one tap of 256 (a side of length 1 is not
@@ -250,6 +300,16 @@ private:
       }
     }
   }
+
+  // The streaming state (begin .. end).
+  cv::Mat* mask_ = nullptr;
+  std::uint8_t* marks_ = nullptr;
+  std::size_t marks_stride_ = 0;
+  std::uint8_t* row_flags_ = nullptr; // per row: 0 when the final row is all 0 (or null)
+  int stream_k_ = 1, next_ = 0;
+  detail::HsumRowFn hsum_ = nullptr;
+  detail::VsumRowFn vsum_ = nullptr;
+  std::vector<std::uint16_t> ring_; // horizontal sums of the last k rows (row y at y % k)
 
   int k_ = 0;
   std::array<int, 31> taps_{};

@@ -21,6 +21,10 @@
 //               means shadow in this frame, used for the blobs' opacity); a rule without them
 //               releases out.darkness (then blobs carry darkness 0 and the model does not adapt).
 //   Optional member `bool uses_reference() const`: false skips the per-frame reference.
+//   Optional row interface (RowPixelRule below): begin_rows + classify_row, so the segmenter can
+//   classify, smooth and scan row by row in one pass over the frame. The library's three rules
+//   have it; RelativeRule's per-pixel work is segment_kernels.hpp's relative_row (AVX2, NEON or
+//   portable, picked at run time, the same floats and bytes from each).
 //
 // Models here:
 //  * RelativeRule (the default): each pixel over the lit, empty skin's colour there, q = I /
@@ -40,9 +44,9 @@
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/segment_kernels.hpp>
 
 #include <opencv2/core.hpp>
-#include <opencv2/core/hal/intrin.hpp>
 
 #include <algorithm>
 #include <array>
@@ -211,6 +215,21 @@ concept PixelRule = requires(const R& r, const PixelRuleInput& in, PixelRuleOutp
   { r.classify(in, out) } -> std::same_as<void>;
 };
 
+// The optional row interface: a rule that also classifies one row at a time lets the segmenter
+// smooth and scan each row while it is in cache (one pass over the frame, segmenter.hpp).
+//   begin_rows(in, out) -> RowState: once per frame, before the rows; does what classify does to
+//     out but the masks (features allocated or released, shadow_threshold set).
+//   classify_row(in, state, out, y, shadow, contact): row y, as classify would write it, into
+//     the rows `shadow` and `contact` (in.bgr.cols bytes each; the features into out's row y).
+// classify(in, out) must equal begin_rows then classify_row for every row into out's masks.
+template <class R>
+concept RowPixelRule = PixelRule<R> &&
+    requires(const R& r, const PixelRuleInput& in, PixelRuleOutput& out,
+             const typename R::RowState& st, int y, uchar* row) {
+  { r.begin_rows(in, out) } -> std::same_as<typename R::RowState>;
+  { r.classify_row(in, st, out, y, row, row) } -> std::same_as<void>;
+};
+
 namespace detail {
 template <class R>
 bool rule_uses_reference(const R& r) {
@@ -229,22 +248,28 @@ struct FixedRangeRule {
   ColourRange contact_range{{0, 0, 40}, {90, 110, 160}};
 
   bool uses_reference() const { return false; }
-  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+  struct RowState {};
+  RowState begin_rows(const PixelRuleInput&, PixelRuleOutput& out) const {
     out.darkness.release();
     out.warmth.release();
     out.shadow_threshold = 0;
-    for (int y = 0; y < in.bgr.rows; ++y) {
-      const cv::Vec3b* px = in.bgr.ptr<cv::Vec3b>(y);
-      const uchar* v = in.skin.ptr<uchar>(y);
-      uchar* s = out.shadow_mask.ptr<uchar>(y);
-      uchar* c = out.contact_mask.ptr<uchar>(y);
-      for (int x = 0; x < in.bgr.cols; ++x) {
-        const bool skin = v[x] != 0;
-        const bool contact = skin && contact_range.contains(px[x]);
-        c[x] = contact ? 255 : 0;
-        s[x] = (contact || (skin && shadow_range.contains(px[x]))) ? 255 : 0;
-      }
+    return {};
+  }
+  void classify_row(const PixelRuleInput& in, const RowState&, PixelRuleOutput&, int y, uchar* s,
+                    uchar* c) const {
+    const cv::Vec3b* px = in.bgr.ptr<cv::Vec3b>(y);
+    const uchar* v = in.skin.ptr<uchar>(y);
+    for (int x = 0; x < in.bgr.cols; ++x) {
+      const bool skin = v[x] != 0;
+      const bool contact = skin && contact_range.contains(px[x]);
+      c[x] = contact ? 255 : 0;
+      s[x] = (contact || (skin && shadow_range.contains(px[x]))) ? 255 : 0;
     }
+  }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    const RowState st = begin_rows(in, out);
+    for (int y = 0; y < in.bgr.rows; ++y)
+      classify_row(in, st, out, y, out.shadow_mask.ptr<uchar>(y), out.contact_mask.ptr<uchar>(y));
   }
 };
 
@@ -260,7 +285,12 @@ struct RelativeRule {
         by_light, {luminance, shadow_darkness, contact_darkness, contact_warmth});
   }
 
-  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+  // One frame's constants and kernels (the row interface, see RowPixelRule above).
+  struct RowState {
+    detail::RelativeRowParams params;
+    const detail::SegmentKernels* kernels;
+  };
+  RowState begin_rows(const PixelRuleInput& in, PixelRuleOutput& out) const {
     const cv::Size size = in.bgr.size();
     out.darkness.create(size, CV_32F);
     out.warmth.create(size, CV_32F);
@@ -268,86 +298,23 @@ struct RelativeRule {
     const LightThresholds th =
         by_light.empty() ? LightThresholds{0, shadow_darkness, contact_darkness, contact_warmth}
                          : thresholds_at(detail::luminance(gain));
-    const float ts = th.shadow_darkness, tc = th.contact_darkness, tw = th.contact_warmth;
-    out.shadow_threshold = ts;
-    const float gb = 1.f / gain[0], gg = 1.f / gain[1], gr = 1.f / gain[2];
+    out.shadow_threshold = th.shadow_darkness;
+    return {{1.f / gain[0], 1.f / gain[1], 1.f / gain[2], th.shadow_darkness, th.contact_darkness,
+             th.contact_warmth},
+            &segment_kernels()};
+  }
+  void classify_row(const PixelRuleInput& in, const RowState& st, PixelRuleOutput& out, int y,
+                    uchar* shadow, uchar* contact) const {
     const std::array<cv::Mat, 4>& planes = in.inverse_model;
-    for (int y = 0; y < size.height; ++y) {
-      const uchar* src = in.bgr.ptr<uchar>(y);
-      const float* ipb = planes[0].ptr<float>(y);
-      const float* ipg = planes[1].ptr<float>(y);
-      const float* ipr = planes[2].ptr<float>(y);
-      const float* sk = planes[3].ptr<float>(y);
-      const uchar* v = in.skin.ptr<uchar>(y);
-      float* dk = out.darkness.ptr<float>(y);
-      float* wm = out.warmth.ptr<float>(y);
-      uchar* sm = out.shadow_mask.ptr<uchar>(y);
-      uchar* cm = out.contact_mask.ptr<uchar>(y);
-      int x = 0;
-#if CV_SIMD128
-      // 16 pixels at a time with OpenCV's universal intrinsics (same arithmetic as below).
-      const cv::v_float32x4 vgb = cv::v_setall_f32(gb), vgg = cv::v_setall_f32(gg),
-                            vgr = cv::v_setall_f32(gr), third = cv::v_setall_f32(1.f / 3.f),
-                            vts = cv::v_setall_f32(ts), vtc = cv::v_setall_f32(tc),
-                            vtw = cv::v_setall_f32(tw);
-      auto to_f32 = [](const cv::v_uint8x16& a, cv::v_float32x4* o) {
-        cv::v_uint16x8 lo, hi;
-        cv::v_expand(a, lo, hi);
-        cv::v_uint32x4 a0, a1, a2, a3;
-        cv::v_expand(lo, a0, a1);
-        cv::v_expand(hi, a2, a3);
-        o[0] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a0));
-        o[1] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a1));
-        o[2] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a2));
-        o[3] = cv::v_cvt_f32(cv::v_reinterpret_as_s32(a3));
-      };
-      for (; x + 16 <= size.width; x += 16) {
-        cv::v_uint8x16 b8, g8, r8;
-        cv::v_load_deinterleave(src + 3 * x, b8, g8, r8);
-        cv::v_float32x4 fb[4], fg[4], fr[4];
-        to_f32(b8, fb);
-        to_f32(g8, fg);
-        to_f32(r8, fr);
-        cv::v_int32x4 cmask[4], smask[4];
-        for (int j = 0; j < 4; ++j) {
-          const int o = x + 4 * j;
-          const cv::v_float32x4 qb = fb[j] * cv::v_load(ipb + o) * vgb;
-          const cv::v_float32x4 qg = fg[j] * cv::v_load(ipg + o) * vgg;
-          const cv::v_float32x4 qr = fr[j] * cv::v_load(ipr + o) * vgr;
-          const cv::v_float32x4 d = cv::v_load(sk + o) - (qb + qg + qr) * third;
-          const cv::v_float32x4 w = qr - qb;
-          cv::v_store(dk + o, d);
-          cv::v_store(wm + o, w);
-          cmask[j] = cv::v_reinterpret_as_s32((d >= vtc) & (w >= vtw));
-          smask[j] = cv::v_reinterpret_as_s32(d >= vts);
-        }
-        const cv::v_uint8x16 skin = cv::v_load(v + x);
-        const cv::v_uint8x16 c =
-            cv::v_reinterpret_as_u8(
-                cv::v_pack(cv::v_pack(cmask[0], cmask[1]), cv::v_pack(cmask[2], cmask[3]))) &
-            skin;
-        const cv::v_uint8x16 sh =
-            (cv::v_reinterpret_as_u8(
-                 cv::v_pack(cv::v_pack(smask[0], smask[1]), cv::v_pack(smask[2], smask[3]))) &
-             skin) |
-            c;
-        cv::v_store(cm + x, c);
-        cv::v_store(sm + x, sh);
-      }
-#endif
-      for (; x < size.width; ++x) {
-        const float qb = static_cast<float>(src[3 * x]) * ipb[x] * gb;
-        const float qg = static_cast<float>(src[3 * x + 1]) * ipg[x] * gg;
-        const float qr = static_cast<float>(src[3 * x + 2]) * ipr[x] * gr;
-        const float d = sk[x] - (qb + qg + qr) * (1.f / 3.f);
-        const float w = qr - qb;
-        dk[x] = d;
-        wm[x] = w;
-        const uchar contact = (d >= tc && w >= tw) ? v[x] : uchar(0);
-        cm[x] = contact;
-        sm[x] = static_cast<uchar>((d >= ts ? v[x] : uchar(0)) | contact);
-      }
-    }
+    st.kernels->relative_row(st.params, in.bgr.ptr<uchar>(y), planes[0].ptr<float>(y),
+                             planes[1].ptr<float>(y), planes[2].ptr<float>(y),
+                             in.skin.ptr<uchar>(y), in.bgr.cols, out.darkness.ptr<float>(y),
+                             out.warmth.ptr<float>(y), shadow, contact);
+  }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    const RowState st = begin_rows(in, out);
+    for (int y = 0; y < in.bgr.rows; ++y)
+      classify_row(in, st, out, y, out.shadow_mask.ptr<uchar>(y), out.contact_mask.ptr<uchar>(y));
   }
 };
 
@@ -361,6 +328,23 @@ public:
                                                                           c.contact_warmth,
                                                                           c.by_light} {}
   bool uses_reference() const { return mode_ == SegmentMode::relative; }
+  struct RowState {
+    RelativeRule::RowState relative; // unused in fixed_ranges mode
+  };
+  RowState begin_rows(const PixelRuleInput& in, PixelRuleOutput& out) const {
+    if (mode_ == SegmentMode::fixed_ranges) {
+      fixed_.begin_rows(in, out);
+      return {};
+    }
+    return {relative_.begin_rows(in, out)};
+  }
+  void classify_row(const PixelRuleInput& in, const RowState& st, PixelRuleOutput& out, int y,
+                    uchar* shadow, uchar* contact) const {
+    if (mode_ == SegmentMode::fixed_ranges)
+      fixed_.classify_row(in, {}, out, y, shadow, contact);
+    else
+      relative_.classify_row(in, st.relative, out, y, shadow, contact);
+  }
   void classify(const PixelRuleInput& in, PixelRuleOutput& out) const {
     if (mode_ == SegmentMode::fixed_ranges)
       fixed_.classify(in, out);
@@ -375,5 +359,7 @@ private:
 };
 
 static_assert(PixelRule<FixedRangeRule> && PixelRule<RelativeRule> && PixelRule<CalibratedRule>);
+static_assert(RowPixelRule<FixedRangeRule> && RowPixelRule<RelativeRule> &&
+              RowPixelRule<CalibratedRule>);
 
 SHADOWSENSE_NAMESPACE_END

@@ -6,6 +6,14 @@
 // border_following.hpp), equal to OpenCV's bit for bit and point for point, without per-frame
 // allocations.
 //
+// One pass over the frame: when the rule has the row interface (RowPixelRule, pixel_rule.hpp:
+// both of the library's rules) and mask_blur is 0, 1, 3 or 5 (default 5), each row is
+// classified, smoothed and written to the masks and to the contour images while it is in cache
+// (the per-row kernels: segment_kernels.hpp, AVX2 / NEON / portable); otherwise the rule runs
+// over the whole frame and the masks are smoothed and scanned in passes of their own. Both give
+// the same masks, features and blobs (tests/test_segment_one_pass.cpp, against
+// segment_reference.hpp).
+//
 // BasicSegmenter<Rule> does everything around the per-pixel decision, which a PixelRule makes
 // (pixel_rule.hpp): the empty-skin model, the per-frame reference, mask clean-up, blobs
 // (blobs.hpp), shadow opacity and hover height (hover_height.hpp). `Segmenter` is
@@ -67,6 +75,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -250,13 +259,24 @@ public:
     check_frame(bgr);
     if (config_.adaptive && profile_.empty()) set_empty_skin({bgr}); // first frame = empty skin
     smooth(bgr);
-    classify(out);
-    finish_mask(out.shadow_mask);
-    finish_mask(out.contact_mask);
-    out.dropped_shadow_blobs = extract(out.shadow_mask, config_.min_shadow_area,
-                                       config_.shadow_merge_gap, out.shadows, true);
-    out.dropped_contact_blobs = extract(out.contact_mask, config_.min_contact_area,
-                                        config_.contact_merge_gap, out.contacts, true);
+    bool prepared = false; // the contour images written by the one pass
+    if constexpr (RowPixelRule<Rule>) {
+      if (MaskSmoother::streams(config_.mask_blur, bgr.size())) {
+        classify_in_one_pass(out);
+        prepared = true;
+      }
+    }
+    if (!prepared) { // a rule without rows, or a kernel the row pass does not do
+      classify(out);
+      shadow_smoother_.apply(out.shadow_mask, config_.mask_blur);
+      contact_smoother_.apply(out.contact_mask, config_.mask_blur);
+    }
+    out.dropped_shadow_blobs =
+        extract(out.shadow_mask, config_.min_shadow_area, config_.shadow_merge_gap, out.shadows,
+                shadow_finder_, prepared);
+    out.dropped_contact_blobs =
+        extract(out.contact_mask, config_.min_contact_area, config_.contact_merge_gap, out.contacts,
+                contact_finder_, prepared);
     summarise(out);
     if (config_.adaptive) adapt(out);
   }
@@ -321,13 +341,17 @@ private:
     const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
     int n = 0;
     if (prof) { // the model's precomputed sample grid (on the skin only), contiguous in memory
-      for (const RefSample& r : ref_samples_) {
-        const uchar* px = src_->ptr<uchar>(r.y) + 3 * r.x;
-        for (int k = 0; k < 3; ++k)
-          ++hist[k][static_cast<std::size_t>(
-              std::clamp(static_cast<int>(px[k] * r.inv[k] * 4.f), 0, bins - 1))];
+      n = static_cast<int>(ref_y_.size());
+      const auto un = static_cast<std::size_t>(n);
+      ref_bins_.resize(3 * un);
+      segment_kernels().reference_bins(src_->ptr<uchar>(0), src_->step[0], ref_y_.data(),
+                                       ref_x_.data(), ref_inv_[0].data(), ref_inv_[1].data(),
+                                       ref_inv_[2].data(), n, ref_bins_.data(),
+                                       ref_bins_.data() + un, ref_bins_.data() + 2 * un);
+      for (std::size_t k = 0; k < 3; ++k) {
+        int* h = hist[k].data();
+        for (const std::uint16_t b : std::span(ref_bins_).subspan(k * un, un)) ++h[b];
       }
-      n = static_cast<int>(ref_samples_.size());
     } else {
       for (int y = 1; y < src_->rows; y += 3) {
         const uchar* row = src_->ptr<uchar>(y);
@@ -350,7 +374,8 @@ private:
     return ref;
   }
 
-  void classify(Segmentation& out) {
+  // The masks allocated, the frame's reference, and what the rule reads.
+  PixelRuleInput rule_input(Segmentation& out) {
     const cv::Size size = src_->size();
     out.shadow_mask.create(size, CV_8UC1);
     out.contact_mask.create(size, CV_8UC1);
@@ -364,24 +389,57 @@ private:
       uniform_valid_.setTo(255);
     }
     if (detail::rule_uses_reference(rule_)) gain_ = global_reference();
-    const PixelRuleInput in{*src_, prof ? inv_planes_ : uniform_planes_,
-                            prof ? valid_ : uniform_valid_, gain_};
+    return {*src_, prof ? inv_planes_ : uniform_planes_, prof ? valid_ : uniform_valid_, gain_};
+  }
+
+  // The multi-pass way: the rule over the whole frame (then the masks are smoothed and scanned
+  // in passes of their own).
+  void classify(Segmentation& out) {
+    const PixelRuleInput in = rule_input(out);
     PixelRuleOutput o{out.shadow_mask, out.contact_mask, darkness_, warmth_};
     rule_.classify(in, o);
     frame_shadow_threshold_ = o.shadow_threshold;
   }
 
-  // Gaussian blur of the binary mask, then back to binary at half height: a majority filter that
-  // removes speckle and fills pinholes without moving straight edges (mask_smoothing.hpp:
-  // bit-identical to cv::GaussianBlur + cv::threshold, without allocating per frame).
-  void finish_mask(cv::Mat& mask) { smoother_.apply(mask, config_.mask_blur); }
+  // One pass over the frame: each row is classified, then both class masks are smoothed (a
+  // Gaussian blur of the binary mask, back to binary at half height: a majority filter that
+  // removes speckle and fills pinholes without moving straight edges; mask_smoothing.hpp) and
+  // their final rows written, with the 0/1 contour images (border_following.hpp), while the
+  // rows are in cache. The same masks, features and contours as classify() + apply() + find().
+  void classify_in_one_pass(Segmentation& out) requires RowPixelRule<Rule> {
+    const PixelRuleInput in = rule_input(out);
+    PixelRuleOutput o{out.shadow_mask, out.contact_mask, darkness_, warmth_};
+    const typename Rule::RowState st = rule_.begin_rows(in, o);
+    const int w = src_->cols, h = src_->rows;
+    ExternalContours& sc = shadow_finder_.contours_input();
+    ExternalContours& cc = contact_finder_.contours_input();
+    std::uint8_t* const shadow_marks = sc.prepare(w, h);
+    std::uint8_t* const contact_marks = cc.prepare(w, h);
+    shadow_smoother_.begin(out.shadow_mask, config_.mask_blur, shadow_marks, sc.marks_stride(),
+                           sc.row_flags());
+    contact_smoother_.begin(out.contact_mask, config_.mask_blur, contact_marks, cc.marks_stride(),
+                            cc.row_flags());
+    for (int y = 0; y < h; ++y) {
+      rule_.classify_row(in, st, o, y, shadow_smoother_.row(), contact_smoother_.row());
+      shadow_smoother_.push();
+      contact_smoother_.push();
+    }
+    shadow_smoother_.end();
+    contact_smoother_.end();
+    frame_shadow_threshold_ = o.shadow_threshold;
+  }
 
-  // Blobs of one class mask; returns how many contours the cap dropped.
+  // Blobs of one class mask; returns how many contours the cap dropped. prepared: the finder's
+  // contour image is already written (the one pass).
   std::size_t extract(const cv::Mat& mask, double min_area, int merge_gap, std::vector<Blob>& blobs,
-                      bool measure_edges = false) {
+                      BlobFinder& finder, bool prepared) {
     blobs.clear();
-    finder_.find(mask, min_area, merge_gap, static_cast<std::size_t>(config_.max_blobs));
-    for (const BlobFinder::Group& g : finder_.groups()) {
+    const auto cap = static_cast<std::size_t>(config_.max_blobs);
+    if (prepared)
+      finder.find_prepared(mask, min_area, merge_gap, cap);
+    else
+      finder.find(mask, min_area, merge_gap, cap);
+    for (const BlobFinder::Group& g : finder.groups()) {
       Blob b;
       b.box = g.box;
       const cv::Moments m = cv::moments(mask(g.box), true);
@@ -392,7 +450,7 @@ private:
                        : cv::Point2f(g.box.x + g.box.width * 0.5f, g.box.y + g.box.height * 0.5f);
       if (!darkness_.empty()) {
         b.darkness = static_cast<float>(cv::mean(darkness_(g.box), mask(g.box))[0]);
-        if (measure_edges) b.edge_width = edge_width(g, b.darkness);
+        b.edge_width = edge_width(g, b.darkness, finder);
       }
       blobs.push_back(b);
     }
@@ -400,7 +458,7 @@ private:
       return a.area != b.area ? a.area > b.area
                               : (a.box.x != b.box.x ? a.box.x < b.box.x : a.box.y < b.box.y);
     });
-    return finder_.dropped();
+    return finder.dropped();
   }
 
   // 95th percentile of the darkness over a blob's mask, over twice the frame's shadow threshold.
@@ -459,11 +517,17 @@ private:
 
   // The pixels (every third of every third row, on the skin) that set each frame's gain.
   void refresh_ref_samples() {
-    ref_samples_.clear();
+    ref_y_.clear();
+    ref_x_.clear();
+    for (auto& v : ref_inv_) v.clear();
     for (int y = 1; y < inv_profile_.rows; y += 3) {
       const cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
       for (int x = 1; x < inv_profile_.cols; x += 3)
-        if (ip[x][0] != 0.f) ref_samples_.push_back({y, x, ip[x]});
+        if (ip[x][0] != 0.f) {
+          ref_y_.push_back(y);
+          ref_x_.push_back(x);
+          for (int k = 0; k < 3; ++k) ref_inv_[static_cast<std::size_t>(k)].push_back(ip[x][k]);
+        }
     }
   }
 
@@ -493,13 +557,13 @@ private:
   // Width of the darkness ramp at a blob's edge: its mean darkness divided by the mean darkness
   // gradient on its contour (a Gaussian penumbra of sigma s gives about 2.5 s). Grows with the
   // height of a hovering part; see HoverHeightModel.
-  float edge_width(const BlobFinder::Group& group, float darkness) {
+  float edge_width(const BlobFinder::Group& group, float darkness, const BlobFinder& finder) {
     double sum = 0;
     int n = 0;
     const int w = darkness_.cols, h = darkness_.rows;
     for (const int j : group.members) {
-      const std::size_t c = finder_.kept()[static_cast<std::size_t>(j)].contour;
-      for (const cv::Point& p : finder_.contours().contour(c)) {
+      const std::size_t c = finder.kept()[static_cast<std::size_t>(j)].contour;
+      for (const cv::Point& p : finder.contours().contour(c)) {
         // Differences over +-2 px, averaged over the 3 rows/columns across: robust to noise.
         const int x0 = std::max(p.x - 2, 0), x1 = std::min(p.x + 2, w - 1);
         const int y0 = std::max(p.y - 2, 0), y1 = std::min(p.y + 2, h - 1);
@@ -530,16 +594,16 @@ private:
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
-  struct RefSample {
-    int y, x;
-    cv::Vec3f inv;
-  };
-  std::vector<RefSample> ref_samples_;
+  // The reference's samples (row, column, inverse model per channel), one array each for the
+  // vector kernel, and their histogram bins per channel (scratch).
+  std::vector<std::int32_t> ref_y_, ref_x_;
+  std::array<std::vector<float>, 3> ref_inv_;
+  mutable std::vector<std::uint16_t> ref_bins_;
   cv::Vec3f gain_{1, 1, 1};
   float frame_shadow_threshold_ = 0;
   mutable std::array<std::vector<int>, 3> hist_;
-  BlobFinder finder_;
-  MaskSmoother smoother_;
+  BlobFinder shadow_finder_, contact_finder_;       // one each: the one pass fills both images
+  MaskSmoother shadow_smoother_, contact_smoother_; // likewise, row by row
 };
 
 // The segmenter users have: the rule a SegmenterCalibration selects.
@@ -547,6 +611,7 @@ using Segmenter = BasicSegmenter<CalibratedRule>;
 
 SHADOWSENSE_NAMESPACE_END
 
-// Calibration (fit and file) used to live in this header; keep including it for existing users.
-#include <shadowsense/sense/calibration.hpp>
+// The calibration file (load_calibration, save_calibration) used to live in this header; keep
+// including it for existing users. It needs only pixel_rule.hpp. The fit (calibration.hpp) uses
+// the Segmenter, so it includes this header and not the other way round: include it directly.
 #include <shadowsense/sense/calibration_file.hpp>

@@ -1,0 +1,126 @@
+// Which per-row kernels the segmenter's one pass over the frame uses (the relative rule's
+// per-pixel decision and the rows of the mask smoothing), picked once per process from what the
+// CPU runs. The kernels live apart, all with one contract (segment_kernels_portable.hpp) and the
+// same results, byte for byte and float for float:
+//   segment_kernels_portable.hpp  plain C++ (any CPU)
+//   segment_kernels_x86.hpp       AVX2 (x86-64), chosen at run time, no -march needed
+//   segment_kernels_neon.hpp      Advanced SIMD (aarch64), compiled in there
+// No AVX-512 path: the pass is bound by memory at AVX2's width, and AVX-512 could not be run
+// where this was written (an AVX2 machine), so it would be untested.
+//
+// SegmentKernelKind: automatic picks avx2 on an x86 CPU that has it, neon on aarch64, else
+//   portable.
+// segment_cpu_has(kind): true when kind is compiled in and the CPU runs it (automatic: false).
+// segment_kernels(kind)
+//   requires: kind is automatic or segment_cpu_has(kind); throws InvalidArgument otherwise.
+//   ensures:  the kernels of that kind (automatic: the CPU check runs once per process).
+// No state but the cached automatic choice (a function-local static): any thread.
+#pragma once
+
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/segment_kernels_neon.hpp>
+#include <shadowsense/sense/segment_kernels_portable.hpp>
+#include <shadowsense/sense/segment_kernels_x86.hpp>
+
+#include <string>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+
+enum class SegmentKernelKind { automatic, avx2, neon, portable };
+
+inline const char* segment_kernel_name(SegmentKernelKind k) {
+  switch (k) {
+  case SegmentKernelKind::avx2:
+    return "avx2";
+  case SegmentKernelKind::neon:
+    return "neon";
+  case SegmentKernelKind::portable:
+    return "portable";
+  default:
+    return "automatic";
+  }
+}
+
+inline bool segment_cpu_has(SegmentKernelKind kind) {
+  switch (kind) {
+  case SegmentKernelKind::portable:
+    return true;
+#if SHADOWSENSE_SEGMENT_X86
+  case SegmentKernelKind::avx2:
+    return __builtin_cpu_supports("avx2");
+#endif
+#if SHADOWSENSE_SEGMENT_NEON
+  case SegmentKernelKind::neon:
+    return true;
+#endif
+  default:
+    return false;
+  }
+}
+
+namespace detail {
+
+struct SegmentKernels {
+  SegmentKernelKind kind;
+  RelativeRowFn relative_row;
+  HsumRowFn hsum3, hsum5;
+  VsumRowFn vsum3, vsum5;
+  ReferenceBinsFn reference_bins;
+};
+
+inline SegmentKernels make_segment_kernels(SegmentKernelKind kind) {
+  switch (kind) {
+#if SHADOWSENSE_SEGMENT_X86
+  case SegmentKernelKind::avx2:
+    return {.kind = kind,
+            .relative_row = relative_row_avx2,
+            .hsum3 = hsum_row_avx2<3>,
+            .hsum5 = hsum_row_avx2<5>,
+            .vsum3 = vsum_row_avx2<3>,
+            .vsum5 = vsum_row_avx2<5>,
+            .reference_bins = reference_bins_avx2};
+#endif
+#if SHADOWSENSE_SEGMENT_NEON
+  case SegmentKernelKind::neon: // NEON has no gather: the reference's samples stay portable
+    return {.kind = kind,
+            .relative_row = relative_row_neon,
+            .hsum3 = hsum_row_portable<3>,
+            .hsum5 = hsum_row_portable<5>,
+            .vsum3 = vsum_row_portable<3>,
+            .vsum5 = vsum_row_portable<5>,
+            .reference_bins = reference_bins_portable};
+#endif
+  default:
+    return {.kind = SegmentKernelKind::portable,
+            .relative_row = relative_row_portable,
+            .hsum3 = hsum_row_portable<3>,
+            .hsum5 = hsum_row_portable<5>,
+            .vsum3 = vsum_row_portable<3>,
+            .vsum5 = vsum_row_portable<5>,
+            .reference_bins = reference_bins_portable};
+  }
+}
+
+inline SegmentKernelKind best_segment_kernel() {
+  for (SegmentKernelKind k : {SegmentKernelKind::avx2, SegmentKernelKind::neon})
+    if (segment_cpu_has(k)) return k;
+  return SegmentKernelKind::portable;
+}
+
+} // namespace detail
+
+inline const detail::SegmentKernels&
+segment_kernels(SegmentKernelKind kind = SegmentKernelKind::automatic) {
+  static const detail::SegmentKernels best =
+      detail::make_segment_kernels(detail::best_segment_kernel());
+  if (kind == SegmentKernelKind::automatic) return best;
+  if (!segment_cpu_has(kind))
+    SHADOWSENSE_THROW(InvalidArgument(std::string("segment_kernels: '") +
+                                      segment_kernel_name(kind) +
+                                      "' is not compiled in or not supported by this CPU"));
+  static const detail::SegmentKernels portable =
+      detail::make_segment_kernels(SegmentKernelKind::portable);
+  return kind == SegmentKernelKind::portable ? portable : best;
+}
+
+SHADOWSENSE_NAMESPACE_END

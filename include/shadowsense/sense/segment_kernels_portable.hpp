@@ -1,0 +1,205 @@
+// The segmenter's per-row kernels in plain C++ (any CPU; the compiler vectorises what it can):
+// the relative rule's per-pixel decision and the rows of the 3- and 5-tap mask smoothing. The
+// x86 (segment_kernels_x86.hpp) and aarch64 (segment_kernels_neon.hpp) kernels have the same
+// contracts and give the same bytes and floats; segment_kernels.hpp picks one at run time. No
+// OpenCV: raw pointers only (so the aarch64 build under emulation can test them alone).
+//
+// relative_row_portable(p, bgr, ipb, ipg, ipr, skin, w, darkness, warmth, shadow, contact)
+//   requires: bgr holds 3 w bytes (B, G, R per pixel); ipb, ipg, ipr, darkness, warmth w floats;
+//             skin, shadow, contact w bytes; outputs do not overlap the inputs.
+//   ensures:  for every pixel x, in this order of float operations (no fused multiply-add):
+//               qb = (B * ipb[x]) * p.gb, qg = (G * ipg[x]) * p.gg, qr = (R * ipr[x]) * p.gr
+//               darkness[x] = s - ((qb + qg) + qr) * (1 / 3), s = 1 when skin[x] != 0 else 0
+//               warmth[x] = qr - qb
+//               contact[x] = skin[x] when darkness >= p.contact and warmth >= p.warmth, else 0
+//               shadow[x] = (skin[x] when darkness >= p.shadow, else 0) | contact[x]
+//             (RelativeRule's definition, pixel_rule.hpp).
+// hsum_row<K>(pad, w, out), K = 3 or 5
+//   requires: pad holds w + K - 1 bytes (a row with K / 2 replicated pixels at each end).
+//   ensures:  out[x] = sum over t of wt[t] pad[x + t], wt = (1 2 1) or (1 4 6 4 1) (exact in 16
+//             bits: at most 16 x 255).
+// vsum_row<K>(rows, w, mask, marks)
+//   requires: rows holds K pointers to w values of hsum_row<K>; mask w bytes; marks w bytes or
+//             null.
+//   ensures:  V = sum over t of wt[t] rows[t][x] (exact in 16 bits); mask[x] = 255 when V >= on
+//             (2040 for K = 3, 32640 for K = 5), else 0; marks[x] (when given) = 1 or 0 alike.
+//             Returns whether any mask[x] is 255.
+//             This is OpenCV's 8-bit Gaussian of size K followed by a threshold at 127
+//             (mask_smoothing.hpp says why).
+// reference_bins(frame, step, ys, xs, ib, ig, ir, n, bb, bg, br)
+//   requires: for i < n, (ys[i], xs[i]) a pixel of the 8-bit BGR frame (rows step bytes apart)
+//             with xs[i] >= 1; ib, ig, ir n floats >= 0 and < 64; bb, bg, br n values each.
+//   ensures:  bb[i] = min(int(B * ib[i] * 4), 1023) for that pixel's B (float products,
+//             truncated toward zero), likewise bg (G) and br (R): the quarter-unit histogram bin
+//             of the pixel over the empty-skin model (the segmenter's per-frame reference).
+// No state; callable from any thread.
+#pragma once
+
+#include <shadowsense/core/version.hpp>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+// Float kernels whose results must not depend on the compiler's choice to fuse a multiply and
+// an add (GNU mode fuses by default where the target has FMA, e.g. aarch64 or -march=native):
+// every path, and the reference, rounds after each operation.
+#if defined(__clang__)
+#define SHADOWSENSE_STRICT_FP
+#define SHADOWSENSE_STRICT_FP_BODY _Pragma("clang fp contract(off)")
+#elif defined(__GNUC__)
+#define SHADOWSENSE_STRICT_FP __attribute__((optimize("fp-contract=off")))
+#define SHADOWSENSE_STRICT_FP_BODY
+#else
+#define SHADOWSENSE_STRICT_FP
+#define SHADOWSENSE_STRICT_FP_BODY
+#endif
+
+#if defined(__GNUC__) || defined(__clang__)
+#define SHADOWSENSE_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define SHADOWSENSE_ALWAYS_INLINE inline
+#endif
+
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+
+// One frame's constants of the relative rule.
+struct RelativeRowParams {
+  float gb = 1, gg = 1, gr = 1;              // 1 / the frame's reference, per channel
+  float shadow = 0, contact = 0, warmth = 0; // thresholds at the frame's light
+};
+
+using RelativeRowFn = void (*)(const RelativeRowParams& p, const std::uint8_t* bgr,
+                               const float* ipb, const float* ipg, const float* ipr,
+                               const std::uint8_t* skin, int w, float* darkness, float* warmth,
+                               std::uint8_t* shadow, std::uint8_t* contact);
+
+// Pixels [x0, w) of relative_row (the vector kernels finish their rows with it).
+SHADOWSENSE_STRICT_FP inline void
+relative_row_tail(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
+                  const float* ipg, const float* ipr, const std::uint8_t* skin, int x0, int w,
+                  float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+  SHADOWSENSE_STRICT_FP_BODY
+  for (int x = x0; x < w; ++x) {
+    const float qb = static_cast<float>(bgr[3 * x]) * ipb[x] * p.gb;
+    const float qg = static_cast<float>(bgr[3 * x + 1]) * ipg[x] * p.gg;
+    const float qr = static_cast<float>(bgr[3 * x + 2]) * ipr[x] * p.gr;
+    const float s = skin[x] != 0 ? 1.f : 0.f;
+    const float d = s - (qb + qg + qr) * (1.f / 3.f);
+    const float wt = qr - qb;
+    dk[x] = d;
+    wm[x] = wt;
+    const std::uint8_t c = (d >= p.contact && wt >= p.warmth) ? skin[x] : std::uint8_t{0};
+    cm[x] = c;
+    sm[x] = static_cast<std::uint8_t>((d >= p.shadow ? skin[x] : std::uint8_t{0}) | c);
+  }
+}
+
+inline void relative_row_portable(const RelativeRowParams& p, const std::uint8_t* bgr,
+                                  const float* ipb, const float* ipg, const float* ipr,
+                                  const std::uint8_t* skin, int w, float* dk, float* wm,
+                                  std::uint8_t* sm, std::uint8_t* cm) {
+  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, 0, w, dk, wm, sm, cm);
+}
+
+// The smoothing weights with the common factor taken out (mask_smoothing.hpp).
+template <int K>
+inline constexpr std::array<std::uint16_t, 5> smoothing_weights =
+    K == 3 ? std::array<std::uint16_t, 5>{1, 2, 1, 0, 0}
+           : std::array<std::uint16_t, 5>{1, 4, 6, 4, 1};
+template <int K>
+inline constexpr std::uint16_t smoothing_on = K == 3 ? 2040 : 32640;
+
+// The loop bodies, inlined into the portable and the AVX2 functions (compiled for each).
+template <int K>
+SHADOWSENSE_ALWAYS_INLINE void hsum_row_body(const std::uint8_t* __restrict pad, int w,
+                                             std::uint16_t* __restrict out) {
+  static_assert(K == 3 || K == 5);
+  constexpr std::array<std::uint16_t, 5> wt = smoothing_weights<K>;
+  for (int x = 0; x < w; ++x) {
+    std::uint16_t sum = 0;
+    for (std::size_t t = 0; t < K; ++t)
+      sum = static_cast<std::uint16_t>(sum + wt[t] * pad[static_cast<std::size_t>(x) + t]);
+    out[x] = sum;
+  }
+}
+
+template <int K>
+SHADOWSENSE_ALWAYS_INLINE bool vsum_row_body(const std::uint16_t* const* rows, int w,
+                                             std::uint8_t* __restrict mask,
+                                             std::uint8_t* __restrict marks) {
+  static_assert(K == 3 || K == 5);
+  constexpr std::array<std::uint16_t, 5> wt = smoothing_weights<K>;
+  std::array<const std::uint16_t* __restrict, K> in{};
+  for (std::size_t t = 0; t < K; ++t) in[t] = rows[t];
+  std::uint8_t any = 0;
+  if (marks) {
+    for (int x = 0; x < w; ++x) {
+      std::uint16_t v = 0;
+      for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
+      const std::uint8_t on = v >= smoothing_on<K> ? 1 : 0;
+      mask[x] = static_cast<std::uint8_t>(-on);
+      marks[x] = on;
+      any |= on;
+    }
+  } else {
+    for (int x = 0; x < w; ++x) {
+      std::uint16_t v = 0;
+      for (std::size_t t = 0; t < K; ++t) v = static_cast<std::uint16_t>(v + wt[t] * in[t][x]);
+      const std::uint8_t on = v >= smoothing_on<K> ? 1 : 0;
+      mask[x] = static_cast<std::uint8_t>(-on);
+      any |= on;
+    }
+  }
+  return any != 0;
+}
+
+using HsumRowFn = void (*)(const std::uint8_t* pad, int w, std::uint16_t* out);
+using VsumRowFn = bool (*)(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
+                           std::uint8_t* marks);
+
+template <int K>
+inline void hsum_row_portable(const std::uint8_t* pad, int w, std::uint16_t* out) {
+  hsum_row_body<K>(pad, w, out);
+}
+template <int K>
+inline bool vsum_row_portable(const std::uint16_t* const* rows, int w, std::uint8_t* mask,
+                              std::uint8_t* marks) {
+  return vsum_row_body<K>(rows, w, mask, marks);
+}
+
+using ReferenceBinsFn = void (*)(const std::uint8_t* frame, std::size_t step,
+                                 const std::int32_t* ys, const std::int32_t* xs, const float* ib,
+                                 const float* ig, const float* ir, int n, std::uint16_t* bb,
+                                 std::uint16_t* bg, std::uint16_t* br);
+
+SHADOWSENSE_STRICT_FP inline int reference_bin(std::uint8_t v, float inv) {
+  SHADOWSENSE_STRICT_FP_BODY
+  const int b = static_cast<int>(static_cast<float>(v) * inv * 4.f);
+  return b < 0 ? 0 : b > 1023 ? 1023 : b;
+}
+
+// Samples [i0, n) of reference_bins (the vector kernel finishes with it).
+inline void reference_bins_tail(const std::uint8_t* frame, std::size_t step, const std::int32_t* ys,
+                                const std::int32_t* xs, const float* ib, const float* ig,
+                                const float* ir, int i0, int n, std::uint16_t* bb,
+                                std::uint16_t* bg, std::uint16_t* br) {
+  for (int i = i0; i < n; ++i) {
+    const std::uint8_t* px =
+        frame + static_cast<std::size_t>(ys[i]) * step + 3 * static_cast<std::size_t>(xs[i]);
+    bb[i] = static_cast<std::uint16_t>(reference_bin(px[0], ib[i]));
+    bg[i] = static_cast<std::uint16_t>(reference_bin(px[1], ig[i]));
+    br[i] = static_cast<std::uint16_t>(reference_bin(px[2], ir[i]));
+  }
+}
+
+inline void reference_bins_portable(const std::uint8_t* frame, std::size_t step,
+                                    const std::int32_t* ys, const std::int32_t* xs, const float* ib,
+                                    const float* ig, const float* ir, int n, std::uint16_t* bb,
+                                    std::uint16_t* bg, std::uint16_t* br) {
+  reference_bins_tail(frame, step, ys, xs, ib, ig, ir, 0, n, bb, bg, br);
+}
+
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END

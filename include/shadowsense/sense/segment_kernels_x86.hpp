@@ -1,0 +1,179 @@
+// The segmenter's per-row kernels for x86-64 with AVX2 (segment_kernels_portable.hpp has the
+// contracts; the results are the same bytes and floats). Each function carries a function-level
+// target attribute, so the library needs no -march flag; segment_kernels.hpp calls them only
+// after checking the CPU (__builtin_cpu_supports). AVX2 without FMA: the relative rule rounds
+// after every multiply and add, as the portable kernel does. Compiled only with GCC/Clang on x86
+// (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
+//
+// relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
+//   rest with the portable loop.
+// reference_bins_avx2: 8 samples a step (a 32-bit gather per sample).
+// hsum_row_avx2<K>, vsum_row_avx2<K>: the portable loop bodies compiled for AVX2 (the compiler
+//   vectorises them 16 lanes of 16 bits a step).
+// No state; callable from any thread.
+#pragma once
+
+#include <shadowsense/sense/segment_kernels_portable.hpp>
+
+#include <array>
+#include <cstdint>
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define SHADOWSENSE_SEGMENT_X86 1
+#include <immintrin.h>
+#else
+#define SHADOWSENSE_SEGMENT_X86 0
+#endif
+
+#if SHADOWSENSE_SEGMENT_X86
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+
+// pshufb masks taking channel c of 16 packed BGR pixels from 16-byte chunk j (-128: none).
+constexpr std::array<std::array<std::array<std::int8_t, 16>, 3>, 3> bgr_split_masks() {
+  std::array<std::array<std::array<std::int8_t, 16>, 3>, 3> m{};
+  for (int c = 0; c < 3; ++c)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 16; ++i) {
+        const int at = 3 * i + c;
+        m[static_cast<std::size_t>(c)][static_cast<std::size_t>(j)][static_cast<std::size_t>(i)] =
+            at / 16 == j ? static_cast<std::int8_t>(at % 16) : std::int8_t{-128};
+      }
+  return m;
+}
+inline constexpr auto kBgrSplit = bgr_split_masks();
+
+// Helpers as functions, not lambdas: a lambda does not take its caller's target attribute.
+// The low 8 bytes of v as 8 floats.
+__attribute__((target("avx2"))) inline __m256 widen_bytes_avx2(__m128i v) {
+  return _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(v));
+}
+// 2 x 8 lanes of 0 / -1 to 16 bytes in pixel order (the packs work within 128-bit halves).
+__attribute__((target("avx2"))) inline __m128i lanes_to_bytes_avx2(__m256i lo, __m256i hi) {
+  const __m256i p16 = _mm256_permute4x64_epi64(_mm256_packs_epi32(lo, hi), 0xD8);
+  return _mm_packs_epi16(_mm256_castsi256_si128(p16), _mm256_extracti128_si256(p16, 1));
+}
+// min(max(int(v * inv * 4), 0), 1023) for 8 samples.
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline __m256i
+quarter_bins_avx2(__m256i v, const float* inv) {
+  const __m256 f = _mm256_mul_ps(_mm256_mul_ps(_mm256_cvtepi32_ps(v), _mm256_loadu_ps(inv)),
+                                 _mm256_set1_ps(4.f));
+  return _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(f), _mm256_setzero_si256()),
+                          _mm256_set1_epi32(1023));
+}
+// 8 x 32 bits (< 1024) to 8 x 16 bits.
+__attribute__((target("avx2"))) inline void store_u16_avx2(std::uint16_t* dst, __m256i v) {
+  const __m128i packed =
+      _mm_packus_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), packed);
+}
+
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
+relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
+                  const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
+                  float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+  const __m256 gb = _mm256_set1_ps(p.gb), gg = _mm256_set1_ps(p.gg), gr = _mm256_set1_ps(p.gr);
+  const __m256 third = _mm256_set1_ps(1.f / 3.f), one = _mm256_set1_ps(1.f);
+  const __m256 ts = _mm256_set1_ps(p.shadow), tc = _mm256_set1_ps(p.contact),
+               tw = _mm256_set1_ps(p.warmth);
+  const __m256i zero = _mm256_setzero_si256();
+  const __m128i mb0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][0].data())),
+                mb1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][1].data())),
+                mb2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[0][2].data()));
+  const __m128i mg0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][0].data())),
+                mg1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][1].data())),
+                mg2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[1][2].data()));
+  const __m128i mr0 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][0].data())),
+                mr1 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][1].data())),
+                mr2 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[2][2].data()));
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    const auto* src = reinterpret_cast<const __m128i*>(bgr + 3 * x);
+    const __m128i a0 = _mm_loadu_si128(src), a1 = _mm_loadu_si128(src + 1),
+                  a2 = _mm_loadu_si128(src + 2);
+    const __m128i b8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mb0), _mm_shuffle_epi8(a1, mb1)),
+                     _mm_shuffle_epi8(a2, mb2));
+    const __m128i g8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mg0), _mm_shuffle_epi8(a1, mg1)),
+                     _mm_shuffle_epi8(a2, mg2));
+    const __m128i r8 =
+        _mm_or_si128(_mm_or_si128(_mm_shuffle_epi8(a0, mr0), _mm_shuffle_epi8(a1, mr1)),
+                     _mm_shuffle_epi8(a2, mr2));
+    const __m128i s8 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
+    __m256i cmask[2], smask[2];
+    for (int h = 0; h < 2; ++h) {
+      const int o = x + 8 * h;
+      const __m128i bh = h == 0 ? b8 : _mm_srli_si128(b8, 8),
+                    gh = h == 0 ? g8 : _mm_srli_si128(g8, 8),
+                    rh = h == 0 ? r8 : _mm_srli_si128(r8, 8);
+      const __m256 qb =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(bh), _mm256_loadu_ps(ipb + o)), gb);
+      const __m256 qg =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(gh), _mm256_loadu_ps(ipg + o)), gg);
+      const __m256 qr =
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(rh), _mm256_loadu_ps(ipr + o)), gr);
+      const __m256i s32 = _mm256_cvtepu8_epi32(h == 0 ? s8 : _mm_srli_si128(s8, 8));
+      const __m256 on_skin =
+          _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(s32, zero)), one);
+      const __m256 d =
+          _mm256_sub_ps(on_skin, _mm256_mul_ps(_mm256_add_ps(_mm256_add_ps(qb, qg), qr), third));
+      const __m256 wt = _mm256_sub_ps(qr, qb);
+      _mm256_storeu_ps(dk + o, d);
+      _mm256_storeu_ps(wm + o, wt);
+      cmask[h] = _mm256_castps_si256(
+          _mm256_and_ps(_mm256_cmp_ps(d, tc, _CMP_GE_OQ), _mm256_cmp_ps(wt, tw, _CMP_GE_OQ)));
+      smask[h] = _mm256_castps_si256(_mm256_cmp_ps(d, ts, _CMP_GE_OQ));
+    }
+    const __m128i c = _mm_and_si128(lanes_to_bytes_avx2(cmask[0], cmask[1]), s8);
+    const __m128i s = _mm_or_si128(_mm_and_si128(lanes_to_bytes_avx2(smask[0], smask[1]), s8), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), s);
+  }
+  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+}
+
+// 8 samples a step: one 32-bit gather per sample from the byte before B (so B, G, R are bytes
+// 1..3 and nothing past the pixel is read), then the three channels' bins.
+__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
+reference_bins_avx2(const std::uint8_t* frame, std::size_t step, const std::int32_t* ys,
+                    const std::int32_t* xs, const float* ib, const float* ig, const float* ir,
+                    int n, std::uint16_t* bb, std::uint16_t* bg, std::uint16_t* br) {
+  int i = 0;
+  // Offsets y step + 3 x in 32 bits: certain for rows of up to 32767 bytes (y < 65536, the
+  // segmenter's largest side); wider frames take the scalar loop.
+  if (step <= 0x7fffffffull / 65536) {
+    const __m256i vstep = _mm256_set1_epi32(static_cast<int>(step)), three = _mm256_set1_epi32(3);
+    const __m256i byte = _mm256_set1_epi32(255);
+    const auto* base = reinterpret_cast<const int*>(frame);
+    const __m256i minus_one = _mm256_set1_epi32(-1);
+    for (; i + 8 <= n; i += 8) {
+      const __m256i y = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ys + i));
+      const __m256i x = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(xs + i));
+      const __m256i off = _mm256_add_epi32(
+          _mm256_add_epi32(_mm256_mullo_epi32(y, vstep), _mm256_mullo_epi32(x, three)), minus_one);
+      const __m256i px = _mm256_i32gather_epi32(base, off, 1);
+      store_u16_avx2(bb + i,
+                     quarter_bins_avx2(_mm256_and_si256(_mm256_srli_epi32(px, 8), byte), ib + i));
+      store_u16_avx2(bg + i,
+                     quarter_bins_avx2(_mm256_and_si256(_mm256_srli_epi32(px, 16), byte), ig + i));
+      store_u16_avx2(br + i, quarter_bins_avx2(_mm256_srli_epi32(px, 24), ir + i));
+    }
+  }
+  reference_bins_tail(frame, step, ys, xs, ib, ig, ir, i, n, bb, bg, br);
+}
+
+template <int K>
+__attribute__((target("avx2"))) inline void hsum_row_avx2(const std::uint8_t* pad, int w,
+                                                          std::uint16_t* out) {
+  hsum_row_body<K>(pad, w, out);
+}
+template <int K>
+__attribute__((target("avx2"))) inline bool vsum_row_avx2(const std::uint16_t* const* rows, int w,
+                                                          std::uint8_t* mask, std::uint8_t* marks) {
+  return vsum_row_body<K>(rows, w, mask, marks);
+}
+
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END
+#endif

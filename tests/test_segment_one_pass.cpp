@@ -1,0 +1,251 @@
+// The segmenter's one pass over the frame (classify, smooth, contour image, row by row) against
+// the multi-pass way: on generator frames (every tracking category, all three lighting presets,
+// several seeds) and on frames with the real hand silhouettes of data/realhand, the masks,
+// darkness and warmth must equal those of the plain multi-pass reference
+// (sense/segment_reference.hpp: the rule in plain loops + cv::GaussianBlur + cv::threshold) with
+// 0 differing pixels, and every blob must equal the one the multi-pass path of the segmenter
+// itself finds (whole-frame rule, MaskSmoother::apply, BlobFinder::find). Also for the other
+// mask_blur sizes (0, 3 and 7, which takes the multi-pass path), the paper's fixed colour ranges,
+// and the adaptive model over a sequence. Every available per-row kernel is checked on the
+// frames' rows against the portable one.
+#include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/sense/segment_reference.hpp>
+#include <shadowsense/sense/segmenter.hpp>
+#include <shadowsense/sim.hpp>
+
+#include <doctest/doctest.h>
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+using namespace shadowsense;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The rule of Segmenter without the row interface: the segmenter takes its multi-pass path.
+struct WholeFrameOnly {
+  CalibratedRule rule;
+  bool uses_reference() const { return rule.uses_reference(); }
+  void classify(const PixelRuleInput& in, PixelRuleOutput& out) const { rule.classify(in, out); }
+};
+static_assert(PixelRule<WholeFrameOnly> && !RowPixelRule<WholeFrameOnly>);
+
+int differing(const cv::Mat& a, const cv::Mat& b) {
+  REQUIRE(a.size() == b.size());
+  REQUIRE(a.type() == b.type());
+  cv::Mat ne;
+  cv::compare(a.reshape(1), b.reshape(1), ne, cv::CMP_NE);
+  return cv::countNonZero(ne);
+}
+
+void check_same_blobs(const std::vector<Blob>& a, const std::vector<Blob>& b) {
+  REQUIRE(a.size() == b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    CAPTURE(i);
+    CHECK(a[i].box == b[i].box);
+    CHECK(a[i].centroid == b[i].centroid);
+    CHECK(a[i].area == b[i].area);
+    CHECK(a[i].darkness == b[i].darkness);
+    CHECK(a[i].edge_width == b[i].edge_width);
+    CHECK(a[i].opacity == b[i].opacity);
+    CHECK(a[i].touching == b[i].touching);
+    CHECK(a[i].hover_height_cm == b[i].hover_height_cm);
+  }
+}
+
+// The model planes the rule reads, rebuilt from the segmenter's public state.
+std::array<cv::Mat, 4> model_planes(const Segmenter& s, cv::Size size) {
+  std::array<cv::Mat, 4> planes;
+  if (!s.has_empty_skin()) {
+    for (cv::Mat& p : planes) p = cv::Mat(size, CV_32F, cv::Scalar(1));
+    return planes;
+  }
+  const cv::Mat& profile = s.empty_skin_profile();
+  cv::Mat inv(profile.size(), CV_32FC3);
+  for (int y = 0; y < profile.rows; ++y)
+    for (int x = 0; x < profile.cols; ++x)
+      for (int k = 0; k < 3; ++k) {
+        const float p = profile.at<cv::Vec3f>(y, x)[k];
+        inv.at<cv::Vec3f>(y, x)[k] = p > 0 ? 1.f / p : 0.f;
+      }
+  cv::split(inv, planes.data());
+  s.skin_area().convertTo(planes[3], CV_32F, 1.0 / 255);
+  return planes;
+}
+
+cv::Mat skin_of(const Segmenter& s, cv::Size size) {
+  return s.has_empty_skin() ? s.skin_area() : cv::Mat(size, CV_8UC1, cv::Scalar(255));
+}
+
+// One frame through the one pass (`one`) and the multi-pass path (`multi`), both fed every
+// frame; checks masks, features and blobs. Returns the shadow pixels (so callers can check the
+// frames are not all empty).
+int check_frame(Segmenter& one, BasicSegmenter<WholeFrameOnly>& multi, const cv::Mat& frame) {
+  // The reference reads the model as it is before this frame (the adaptive update comes after).
+  const std::array<cv::Mat, 4> planes = model_planes(one, frame.size());
+  cv::Mat inverse_profile;
+  if (one.has_empty_skin()) cv::merge(planes.data(), 3, inverse_profile);
+  const cv::Mat skin = skin_of(one, frame.size()).clone();
+  Segmentation a, b;
+  one.segment(frame, a);
+  multi.segment(frame, b);
+  CHECK(differing(a.shadow_mask, b.shadow_mask) == 0);
+  CHECK(differing(a.contact_mask, b.contact_mask) == 0);
+  check_same_blobs(a.shadows, b.shadows);
+  check_same_blobs(a.contacts, b.contacts);
+  CHECK(a.dropped_shadow_blobs == b.dropped_shadow_blobs);
+  CHECK(a.dropped_contact_blobs == b.dropped_contact_blobs);
+  CHECK(a.contact_point == b.contact_point);
+  const SegmenterCalibration& c = one.config().calibration;
+  if (c.mode == SegmentMode::relative) {
+    const cv::Vec3f ref = one.last_reference();
+    if (!inverse_profile.empty())
+      CHECK(ref == reference_colour(frame, inverse_profile, c.reference_percentile));
+    const RelativeRule rule{c.shadow_darkness, c.contact_darkness, c.contact_warmth, c.by_light};
+    const ReferenceMasks r = reference_relative_masks(frame, planes, skin, ref,
+                                                      rule.thresholds_at(detail::luminance(ref)),
+                                                      one.config().mask_blur);
+    CHECK(differing(a.shadow_mask, r.shadow) == 0);
+    CHECK(differing(a.contact_mask, r.contact) == 0);
+    CHECK(differing(one.darkness(), r.darkness) == 0);
+    CHECK(differing(one.warmth(), r.warmth) == 0);
+  }
+  return cv::countNonZero(a.shadow_mask);
+}
+
+struct Fixture {
+  sim::Renderer renderer{sim::Rig::robot()};
+  SimCalibration calibration = calibrate_on_sim(renderer, 0x0E, 30);
+
+  std::vector<cv::Mat> generated_frames() {
+    sim::TrackingSampleConfig variety;
+    variety.lighting_weights = {1, 1, 1};
+    std::vector<cv::Mat> frames;
+    for (std::uint64_t seed = 0; seed < 4; ++seed)
+      for (const sim::TrackCategory c : sim::all_track_categories)
+        frames.push_back(
+            sim::render_random_tracking_frame(
+                renderer, c, sim::derive_seed(0x51 + seed, static_cast<int>(c)), variety)
+                .image);
+    return frames;
+  }
+
+  // Gesture frames with the real hand silhouettes (every gesture, randomised lighting).
+  std::vector<cv::Mat> realhand_frames() {
+    const fs::path dir = fs::path(SHADOWSENSE_SOURCE_DIR) / "data" / "realhand";
+    REQUIRE(fs::exists(dir / "manifest.csv"));
+    auto hands = std::make_shared<const std::vector<sim::HandSilhouette>>(
+        sim::load_hand_silhouettes(dir, ""));
+    sim::GestureSessionConfig config{.frames_per_gesture = 2, .randomise = true};
+    config.real_hands = hands;
+    config.real_hand_probability = 1;
+    sim::User user;
+    user.id = 7;
+    const sim::GestureSession session(0x77, user, 0.4, config);
+    std::vector<cv::Mat> frames;
+    sim::Frame f;
+    for (int i = 0; i < session.size(); ++i) {
+      session.render(renderer, i, f);
+      frames.push_back(f.image.clone());
+    }
+    return frames;
+  }
+};
+
+Fixture& fixture() {
+  static Fixture f;
+  return f;
+}
+
+void check_frames(const SegmenterConfig& config, const std::vector<cv::Mat>& frames) {
+  Segmenter one(config);
+  BasicSegmenter<WholeFrameOnly> multi(config, WholeFrameOnly{CalibratedRule(config.calibration)});
+  int shadow = 0;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    CAPTURE(i);
+    shadow += check_frame(one, multi, frames[i]);
+  }
+  CHECK(shadow > 0); // the frames have shadows to compare
+}
+
+} // namespace
+
+TEST_CASE("one pass == multi-pass on generator frames, every category and light") {
+  Fixture& f = fixture();
+  const std::vector<cv::Mat> frames = f.generated_frames();
+  for (const int blur : {5, 0, 3, 7}) {
+    CAPTURE(blur);
+    SegmenterConfig c = f.calibration.config;
+    c.mask_blur = blur;
+    check_frames(c, frames);
+  }
+}
+
+TEST_CASE("one pass == multi-pass on frames of real hand silhouettes") {
+  Fixture& f = fixture();
+  check_frames(f.calibration.config, f.realhand_frames());
+}
+
+TEST_CASE("one pass == multi-pass: fixed colour ranges, and the adaptive model over a sequence") {
+  Fixture& f = fixture();
+  const std::vector<cv::Mat> frames = f.generated_frames();
+  SegmenterConfig fixed = f.calibration.config;
+  fixed.calibration.mode = SegmentMode::fixed_ranges;
+  fixed.calibration.shadow_range = {{0, 0, 0}, {150, 150, 150}};
+  check_frames(fixed, frames);
+  SegmenterConfig adaptive = f.calibration.config;
+  adaptive.adaptive = true;
+  adaptive.adapt_rate = 0.2f;
+  check_frames(adaptive, frames);
+  SegmenterConfig uncalibrated; // no model: the flat stand-in planes
+  check_frames(uncalibrated, frames);
+}
+
+TEST_CASE("every per-row kernel equals the portable one on the frames' rows") {
+  Fixture& f = fixture();
+  Segmenter seg(f.calibration.config);
+  std::vector<cv::Mat> frames = f.generated_frames();
+  for (const cv::Mat& m : f.realhand_frames()) frames.push_back(m);
+  const detail::SegmentKernels& portable = segment_kernels(SegmentKernelKind::portable);
+  int kinds = 0;
+  for (const SegmentKernelKind kind : {SegmentKernelKind::avx2, SegmentKernelKind::neon}) {
+    if (!segment_cpu_has(kind)) continue;
+    ++kinds;
+    CAPTURE(segment_kernel_name(kind));
+    const detail::SegmentKernels& k = segment_kernels(kind);
+    REQUIRE(k.kind == kind);
+    for (const cv::Mat& frame : frames) {
+      Segmentation s;
+      seg.segment(frame, s); // the frame's reference
+      const std::array<cv::Mat, 4> planes = model_planes(seg, frame.size());
+      const cv::Vec3f ref = seg.last_reference();
+      const detail::RelativeRowParams p{1.f / ref[0], 1.f / ref[1], 1.f / ref[2],
+                                        0.2f,         0.45f,        0.08f};
+      const int w = frame.cols;
+      std::vector<float> d1(static_cast<std::size_t>(w)), w1(d1), d2(d1), w2(d1);
+      std::vector<std::uint8_t> s1(static_cast<std::size_t>(w)), c1(s1), s2(s1), c2(s1);
+      int differ = 0;
+      for (int y = 0; y < frame.rows; ++y) {
+        auto run = [&](const detail::SegmentKernels& kk, float* d, float* wm, std::uint8_t* sm,
+                       std::uint8_t* cm) {
+          kk.relative_row(p, frame.ptr<std::uint8_t>(y), planes[0].ptr<float>(y),
+                          planes[1].ptr<float>(y), planes[2].ptr<float>(y),
+                          seg.skin_area().ptr<std::uint8_t>(y), w, d, wm, sm, cm);
+        };
+        run(portable, d1.data(), w1.data(), s1.data(), c1.data());
+        run(k, d2.data(), w2.data(), s2.data(), c2.data());
+        differ += d1 != d2 || w1 != w2 || s1 != s2 || c1 != c2;
+      }
+      CHECK(differ == 0);
+    }
+  }
+  CHECK(kinds ==
+        (segment_cpu_has(SegmentKernelKind::avx2) || segment_cpu_has(SegmentKernelKind::neon) ? 1
+                                                                                              : 0));
+}
