@@ -3,7 +3,8 @@
 # DenseNet headers + doctest only, no OpenCV, no Python) with Debian's cross toolchain,
 # statically linked, and run them under qemu-user. They compare the NEON, portable and
 # reference kernels with each other and, on the committed fixtures tests/data/*.ssdn, with
-# torchvision's logits, at the same tolerances as on x86. Only this subset runs under
+# torchvision's logits, at the same tolerances as on x86; tests/test_int8.cpp (the int8 GEMM
+# kernels against their reference, exactly, and the int8 forward) is linked in. Only this subset runs under
 # emulation (the other tests need OpenCV/Eigen for aarch64 and are covered natively on x86).
 # Built at -O2 and again at -O3 (the portable kernel must vectorise and be right at both).
 set -euo pipefail
@@ -34,7 +35,7 @@ for opt in O2 O3; do
   aarch64-linux-gnu-g++ -std=c++20 "-$opt" -Wall -Wextra -Wpedantic -Werror -static \
     -I"$root/include" -I"$out/include" \
     -DSHADOWSENSE_TEST_DATA_DIR="\"$root/tests/data\"" \
-    "$root/tests/test_gemm.cpp" "$root/tests/doctest_main.cpp" -o "$exe"
+    "$root/tests/test_gemm.cpp" "$root/tests/test_int8.cpp" "$root/tests/doctest_main.cpp" -o "$exe"
   echo "== aarch64 -$opt: running under qemu-aarch64 =="
   QEMU_LD_PREFIX=/usr/aarch64-linux-gnu qemu-aarch64 "$exe" --success=false
 done
