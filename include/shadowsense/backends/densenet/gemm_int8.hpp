@@ -19,6 +19,11 @@
 //   ensures:  c[i * ldc + j] = sum over k of w[i * kp + k] * x[j * kp + k], exactly (every
 //             kernel gives the same bits). Values outside the ranges are undefined behaviour
 //             of the result (never of memory): the callers quantise into the ranges.
+// int8_code(x, inv_scale) -> 0..127
+//   requires: x >= 0 (a ReLU output) or NaN.
+//   ensures:  min(127, floor(x * inv_scale + 0.5)) as float arithmetic computes it; NaN gives
+//             127 (callers that must see a NaN test for it themselves). The one rounding rule
+//             of every activation quantisation (DenseNet's int8 path and the reference).
 // select_int8_gemm(kind) -> Int8Gemm: the kernel of that kind (automatic: the fastest this CPU
 //   runs); InvalidArgument when the kind is not available on this CPU.
 // No state; callable from any thread.
@@ -42,6 +47,11 @@ inline constexpr int int8_weight_max = 127; // weight codes -127..127
 
 inline int int8_padded_k(int k) {
   return (k + int8_k_align - 1) / int8_k_align * int8_k_align;
+}
+
+inline std::uint8_t int8_code(float x, float inv_scale) {
+  const float q = x * inv_scale + 0.5f;
+  return q < float(int8_act_max) ? static_cast<std::uint8_t>(q) : std::uint8_t(int8_act_max);
 }
 
 using Int8GemmFn = void (*)(const std::int8_t* w, int m, const std::uint8_t* x, int n, int kp,
