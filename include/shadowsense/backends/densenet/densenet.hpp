@@ -476,6 +476,34 @@ private:
     pool_->run(tasks, fn);
   }
 
+  // Panel rows [p0, p1) of q: the codes of input channel c at pixels [b0, b1) are those of the
+  // floats value(c, b0, b1, v) writes to v, computed channel by channel over blocks of pixels
+  // (contiguous, vectorised) and then transposed into the pixel-major panel.
+  template <class Value>
+  void pack_codes(int p0, int p1, const QConv& q, Value&& value, bool& nan) {
+    constexpr int block = 64;
+    const std::size_t kp = static_cast<std::size_t>(q.kp);
+    std::uint8_t* x = xq_.data();
+    float v[block];
+    std::uint8_t codes[block];
+    for (int p = p0; p < p1; ++p)
+      std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
+    for (int b0 = p0; b0 < p1; b0 += block) {
+      const int b1 = std::min(p1, b0 + block), nb = b1 - b0;
+      for (int c = 0; c < q.k; ++c) {
+        value(c, b0, b1, v);
+        bool bad = false;
+        for (int j = 0; j < nb; ++j) {
+          bad |= v[j] != v[j];
+          codes[j] = detail::int8_code(v[j], q.inv_in);
+        }
+        nan |= bad;
+        std::uint8_t* d = x + static_cast<std::size_t>(b0) * kp + static_cast<std::size_t>(c);
+        for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * kp] = codes[j];
+      }
+    }
+  }
+
   // The int32 sums of q over panel rows [p0, p1) into acc_ (row stride n).
   void int8_gemm(const QConv& q, int p0, int p1, int n) {
     int8_gemm_.fn(q.w.data(), q.m, xq_.data() + static_cast<std::size_t>(p0) * q.kp, p1 - p0, q.kp,
@@ -489,30 +517,31 @@ private:
     const QConv& q = layer.q1;
     const float* feat = block_buf_[b].data();
     float* bott = bottleneck_[b].data();
-    const std::size_t plane = block_plane_[b], kp = static_cast<std::size_t>(q.kp);
+    const std::size_t plane = block_plane_[b];
     over_pixels(n, [&](int p0, int p1, int t) {
-      std::uint8_t* x = xq_.data();
       bool nan = false;
-      for (int p = p0; p < p1; ++p)
-        std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
-      for (int c = 0; c < q.k; ++c) {
-        const float* s = feat + static_cast<std::size_t>(c) * n;
-        const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
-        const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
-        for (int p = p0; p < p1; ++p) {
-          const float v = detail::relu_reference(s[p] * sc + sh);
-          nan |= v != v;
-          x[p * kp + static_cast<std::size_t>(c)] = detail::int8_code(v, q.inv_in);
-        }
-      }
+      pack_codes(
+          p0, p1, q,
+          [&](int c, int b0, int b1, float* v) {
+            const float* s = feat + static_cast<std::size_t>(c) * n;
+            const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
+            const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
+            for (int p = b0; p < b1; ++p) v[p - b0] = detail::relu_reference(s[p] * sc + sh);
+          },
+          nan);
       int8_gemm(q, p0, p1, n);
       for (int o = 0; o < q.m; ++o) {
         const std::int32_t* a = acc_.data() + static_cast<std::size_t>(o) * n;
         float* d = bott + static_cast<std::size_t>(o) * plane;
         const float deq = q.deq[static_cast<std::size_t>(o)];
         const float bias = layer.bias1[static_cast<std::size_t>(o)];
-        for (int p = p0; p < p1; ++p)
-          d[(p / bw + 1) * pw + p % bw + 1] = detail::relu_reference(float(a[p]) * deq + bias);
+        for (int p = p0; p < p1;) { // runs within one image row
+          const int y = p / bw, x = p % bw, run = std::min(p1 - p, bw - x);
+          float* dr = d + (y + 1) * pw + x + 1;
+          for (int j = 0; j < run; ++j)
+            dr[j] = detail::relu_reference(float(a[p + j]) * deq + bias);
+          p += run;
+        }
       }
       if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
     });
@@ -530,12 +559,21 @@ private:
     const auto in = static_cast<std::size_t>(inner);
     std::uint8_t* q3 = q3_.data();
     over_pixels((bh + 2) * pw, [&](int p0, int p1, int t) { // padded positions
+      constexpr int block = 64;
+      std::uint8_t codes[block];
       bool nan = false;
-      for (int c = 0; c < inner; ++c) {
-        const float* s = bott + static_cast<std::size_t>(c) * plane;
-        for (int p = p0; p < p1; ++p) {
-          nan |= s[p] != s[p];
-          q3[p * in + static_cast<std::size_t>(c)] = detail::int8_code(s[p], q.inv_in);
+      for (int b0 = p0; b0 < p1; b0 += block) {
+        const int nb = std::min(p1, b0 + block) - b0;
+        for (int c = 0; c < inner; ++c) {
+          const float* s = bott + static_cast<std::size_t>(c) * plane + b0;
+          bool bad = false;
+          for (int j = 0; j < nb; ++j) {
+            bad |= s[j] != s[j];
+            codes[j] = detail::int8_code(s[j], q.inv_in);
+          }
+          nan |= bad;
+          std::uint8_t* d = q3 + static_cast<std::size_t>(b0) * in + static_cast<std::size_t>(c);
+          for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * in] = codes[j];
         }
       }
       if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
@@ -568,25 +606,23 @@ private:
     const Affine& a = blk.transition_norm;
     const float* feat = block_buf_[b].data();
     const int ow = block_w_[b + 1], on = block_h_[b + 1] * ow;
-    const std::size_t kp = static_cast<std::size_t>(q.kp);
     float* next = block_buf_[b + 1].data();
     over_pixels(on, [&](int p0, int p1, int t) {
-      std::uint8_t* x = xq_.data();
       bool nan = false;
-      for (int p = p0; p < p1; ++p)
-        std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
-      for (int c = 0; c < q.k; ++c) {
-        const float* s = feat + static_cast<std::size_t>(c) * n;
-        const float sc = a.scale[static_cast<std::size_t>(c)];
-        const float sh = a.shift[static_cast<std::size_t>(c)];
-        for (int p = p0; p < p1; ++p) {
-          const float* r = s + 2 * (p / ow) * bw + 2 * (p % ow);
-          float v;
-          detail::pool_affine_relu_reference(r, r + bw, &v, 1, sc, sh);
-          nan |= v != v;
-          x[p * kp + static_cast<std::size_t>(c)] = detail::int8_code(v, q.inv_in);
-        }
-      }
+      pack_codes(
+          p0, p1, q,
+          [&](int c, int b0, int b1, float* v) {
+            const float* s = feat + static_cast<std::size_t>(c) * n;
+            const float sc = a.scale[static_cast<std::size_t>(c)];
+            const float sh = a.shift[static_cast<std::size_t>(c)];
+            for (int p = b0; p < b1;) { // runs within one output row
+              const int y = p / ow, x = p % ow, run = std::min(b1 - p, ow - x);
+              const float* r = s + 2 * y * bw + 2 * x;
+              detail::pool_affine_relu_reference(r, r + bw, v + (p - b0), run, sc, sh);
+              p += run;
+            }
+          },
+          nan);
       int8_gemm(q, p0, p1, on);
       for (int o = 0; o < q.m; ++o) {
         const std::int32_t* acc = acc_.data() + static_cast<std::size_t>(o) * on;
