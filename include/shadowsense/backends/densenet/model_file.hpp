@@ -482,25 +482,26 @@ inline void validate_int8(const ModelFile& m) {
     const auto& w = m.tensor(q.name).values;
     for (int o = 0; o < rows; ++o) {
       const float s = q.weight_scales[static_cast<std::size_t>(o)];
-      require<ModelFileError>(std::isfinite(s) && s > 0.0f,
-                              what + " ('" + q.name + "'): weight scale of row " +
-                                  std::to_string(o) + " is " + std::to_string(s) +
-                                  ", expected a finite value > 0");
+      if (!(std::isfinite(s) && s > 0.0f))
+        SHADOWSENSE_THROW(ModelFileError(what + " ('" + q.name + "'): weight scale of row " +
+                                         std::to_string(o) + " is " + std::to_string(s) +
+                                         ", expected a finite value > 0"));
       for (int k = 0; k < len; ++k) {
         const std::size_t at = static_cast<std::size_t>(o) * len + k;
         const int code = q.weights[at];
-        require<ModelFileError>(code >= -127, what + " ('" + q.name + "'): weight code -128 at " +
-                                                  std::to_string(at) + ", expected -127..127");
+        // (The messages are built only on failure: a model has millions of weights.)
+        if (code < -127)
+          SHADOWSENSE_THROW(ModelFileError(what + " ('" + q.name + "'): weight code -128 at " +
+                                           std::to_string(at) + ", expected -127..127"));
         // The codes must be the float weights rounded to the scale: a section written for
         // other weights (another model, an edited file) is refused here, not run.
         const double err = std::abs(double(code) * s - double(w[at]));
-        require<ModelFileError>(err <= 0.5 * double(s) * (1.0 + 1e-4),
-                                what + " ('" + q.name + "'): weight " + std::to_string(at) +
-                                    " has code " + std::to_string(code) + " x scale " +
-                                    std::to_string(s) + ", expected round(" +
-                                    std::to_string(w[at]) +
-                                    " / scale): the int8 section does not belong to these "
-                                    "float weights");
+        if (!(err <= 0.5 * double(s) * (1.0 + 1e-4)))
+          SHADOWSENSE_THROW(
+              ModelFileError(what + " ('" + q.name + "'): weight " + std::to_string(at) +
+                             " has code " + std::to_string(code) + " x scale " + std::to_string(s) +
+                             ", expected round(" + std::to_string(w[at]) +
+                             " / scale): the int8 section does not belong to these float weights"));
       }
     }
   }
