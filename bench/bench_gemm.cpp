@@ -7,10 +7,12 @@
 //    max abs difference of the logits from the reference kernel's logits.
 // 3. The portable and legacy portable forwards alternated in one loop (both under the same
 //    load), medians and the speed-up: the figure issue 12 asks for.
+// 4. ([int8]) The int8 GEMM kernels (reference, AVX2, NEON) on the shapes of 1., in GOP/s.
 // SS_BENCH_KERNELS=portable,legacy-portable (comma list of names) restricts the kernels, e.g.
 // to count instructions of one kernel with perf stat; differences are then taken from the first
 // kernel listed in the output (the reference one unless it is left out).
 #include <shadowsense/backends/densenet/densenet.hpp>
+#include <shadowsense/backends/densenet/gemm_int8.hpp>
 
 #include "common/bench_util.hpp"
 
@@ -19,6 +21,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -193,6 +196,46 @@ TEST_CASE("GEMM kernels: GFLOP/s and difference from the reference", "[gemm]") {
                   c.name.c_str(), c.kernel.mr, c.kernel.nr, t.wall_ms, flop / t.wall_ms / 1e6,
                   t.cpu_ms, flop / t.cpu_ms / 1e6, max_abs, max_rel);
       CHECK(max_rel <= 1e-5);
+    }
+  }
+}
+
+// The int8 kernels (gemm_int8.hpp) on the same three shapes, in GOP/s (1 multiply-add = 2 ops,
+// as above) beside the float figures; their outputs are exact, so any difference from the
+// int8 reference fails.
+TEST_CASE("int8 GEMM kernels: GOP/s on the same shapes", "[gemm][int8]") {
+  print_load();
+  struct Shape {
+    const char* what;
+    int m, k, n;
+  };
+  const Shape shapes[] = {{"block1 conv1 (1x1, 256 in)", 128, 256, 2090},
+                          {"block1 conv2 (3x3, im2col)", 32, 1152, 38 * 55},
+                          {"block2 conv1 (1x1, 512 in)", 128, 512, 513}};
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> wd(-127, 127), xd(0, 127);
+  for (const auto& s : shapes) {
+    const int kp = detail::int8_padded_k(s.k);
+    std::vector<std::int8_t> w(static_cast<std::size_t>(s.m) * kp, 0);
+    std::vector<std::uint8_t> x(static_cast<std::size_t>(s.n) * kp, 0);
+    for (int i = 0; i < s.m; ++i)
+      for (int k = 0; k < s.k; ++k) w[static_cast<std::size_t>(i) * kp + k] = std::int8_t(wd(rng));
+    for (int j = 0; j < s.n; ++j)
+      for (int k = 0; k < s.k; ++k) x[static_cast<std::size_t>(j) * kp + k] = std::uint8_t(xd(rng));
+    std::printf("\n%s: M=%d K=%d N=%d (int8)\n", s.what, s.m, s.k, s.n);
+    std::vector<std::int32_t> ref;
+    for (auto kind : detail::available_int8_kernels()) {
+      const auto g = detail::select_int8_gemm(kind);
+      std::vector<std::int32_t> out(static_cast<std::size_t>(s.m) * s.n);
+      auto run = [&] { g.fn(w.data(), s.m, x.data(), s.n, kp, out.data(), std::size_t(s.n)); };
+      run();
+      const Timing t = median_ms(run, kind == detail::Int8KernelKind::reference ? 1 : 7);
+      if (ref.empty()) ref = out;
+      const double ops = 2.0 * s.m * s.k * s.n;
+      std::printf("  %-16s wall %8.3f ms %7.2f GOP/s | cpu %8.3f ms %7.2f GOP/s | %s\n", g.name,
+                  t.wall_ms, ops / t.wall_ms / 1e6, t.cpu_ms, ops / t.cpu_ms / 1e6,
+                  out == ref ? "equal to the reference" : "DIFFERS from the reference");
+      CHECK(out == ref);
     }
   }
 }

@@ -2,7 +2,8 @@
 // side-by-side comparison with ONNX Runtime (tools/onnxruntime_bench/run.py drives it and the
 // ONNX Runtime timer alternately). Prints one JSON object on stdout: per-iteration wall times
 // (ms), the process CPU time per pass (ms, all threads), the multiply-adds of one forward pass, the
-// kernel and the logits.
+// kernel, the int8 kernel ("" unless the model file has an int8 section: then the quantised
+// convolutions run in int8, docs/int8.md) and the logits.
 //   forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL]]]
 // INPUT.f32: 3 x H x W little-endian float32 values (CHW, already preprocessed).
 #include <shadowsense/backends/densenet/densenet.hpp>
@@ -124,7 +125,7 @@ int main(int argc, char** argv) {
     std::printf("], \"cpu_ms\": %.4f", cpu_ms);
     std::fflush(stdout);
     std::cout << ", \"macs\": " << net.macs(h, w) << ", \"kernel\": \"" << net.kernel_name()
-              << "\", \"logits\": [";
+              << "\", \"int8_kernel\": \"" << net.int8_kernel_name() << "\", \"logits\": [";
     for (std::size_t i = 0; i < logits.size(); ++i) std::printf("%s%.9g", i ? ", " : "", logits[i]);
     std::fflush(stdout);
     std::cout << "]}\n";

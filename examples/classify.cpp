@@ -298,7 +298,7 @@ void print_confusion(const std::vector<std::vector<int>>& m,
 
 int run(const Options& o) {
   auto model = ss::ModelFile::load(o.model);
-  if (model.format_version < ss::model_file_version)
+  if (model.format_version < ss::model_file_float_version)
     std::cerr << "ss_classify: note: " << o.model << " is model format version "
               << model.format_version
               << " (no recorded lighting normalisation or dark-frame rule); upgrade it with\n"

@@ -26,9 +26,20 @@
 // stage at a time (conv0+pool0, each dense block, each transition, the head) so each can be
 // timed alone (bench/roofline.cpp); specified at their declarations below. logits() does not
 // use them.
+// The int8 path (Config::precision; automatic = int8 exactly when the model file has an int8
+// section, docs/model_format.md version 3): every dense layer's 1x1 and 3x3 convolution and
+// every transition's convolution runs as an int8 GEMM (gemm_int8.hpp: int8 weights per output
+// channel, 7-bit unsigned activations, exact int32 sums) on an im2col panel: each input is
+// quantised while it is packed (after its BatchNorm-ReLU, and the transitions' pool, which stay
+// float), and the int32 sums are dequantised into the same float buffers as the float path
+// (with the folded norm2 and relu2 of conv1). conv0 (on the normalised image, 3 input
+// channels) and the classifier stay float. Winograd does not apply (its transforms leave the
+// integers; the 3x3 convolutions are direct). The float weights are kept too: the model's
+// self-test (torchvision's float logits) runs on the float path at construction.
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm.hpp>
+#include <shadowsense/backends/densenet/gemm_int8.hpp>
 #include <shadowsense/backends/densenet/model_file.hpp>
 #include <shadowsense/backends/densenet/winograd.hpp>
 #include <shadowsense/core/error.hpp>
@@ -38,6 +49,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -57,6 +71,9 @@ public:
   // block (tests, benchmarks; direct also saves the memory of the transformed weights, 16/9 of
   // the 3x3 weights for F(2x2) and 36/9 for F(4x4)).
   enum class Conv3x3 { automatic, direct, winograd, winograd4x4 };
+  // float32: every convolution in float; int8: the quantised convolutions of the model file's
+  // int8 section (InvalidArgument without one); automatic: int8 when the file has the section.
+  enum class Precision { automatic, float32, int8 };
 
   struct Config {
     int threads = 1; // worker threads incl. the caller
@@ -70,6 +87,10 @@ public:
     // vector_ops (the four required ones set) are used instead of `kernel`.
     detail::MicroKernel micro_kernel{};
     detail::VectorOps vector_ops{};
+    Precision precision = Precision::automatic;
+    // The int8 GEMM (gemm_int8.hpp; automatic: AVX2 or NEON where present, else the reference;
+    // every kind gives the same logits).
+    detail::Int8KernelKind int8_kernel = detail::Int8KernelKind::automatic;
   };
 
   explicit DenseNet(const ModelFile& model) : DenseNet(model, Config{}) {}
@@ -94,6 +115,17 @@ public:
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
+    if (config.precision == Precision::int8 ||
+        (config.precision == Precision::automatic && model.int8)) {
+      if (!model.int8)
+        SHADOWSENSE_THROW(InvalidArgument(
+            "DenseNet: Config::precision is int8 but the model file has no int8 section "
+            "(quantise it with ss_quantise)"));
+      int8_gemm_ = detail::select_int8_gemm(config.int8_kernel);
+      build_int8(*model.int8);
+      int8_ = true;
+      in_h_ = in_w_ = 0; // the buffers of the int8 path (direct 3x3, int8 panels) on next use
+    }
   }
 
   const DenseNetArchitecture& architecture() const { return arch_; }
@@ -101,6 +133,9 @@ public:
   const PreprocessParams& preprocess_params() const { return preprocess_; }
   int num_classes() const { return arch_.num_classes; }
   const char* kernel_name() const { return kernel_.name; }
+  // Whether the quantised convolutions run in int8, and with which kernel ("" when not).
+  bool int8() const { return int8_; }
+  const char* int8_kernel_name() const { return int8_ ? int8_gemm_.name : ""; }
   int threads() const { return pool_->size(); }
 
   // Whether an h x w input survives conv0 (stride 2), pool0 (stride 2) and every
@@ -198,9 +233,16 @@ public:
       head(features_, logits_);
     } else if (const auto b = static_cast<std::size_t>((s - 1) / 2); s % 2) {
       for (std::size_t l = 0; l < blocks_[b].layers.size(); ++l) {
-        bottleneck_conv(b, l);
-        growth_conv(b, l);
+        if (int8_) {
+          bottleneck_int8(b, l);
+          growth_int8(b, l);
+        } else {
+          bottleneck_conv(b, l);
+          growth_conv(b, l);
+        }
       }
+    } else if (int8_) {
+      transition_int8(b);
     } else {
       transition(b);
     }
@@ -220,6 +262,12 @@ private:
       const auto k = static_cast<std::size_t>(i);
       forward_one(input.image(i).data(), std::span<float>(features_).subspan(k * c, c),
                   std::span<float>(logits_).subspan(k * classes, classes));
+      if (int8_ && std::any_of(int8_nan_.begin(), int8_nan_.end(), [](char f) { return f; }))
+        SHADOWSENSE_THROW(Error("DenseNet: a NaN reached a quantised convolution's input in "
+                                "image " +
+                                std::to_string(i) +
+                                " for a finite input, expected finite numbers: the model's "
+                                "weights (or the input's magnitude) overflow float"));
       // A NaN or Inf anywhere in the pass reaches the logits (ReLU and the pools propagate
       // NaN), so checking these few values is enough.
       for (std::size_t o = 0; o < classes; ++o)
@@ -263,6 +311,11 @@ public:
           for (const auto& u : wg->u) n += u.data.size();
       }
     }
+    for (const auto& b : blocks_) {
+      n += b.qt.deq.size() + b.qt.w.size() / sizeof(float);
+      for (const auto& l : b.layers)
+        n += l.q1.deq.size() + l.q2.deq.size() + (l.q1.w.size() + l.q2.w.size()) / sizeof(float);
+    }
     return n * sizeof(float);
   }
   std::size_t activation_bytes() const {
@@ -271,7 +324,7 @@ public:
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
     for (const auto& s : winograd_scratch_) n += s.v.size() + s.m.size() + s.y.size();
-    return n * sizeof(float);
+    return n * sizeof(float) + xq_.size() + q3_.size() + acc_.size() * sizeof(std::int32_t);
   }
 
   // Multiply-adds of one forward pass at h x w (for GFLOP/s reports; 1 MAC = 2 FLOP).
@@ -303,10 +356,21 @@ private:
   struct Affine { // y = max(0, x * scale + shift)
     std::vector<float> scale, shift;
   };
+  // A quantised convolution as the int8 GEMM reads it: m rows of kp codes (k used, the rest
+  // 0); 3x3 rows in tap-major order (k = tap * inner + channel) to match the im2col panel.
+  // Output o of the int32 sum is dequantised as sum * deq[o].
+  struct QConv {
+    std::vector<std::int8_t> w;
+    int m = 0, k = 0, kp = 0;
+    float inv_in = 0.0f; // 1 / input scale
+    std::vector<float> deq;
+  };
   struct Layer {
+    QConv q1, q2; // int8 path: conv1 (norm2's scale in deq), conv2
     Affine norm1;
     detail::PackedMatrix conv1; // norm2 folded in
     std::vector<float> bias1;
+    std::vector<float> norm2_scale; // folded into conv1 (and into q1's deq)
     detail::PackedMatrix conv2;
     // conv2 transformed for F(2x2) and F(4x4); each built when a block first uses it
     detail::WinogradWeights winograd2, winograd4;
@@ -315,6 +379,7 @@ private:
     std::vector<Layer> layers;
     Affine transition_norm;          // empty for the last block
     detail::PackedMatrix transition; // (c/2) x c
+    QConv qt;                        // int8 path: the transition's convolution
     int c_in = 0, c_out = 0;
   };
 
@@ -328,6 +393,7 @@ private:
 
   // The 3x3 method of an H x W block: 0 (direct) or the Winograd tile size.
   int conv3x3_tile(int H, int W) const {
+    if (int8_) return 0;
     switch (config_.conv3x3) {
     case Conv3x3::direct:
       return 0;
@@ -388,6 +454,7 @@ private:
         const int cin = c + l * k;
         layer.norm1 = affine(m, p + ".norm1");
         layer.bias1 = fold(m, p + ".conv1.weight", p + ".norm2", w);
+        layer.norm2_scale = affine(m, p + ".norm2").scale;
         layer.conv1.pack(w.data(), inner, cin, kernel_.mr);
         const auto& w2 = m.tensor(p + ".conv2.weight").values;
         layer.conv2.pack(w2.data(), k, inner * 9, kernel_.mr);
@@ -418,6 +485,241 @@ private:
     if (builds_winograd())
       winograd_scratch_.assign(static_cast<std::size_t>(pool_->size()),
                                detail::make_winograd_scratch(inner, arch_.growth_rate, kernel_));
+  }
+
+  // The int8 section (validated by ModelFile) as the GEMM reads it.
+  QConv make_qconv(const QuantisedConv& q, const std::vector<float>* fold, bool taps) const {
+    // int32 sums of up to k products of at most 127 x 127 must not overflow.
+    detail::require(q.row_length <= std::numeric_limits<std::int32_t>::max() / (127 * 127),
+                    "DenseNet: convolution '" + q.name + "' has " + std::to_string(q.row_length) +
+                        " inputs per output, too many for int32 sums of int8 products (at most " +
+                        std::to_string(std::numeric_limits<std::int32_t>::max() / (127 * 127)) +
+                        ")");
+    QConv r;
+    r.m = q.rows;
+    r.k = q.row_length;
+    r.kp = detail::int8_padded_k(r.k);
+    r.inv_in = 1.0f / q.input_scale;
+    r.w.assign(static_cast<std::size_t>(r.m) * r.kp, 0);
+    const int inner = r.k / 9;
+    for (int o = 0; o < r.m; ++o) {
+      for (int k = 0; k < r.k; ++k) {
+        const int to = taps ? (k % 9) * inner + k / 9 : k; // (channel, tap) -> tap-major
+        r.w[static_cast<std::size_t>(o) * r.kp + to] =
+            q.weights[static_cast<std::size_t>(o) * r.k + k];
+      }
+      const double f = fold ? double((*fold)[static_cast<std::size_t>(o)]) : 1.0;
+      r.deq.push_back(static_cast<float>(double(q.weight_scales[static_cast<std::size_t>(o)]) *
+                                         double(q.input_scale) * f));
+    }
+    return r;
+  }
+
+  void build_int8(const std::vector<QuantisedConv>& convs) {
+    std::size_t i = 0;
+    for (auto& blk : blocks_) {
+      for (auto& layer : blk.layers) {
+        layer.q1 = make_qconv(convs[i++], &layer.norm2_scale, false);
+        layer.q2 = make_qconv(convs[i++], nullptr, true);
+      }
+      if (&blk != &blocks_.back()) blk.qt = make_qconv(convs[i++], nullptr, false);
+    }
+  }
+
+  // The int8 path's buffers for the current size: the im2col panel (pixels x kp codes), the
+  // int32 sums (rows x pixels) and the 3x3 input as codes, pixel-major with channels
+  // contiguous on the zero-padded grid.
+  void ensure_int8_buffers() {
+    std::size_t x = 0, acc = 0, q3 = 0;
+    for (std::size_t b = 0; b < blocks_.size(); ++b) {
+      const auto n = static_cast<std::size_t>(block_h_[b]) * block_w_[b];
+      const auto& blk = blocks_[b];
+      for (const auto& l : blk.layers)
+        for (const QConv* q : {&l.q1, &l.q2}) {
+          x = std::max(x, n * static_cast<std::size_t>(q->kp));
+          acc = std::max(acc, n * static_cast<std::size_t>(q->m));
+        }
+      if (!blk.qt.w.empty()) {
+        x = std::max(x, n * static_cast<std::size_t>(blk.qt.kp));
+        acc = std::max(acc, n * static_cast<std::size_t>(blk.qt.m));
+      }
+      q3 = std::max(q3,
+                    block_plane_[b] * static_cast<std::size_t>(arch_.bn_size * arch_.growth_rate));
+    }
+    xq_.assign(x, 0);
+    acc_.assign(acc, 0);
+    q3_.assign(q3, 0);
+    int8_nan_.assign(static_cast<std::size_t>(pool_->size()), 0);
+  }
+
+  // Runs task(p0, p1, t) on the pool's threads over pixel ranges covering [0, n).
+  template <class F>
+  void over_pixels(int n, F&& task) {
+    const int tasks = std::max(1, std::min(pool_->size(), n));
+    auto fn = [&](int t) {
+      const int p0 = static_cast<int>(static_cast<long>(n) * t / tasks);
+      const int p1 = static_cast<int>(static_cast<long>(n) * (t + 1) / tasks);
+      if (p0 < p1) task(p0, p1, t);
+    };
+    pool_->run(tasks, fn);
+  }
+
+  // Panel rows [p0, p1) of q: the codes of input channel c at pixels [b0, b1) are those of the
+  // floats value(c, b0, b1, v) writes to v, computed channel by channel over blocks of pixels
+  // (contiguous, vectorised) and then transposed into the pixel-major panel.
+  template <class Value>
+  void pack_codes(int p0, int p1, const QConv& q, Value&& value, bool& nan) {
+    constexpr int block = 64;
+    const std::size_t kp = static_cast<std::size_t>(q.kp);
+    std::uint8_t* x = xq_.data();
+    float v[block];
+    std::uint8_t codes[block];
+    for (int p = p0; p < p1; ++p)
+      std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
+    for (int b0 = p0; b0 < p1; b0 += block) {
+      const int b1 = std::min(p1, b0 + block), nb = b1 - b0;
+      for (int c = 0; c < q.k; ++c) {
+        value(c, b0, b1, v);
+        bool bad = false;
+        for (int j = 0; j < nb; ++j) {
+          bad |= v[j] != v[j];
+          codes[j] = detail::int8_code(v[j], q.inv_in);
+        }
+        nan |= bad;
+        std::uint8_t* d = x + static_cast<std::size_t>(b0) * kp + static_cast<std::size_t>(c);
+        for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * kp] = codes[j];
+      }
+    }
+  }
+
+  // The int32 sums of q over panel rows [p0, p1) into acc_ (row stride n).
+  void int8_gemm(const QConv& q, int p0, int p1, int n) {
+    int8_gemm_.fn(q.w.data(), q.m, xq_.data() + static_cast<std::size_t>(p0) * q.kp, p1 - p0, q.kp,
+                  acc_.data() + p0, static_cast<std::size_t>(n));
+  }
+
+  // int8 conv1: codes of relu(norm1(features)) -> sums -> + folded norm2, relu2 -> bottleneck.
+  void bottleneck_int8(std::size_t b, std::size_t l) {
+    const int bw = block_w_[b], n = block_h_[b] * bw, pw = block_pw_[b];
+    const Layer& layer = blocks_[b].layers[l];
+    const QConv& q = layer.q1;
+    const float* feat = block_buf_[b].data();
+    float* bott = bottleneck_[b].data();
+    const std::size_t plane = block_plane_[b];
+    over_pixels(n, [&](int p0, int p1, int t) {
+      bool nan = false;
+      pack_codes(
+          p0, p1, q,
+          [&](int c, int b0, int b1, float* v) {
+            const float* s = feat + static_cast<std::size_t>(c) * n;
+            const float sc = layer.norm1.scale[static_cast<std::size_t>(c)];
+            const float sh = layer.norm1.shift[static_cast<std::size_t>(c)];
+            for (int p = b0; p < b1; ++p) v[p - b0] = detail::relu_reference(s[p] * sc + sh);
+          },
+          nan);
+      int8_gemm(q, p0, p1, n);
+      for (int o = 0; o < q.m; ++o) {
+        const std::int32_t* a = acc_.data() + static_cast<std::size_t>(o) * n;
+        float* d = bott + static_cast<std::size_t>(o) * plane;
+        const float deq = q.deq[static_cast<std::size_t>(o)];
+        const float bias = layer.bias1[static_cast<std::size_t>(o)];
+        for (int p = p0; p < p1;) { // runs within one image row
+          const int y = p / bw, x = p % bw, run = std::min(p1 - p, bw - x);
+          float* dr = d + (y + 1) * pw + x + 1;
+          for (int j = 0; j < run; ++j)
+            dr[j] = detail::relu_reference(float(a[p + j]) * deq + bias);
+          p += run;
+        }
+      }
+      if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
+    });
+  }
+
+  // int8 conv2: the padded bottleneck as codes (pixel-major), im2col of the 3x3 taps, sums ->
+  // the block buffer behind the existing channels.
+  void growth_int8(std::size_t b, std::size_t l) {
+    const int bh = block_h_[b], bw = block_w_[b], n = bh * bw, pw = block_pw_[b];
+    const Block& blk = blocks_[b];
+    const QConv& q = blk.layers[l].q2;
+    const int inner = q.k / 9;
+    const float* bott = bottleneck_[b].data();
+    const std::size_t plane = block_plane_[b], kp = static_cast<std::size_t>(q.kp);
+    const auto in = static_cast<std::size_t>(inner);
+    std::uint8_t* q3 = q3_.data();
+    over_pixels((bh + 2) * pw, [&](int p0, int p1, int t) { // padded positions
+      constexpr int block = 64;
+      std::uint8_t codes[block];
+      bool nan = false;
+      for (int b0 = p0; b0 < p1; b0 += block) {
+        const int nb = std::min(p1, b0 + block) - b0;
+        for (int c = 0; c < inner; ++c) {
+          const float* s = bott + static_cast<std::size_t>(c) * plane + b0;
+          bool bad = false;
+          for (int j = 0; j < nb; ++j) {
+            bad |= s[j] != s[j];
+            codes[j] = detail::int8_code(s[j], q.inv_in);
+          }
+          nan |= bad;
+          std::uint8_t* d = q3 + static_cast<std::size_t>(b0) * in + static_cast<std::size_t>(c);
+          for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * in] = codes[j];
+        }
+      }
+      if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
+    });
+    const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;
+    float* outp = block_buf_[b].data() + static_cast<std::size_t>(cin) * n;
+    over_pixels(n, [&](int p0, int p1, int) {
+      for (int p = p0; p < p1; ++p) {
+        std::uint8_t* row = xq_.data() + p * kp;
+        const int y = p / bw, x = p % bw;
+        for (int tap = 0; tap < 9; ++tap)
+          std::memcpy(row + tap * in, q3 + ((y + tap / 3) * pw + x + tap % 3) * in, in);
+        std::memset(row + 9 * in, 0, kp - 9 * in);
+      }
+      int8_gemm(q, p0, p1, n);
+      for (int o = 0; o < q.m; ++o) {
+        const std::int32_t* a = acc_.data() + static_cast<std::size_t>(o) * n;
+        float* d = outp + static_cast<std::size_t>(o) * n;
+        const float deq = q.deq[static_cast<std::size_t>(o)];
+        for (int p = p0; p < p1; ++p) d[p] = float(a[p]) * deq;
+      }
+    });
+  }
+
+  // int8 transition: codes of avgpool(relu(norm(features))) -> sums -> block b+1's buffer.
+  void transition_int8(std::size_t b) {
+    const int bw = block_w_[b], n = block_h_[b] * bw;
+    const Block& blk = blocks_[b];
+    const QConv& q = blk.qt;
+    const Affine& a = blk.transition_norm;
+    const float* feat = block_buf_[b].data();
+    const int ow = block_w_[b + 1], on = block_h_[b + 1] * ow;
+    float* next = block_buf_[b + 1].data();
+    over_pixels(on, [&](int p0, int p1, int t) {
+      bool nan = false;
+      pack_codes(
+          p0, p1, q,
+          [&](int c, int b0, int b1, float* v) {
+            const float* s = feat + static_cast<std::size_t>(c) * n;
+            const float sc = a.scale[static_cast<std::size_t>(c)];
+            const float sh = a.shift[static_cast<std::size_t>(c)];
+            for (int p = b0; p < b1;) { // runs within one output row
+              const int y = p / ow, x = p % ow, run = std::min(b1 - p, ow - x);
+              const float* r = s + 2 * y * bw + 2 * x;
+              detail::pool_affine_relu_reference(r, r + bw, v + (p - b0), run, sc, sh);
+              p += run;
+            }
+          },
+          nan);
+      int8_gemm(q, p0, p1, on);
+      for (int o = 0; o < q.m; ++o) {
+        const std::int32_t* acc = acc_.data() + static_cast<std::size_t>(o) * on;
+        float* d = next + static_cast<std::size_t>(o) * on;
+        const float deq = q.deq[static_cast<std::size_t>(o)];
+        for (int p = p0; p < p1; ++p) d[p] = float(acc[p]) * deq;
+      }
+      if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
+    });
   }
 
   void ensure_buffers(int h, int w) {
@@ -492,6 +794,7 @@ private:
       H /= 2;
       W /= 2;
     }
+    if (int8_) ensure_int8_buffers();
   }
 
   // One image through the network, as the named steps of torchvision's DenseNet.
@@ -499,6 +802,18 @@ private:
     load_input(in);
     conv0();
     pool0();
+    if (int8_) {
+      std::fill(int8_nan_.begin(), int8_nan_.end(), char(0));
+      for (std::size_t b = 0; b < blocks_.size(); ++b) {
+        for (std::size_t l = 0; l < blocks_[b].layers.size(); ++l) {
+          bottleneck_int8(b, l);
+          growth_int8(b, l);
+        }
+        if (b + 1 < blocks_.size()) transition_int8(b);
+      }
+      head(pooled, out);
+      return;
+    }
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       for (std::size_t l = 0; l < blocks_[b].layers.size(); ++l) {
         bottleneck_conv(b, l);
@@ -838,6 +1153,11 @@ private:
   detail::VectorOps ops_{};
   detail::WinogradOps winograd_ops_{};
   bool fused_ = false; // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
+  bool int8_ = false;  // the quantised convolutions run in int8 (set after the self-test)
+  detail::Int8Gemm int8_gemm_{};
+  std::vector<std::uint8_t> xq_, q3_; // int8 path: im2col panel, 3x3 input codes
+  std::vector<std::int32_t> acc_;     // int8 path: the int32 sums
+  std::vector<char> int8_nan_;        // int8 path: per task, a NaN was quantised
   std::unique_ptr<detail::ThreadPool> pool_;
   std::vector<detail::GemmScratch> scratch_;
   std::vector<detail::WinogradScratch> winograd_scratch_;

@@ -5,7 +5,9 @@
 // closed by a CRC-32 checksum. The byte layout is in docs/model_format.md;
 // tools/densenet_to_model.py and tools/train.py write it.
 //
-// Versions: this library writes version 2 and reads versions 1 and 2. Version 1 files hold no
+// Versions: this library writes version 2, or version 3 when the model holds int8 weights
+// (ModelFile::int8: version 2 plus an int8 section before the checksum), and reads versions
+// 1..3. Version 1 files hold no
 // lighting-normalisation flag and no dark-frame rule; they load with lighting_normalise = false
 // and dark_luminance_threshold = 0 (no frame is dark by the rule: the caller decides, as with
 // version 1), and ModelFile::format_version says 1. Upgrade one with
@@ -15,11 +17,14 @@
 //
 // ModelFile::validate() const
 //   ensures: returns when the model is consistent (architecture, preprocessing, names, every
-//            tensor's name, shape and finite values, the self-test); throws ModelFileError
+//            tensor's name, shape and finite values, the self-test, the int8 section: names,
+//            shapes, scales > 0, codes in -127..127 that are the float weights rounded to
+//            their scales); throws ModelFileError
 //            naming what was wrong and what was expected otherwise.
 // ModelFile::to_bytes() const / save(path) const
 //   requires: validate() passes (else ModelFileError).
-//   ensures: save writes the version-2 bytes atomically: a temporary file in path's folder,
+//   ensures: save writes the version-2 bytes (version 3 with an int8 section) atomically: a
+//   temporary file in path's folder,
 //            every write checked, fsync, then rename over path. On any failure (full disk,
 //            file size limit, missing folder) it throws IoError, removes the temporary file and
 //            leaves an existing file at path untouched.
@@ -74,7 +79,10 @@ static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559,
 // The 8 bytes every model file starts with.
 inline constexpr std::array<char, 8> model_file_magic = {'S', 'S', 'D', 'N', 'M', 'O', 'D', '\n'};
 // The format version this library writes; it reads model_file_min_version..model_file_version.
-inline constexpr std::uint32_t model_file_version = 2;
+inline constexpr std::uint32_t model_file_version = 3;
+// The version written when a model has no int8 section (such files are byte for byte what
+// earlier releases wrote, so readers of version 2 keep reading them).
+inline constexpr std::uint32_t model_file_float_version = 2;
 inline constexpr std::uint32_t model_file_min_version = 1;
 // The largest model file load() reads (2 GiB; densenet201 takes 80 MB).
 inline constexpr std::uint64_t model_file_max_bytes = std::uint64_t(1) << 31;
@@ -156,6 +164,16 @@ struct DenseNetArchitecture {
     std::string name;
     std::vector<int> shape;
   };
+  // The convolutions an int8 section quantises, in file order: every dense layer's conv1 and
+  // conv2 and every transition's conv (conv0 and the classifier stay float), by the name and
+  // shape of their weight tensor.
+  std::vector<TensorSpec> expected_int8_convs() const {
+    std::vector<TensorSpec> out;
+    for (auto& t : expected_tensors())
+      if (t.shape.size() == 4 && t.name != "features.conv0.weight") out.push_back(std::move(t));
+    return out;
+  }
+
   std::vector<TensorSpec> expected_tensors() const {
     std::vector<TensorSpec> out;
     auto bn = [&](const std::string& prefix, int c) {
@@ -205,15 +223,30 @@ struct ModelSelfTest {
   float tolerance = 1e-4f;   // max |diff| allowed, scaled by max(1, |logit|)
 };
 
+// One convolution quantised for the int8 forward (docs/model_format.md, version 3): weights
+// quantised symmetrically per output channel, code = round(w / weight_scales[o]) in
+// -127..127 (never clipped: |w| <= 127 x scale), and the scale of the convolution's input
+// (after its BatchNorm-ReLU, and the transitions' average pool), code = min(127,
+// round(x / input_scale)), 7-bit because of the kernels' int16 pair sums (gemm_int8.hpp).
+struct QuantisedConv {
+  std::string name;             // the float weight tensor's name, e.g. "...conv1.weight"
+  int rows = 0, row_length = 0; // output channels; input channels x kernel height x width
+  float input_scale = 0.0f;
+  std::vector<float> weight_scales; // rows
+  std::vector<std::int8_t> weights; // rows x row_length, the float tensor's order
+};
+
 struct ModelFile {
-  // The version the file was read from (load/from_bytes); save() always writes
-  // model_file_version. A 1 here means the preprocessing options are version-1 defaults.
+  // The version the file was read from (load/from_bytes); save() writes version 3 when int8
+  // is set, else 2. A 1 here means the preprocessing options are version-1 defaults.
   std::uint32_t format_version = model_file_version;
   DenseNetArchitecture architecture;
   PreprocessParams preprocess;
   std::vector<std::string> class_names;
   std::vector<NamedTensor> tensors; // in architecture.expected_tensors() order
   std::optional<ModelSelfTest> self_test;
+  // Present in version-3 files: the architecture's expected_int8_convs(), in order.
+  std::optional<std::vector<QuantisedConv>> int8;
 
   const NamedTensor& tensor(std::string_view name) const {
     for (const auto& t : tensors)
@@ -342,6 +375,10 @@ inline bool is_running_var(const std::string& name) {
 
 } // namespace detail
 
+namespace detail {
+inline void validate_int8(const ModelFile& m); // the int8 section (below)
+} // namespace detail
+
 inline void ModelFile::validate() const {
   architecture.validate();
   preprocess.validate<ModelFileError>();
@@ -411,14 +448,72 @@ inline void ModelFile::validate() const {
                                         std::to_string(st.tolerance) +
                                         ", expected a finite value > 0");
   }
+  if (int8) detail::validate_int8(*this);
 }
+
+namespace detail {
+inline void validate_int8(const ModelFile& m) {
+  const auto expected = m.architecture.expected_int8_convs();
+  const auto& convs = *m.int8;
+  require<ModelFileError>(convs.size() == expected.size(),
+                          "model file int8 section: " + std::to_string(convs.size()) +
+                              " quantised convolutions, expected " +
+                              std::to_string(expected.size()) + " for this architecture");
+  for (std::size_t i = 0; i < convs.size(); ++i) {
+    const auto& q = convs[i];
+    const auto& e = expected[i];
+    const std::string what = "model file int8 section: convolution " + std::to_string(i);
+    require<ModelFileError>(q.name == e.name,
+                            what + " is named '" + q.name + "', expected '" + e.name + "'");
+    const int rows = e.shape[0], len = e.shape[1] * e.shape[2] * e.shape[3];
+    require<ModelFileError>(q.rows == rows && q.row_length == len,
+                            what + " ('" + q.name + "') is " + std::to_string(q.rows) + " x " +
+                                std::to_string(q.row_length) + ", expected " +
+                                std::to_string(rows) + " x " + std::to_string(len));
+    require<ModelFileError>(std::isfinite(q.input_scale) && q.input_scale > 0.0f,
+                            what + " ('" + q.name + "'): input scale " +
+                                std::to_string(q.input_scale) + ", expected a finite value > 0");
+    require<ModelFileError>(
+        q.weight_scales.size() == static_cast<std::size_t>(rows) &&
+            q.weights.size() == static_cast<std::size_t>(rows) * len,
+        what + " ('" + q.name + "'): " + std::to_string(q.weight_scales.size()) + " scales and " +
+            std::to_string(q.weights.size()) + " weights, expected " + std::to_string(rows) +
+            " and " + std::to_string(static_cast<std::size_t>(rows) * len));
+    const auto& w = m.tensor(q.name).values;
+    for (int o = 0; o < rows; ++o) {
+      const float s = q.weight_scales[static_cast<std::size_t>(o)];
+      if (!(std::isfinite(s) && s > 0.0f))
+        SHADOWSENSE_THROW(ModelFileError(what + " ('" + q.name + "'): weight scale of row " +
+                                         std::to_string(o) + " is " + std::to_string(s) +
+                                         ", expected a finite value > 0"));
+      for (int k = 0; k < len; ++k) {
+        const std::size_t at = static_cast<std::size_t>(o) * len + k;
+        const int code = q.weights[at];
+        // (The messages are built only on failure: a model has millions of weights.)
+        if (code < -127)
+          SHADOWSENSE_THROW(ModelFileError(what + " ('" + q.name + "'): weight code -128 at " +
+                                           std::to_string(at) + ", expected -127..127"));
+        // The codes must be the float weights rounded to the scale: a section written for
+        // other weights (another model, an edited file) is refused here, not run.
+        const double err = std::abs(double(code) * s - double(w[at]));
+        if (!(err <= 0.5 * double(s) * (1.0 + 1e-4)))
+          SHADOWSENSE_THROW(
+              ModelFileError(what + " ('" + q.name + "'): weight " + std::to_string(at) +
+                             " has code " + std::to_string(code) + " x scale " + std::to_string(s) +
+                             ", expected round(" + std::to_string(w[at]) +
+                             " / scale): the int8 section does not belong to these float weights"));
+      }
+    }
+  }
+}
+} // namespace detail
 
 inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
   validate();
   detail::ModelWriter w;
   // header
   w.out.insert(w.out.end(), model_file_magic.begin(), model_file_magic.end());
-  w.u32(model_file_version);
+  w.u32(int8 ? model_file_version : model_file_float_version);
   // architecture
   const auto& a = architecture;
   w.u32(static_cast<std::uint32_t>(a.growth_rate));
@@ -461,6 +556,17 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
     w.floats(in.values());
     w.floats(self_test->logits);
     w.f32(self_test->tolerance);
+  }
+  if (int8) { // version 3
+    w.u32(static_cast<std::uint32_t>(int8->size()));
+    for (const auto& q : *int8) {
+      w.str(q.name);
+      w.u32(static_cast<std::uint32_t>(q.rows));
+      w.u32(static_cast<std::uint32_t>(q.row_length));
+      w.f32(q.input_scale);
+      w.floats(q.weight_scales);
+      for (std::int8_t v : q.weights) w.out.push_back(static_cast<std::uint8_t>(v));
+    }
   }
   w.u32(detail::crc32(w.out));
   return std::move(w.out);
@@ -536,7 +642,13 @@ inline std::uint64_t model_max_bytes(const DenseNetArchitecture& a) {
     n = std::min(cap, n + 4 + model_max_name_bytes + 4 + 4 * 4 + 4 * e);
   }
   n += 4 + 4 * 4 + 4 * model_self_test_max_values + 4 * 64 * classes + 4; // self-test
-  return std::min(cap, n + 4);                                            // checksum
+  n = std::min(cap, n + 4);                                               // int8 section
+  for (const auto& t : a.expected_int8_convs()) {
+    const auto rows = static_cast<std::uint64_t>(t.shape[0]);
+    const auto len = static_cast<std::uint64_t>(t.shape[1]) * t.shape[2] * t.shape[3];
+    n = std::min(cap, n + 4 + model_max_name_bytes + 3 * 4 + 4 * rows + rows * len);
+  }
+  return std::min(cap, n + 4); // checksum
 }
 
 } // namespace detail
@@ -675,6 +787,34 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     r.floats(st.logits, static_cast<std::size_t>(n) * n_classes, "self-test logits");
     st.tolerance = r.f32("self-test tolerance");
     m.self_test = std::move(st);
+  }
+  if (m.format_version >= 3) {
+    r.section = "int8";
+    const auto expected_convs = a.expected_int8_convs();
+    const auto n_convs = static_cast<std::uint32_t>(expected_convs.size());
+    r.count("the number of quantised convolutions", n_convs, n_convs);
+    std::vector<QuantisedConv> convs;
+    for (const auto& e : expected_convs) {
+      QuantisedConv q;
+      q.name = r.str("a quantised convolution's name");
+      if (q.name != e.name)
+        SHADOWSENSE_THROW(ModelFileError("model file int8 section: convolution " +
+                                         std::to_string(convs.size()) + " is named '" + q.name +
+                                         "', expected '" + e.name + "'"));
+      const auto rows = static_cast<std::uint32_t>(e.shape[0]);
+      const auto len = static_cast<std::uint32_t>(e.shape[1] * e.shape[2] * e.shape[3]);
+      q.rows = r.count("a quantised convolution's rows (its output channels)", rows, rows);
+      q.row_length = r.count("a quantised convolution's row length", len, len);
+      q.input_scale = r.f32("an input scale");
+      r.floats(q.weight_scales, rows, "weight scales");
+      const std::size_t count = static_cast<std::size_t>(rows) * len;
+      r.need(count, "int8 weights");
+      q.weights.resize(count);
+      std::memcpy(q.weights.data(), bytes.data() + r.pos, count);
+      r.pos += count;
+      convs.push_back(std::move(q));
+    }
+    m.int8 = std::move(convs);
   }
   // checksum
   r.section = "checksum";

@@ -1,0 +1,279 @@
+// The int8 GEMM of the DenseNet's quantised convolutions: int8 weights (rows) times unsigned
+// 7-bit activations (columns), accumulated exactly in int32. Three kernels with one contract:
+// the portable reference (plain loops), AVX2 (vpmaddubsw + vpmaddwd, chosen at run time when
+// the CPU has AVX2) and NEON (vmull_s8 / vmlal_s8 + vpadal, aarch64). There is no AVX-512 VNNI
+// kernel: no machine the project is tested on has VNNI, and an untested kernel is not shipped.
+//
+// Why 7-bit activations: vpmaddubsw multiplies unsigned bytes by signed bytes and adds pairs
+// into int16 with saturation. With activations in 0..127 and weights in -127..127 a pair sum is
+// at most 2 x 127 x 127 = 32258 < 32767, so it never saturates and every kernel is exact; with
+// 8-bit activations (255 x 127 x 2 = 64770) it would saturate and differ from the reference.
+// The same bound lets NEON add two int8 x int8 products in one int16 lane (vmlal_s8). The
+// DenseNet's conv inputs follow a ReLU, so they are >= 0 and unsigned codes lose no sign bit.
+//
+// gemm_s8u7_<kind>(w, m, x, n, kp, c, ldc)
+//   requires: w holds m rows of kp int8 values in -127..127; x holds n rows of kp uint8 values
+//             in 0..127 (row j = column j of the product: one pixel's inputs, contiguous);
+//             kp a positive multiple of int8_k_align (pad both with zeros); c holds m rows of
+//             ldc >= n int32 and overlaps neither.
+//   ensures:  c[i * ldc + j] = sum over k of w[i * kp + k] * x[j * kp + k], exactly (every
+//             kernel gives the same bits). Values outside the ranges are undefined behaviour
+//             of the result (never of memory): the callers quantise into the ranges.
+// int8_code(x, inv_scale) -> 0..127
+//   requires: x >= 0 (a ReLU output) or NaN.
+//   ensures:  min(127, floor(x * inv_scale + 0.5)) as float arithmetic computes it; NaN gives
+//             127 (callers that must see a NaN test for it themselves). The one rounding rule
+//             of every activation quantisation (DenseNet's int8 path and the reference).
+// select_int8_gemm(kind) -> Int8Gemm: the kernel of that kind (automatic: the fastest this CPU
+//   runs); InvalidArgument when the kind is not available on this CPU.
+// No state; callable from any thread.
+#pragma once
+
+#include <shadowsense/backends/densenet/gemm.hpp>
+#include <shadowsense/core/error.hpp>
+#include <shadowsense/core/version.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+
+inline constexpr int int8_k_align = 32;     // kp is a multiple of this (one AVX2 register)
+inline constexpr int int8_act_max = 127;    // activation codes 0..127 (see the header comment)
+inline constexpr int int8_weight_max = 127; // weight codes -127..127
+
+inline int int8_padded_k(int k) {
+  return (k + int8_k_align - 1) / int8_k_align * int8_k_align;
+}
+
+inline std::uint8_t int8_code(float x, float inv_scale) {
+  const float q = x * inv_scale + 0.5f;
+  return q < float(int8_act_max) ? static_cast<std::uint8_t>(q) : std::uint8_t(int8_act_max);
+}
+
+using Int8GemmFn = void (*)(const std::int8_t* w, int m, const std::uint8_t* x, int n, int kp,
+                            std::int32_t* c, std::size_t ldc);
+
+inline void gemm_s8u7_reference(const std::int8_t* w, int m, const std::uint8_t* x, int n, int kp,
+                                std::int32_t* c, std::size_t ldc) {
+  for (int i = 0; i < m; ++i) {
+    const std::int8_t* wr = w + static_cast<std::size_t>(i) * kp;
+    for (int j = 0; j < n; ++j) {
+      const std::uint8_t* xr = x + static_cast<std::size_t>(j) * kp;
+      std::int32_t acc = 0;
+      for (int k = 0; k < kp; ++k) acc += std::int32_t(wr[k]) * std::int32_t(xr[k]);
+      c[static_cast<std::size_t>(i) * ldc + j] = acc;
+    }
+  }
+}
+
+#if SHADOWSENSE_X86_KERNELS
+__attribute__((target("avx2"))) inline std::int32_t int8_hsum_avx2(__m256i v) {
+  __m128i s = _mm_add_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0x4e));
+  s = _mm_add_epi32(s, _mm_shuffle_epi32(s, 0xb1));
+  return _mm_cvtsi128_si32(s);
+}
+
+// acc + the 16 u7 x s8 pair sums of xv, wv (exact: see the header comment) widened to int32.
+__attribute__((target("avx2"))) inline __m256i int8_madd_avx2(__m256i acc, __m256i xv, __m256i wv,
+                                                              __m256i ones) {
+  return _mm256_add_epi32(acc, _mm256_madd_epi16(_mm256_maddubs_epi16(xv, wv), ones));
+}
+
+// 4 weight rows x 2 pixels per step (8 accumulators, 6 operand registers), remainders one row
+// or one pixel at a time with the same instructions.
+__attribute__((target("avx2"))) inline void gemm_s8u7_avx2(const std::int8_t* w, int m,
+                                                           const std::uint8_t* x, int n, int kp,
+                                                           std::int32_t* c, std::size_t ldc) {
+  const __m256i ones = _mm256_set1_epi16(1);
+#define madd(acc, xv, wv) int8_madd_avx2(acc, xv, wv, ones)
+#define load(p) _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p))
+  const std::size_t K = static_cast<std::size_t>(kp);
+  int j = 0;
+  for (; j + 2 <= n; j += 2) {
+    const std::uint8_t* x0 = x + j * K;
+    const std::uint8_t* x1 = x0 + K;
+    int i = 0;
+    for (; i + 4 <= m; i += 4) {
+      const std::int8_t* w0 = w + i * K;
+      __m256i a00 = _mm256_setzero_si256(), a01 = a00, a10 = a00, a11 = a00, a20 = a00, a21 = a00,
+              a30 = a00, a31 = a00;
+      for (std::size_t k = 0; k < K; k += 32) {
+        const __m256i p0 = load(x0 + k), p1 = load(x1 + k);
+        const __m256i r0 = load(w0 + k), r1 = load(w0 + K + k), r2 = load(w0 + 2 * K + k),
+                      r3 = load(w0 + 3 * K + k);
+        a00 = madd(a00, p0, r0);
+        a01 = madd(a01, p1, r0);
+        a10 = madd(a10, p0, r1);
+        a11 = madd(a11, p1, r1);
+        a20 = madd(a20, p0, r2);
+        a21 = madd(a21, p1, r2);
+        a30 = madd(a30, p0, r3);
+        a31 = madd(a31, p1, r3);
+      }
+      std::int32_t* cr = c + static_cast<std::size_t>(i) * ldc + j;
+      cr[0] = int8_hsum_avx2(a00);
+      cr[1] = int8_hsum_avx2(a01);
+      cr[ldc] = int8_hsum_avx2(a10);
+      cr[ldc + 1] = int8_hsum_avx2(a11);
+      cr[2 * ldc] = int8_hsum_avx2(a20);
+      cr[2 * ldc + 1] = int8_hsum_avx2(a21);
+      cr[3 * ldc] = int8_hsum_avx2(a30);
+      cr[3 * ldc + 1] = int8_hsum_avx2(a31);
+    }
+    for (; i < m; ++i) {
+      const std::int8_t* w0 = w + i * K;
+      __m256i a0 = _mm256_setzero_si256(), a1 = a0;
+      for (std::size_t k = 0; k < K; k += 32) {
+        const __m256i r0 = load(w0 + k);
+        a0 = madd(a0, load(x0 + k), r0);
+        a1 = madd(a1, load(x1 + k), r0);
+      }
+      c[static_cast<std::size_t>(i) * ldc + j] = int8_hsum_avx2(a0);
+      c[static_cast<std::size_t>(i) * ldc + j + 1] = int8_hsum_avx2(a1);
+    }
+  }
+  for (; j < n; ++j) {
+    const std::uint8_t* x0 = x + j * K;
+    for (int i = 0; i < m; ++i) {
+      const std::int8_t* w0 = w + i * K;
+      __m256i a0 = _mm256_setzero_si256();
+      for (std::size_t k = 0; k < K; k += 32) a0 = madd(a0, load(x0 + k), load(w0 + k));
+      c[static_cast<std::size_t>(i) * ldc + j] = int8_hsum_avx2(a0);
+    }
+  }
+#undef madd
+#undef load
+}
+#endif
+
+#if SHADOWSENSE_NEON_KERNELS
+// One 16-byte step: two int8 x int8 products per int16 lane (|sum| <= 32258, see the header
+// comment), then pairwise into the int32 accumulator. Activations 0..127 are valid int8.
+inline int32x4_t int8_madd_neon(int32x4_t acc, int8x16_t xv, int8x16_t wv) {
+  int16x8_t p = vmull_s8(vget_low_s8(xv), vget_low_s8(wv));
+  p = vmlal_high_s8(p, xv, wv);
+  return vpadalq_s16(acc, p);
+}
+
+// 4 weight rows x 2 pixels per step, remainders one row or one pixel at a time.
+inline void gemm_s8u7_neon(const std::int8_t* w, int m, const std::uint8_t* x, int n, int kp,
+                           std::int32_t* c, std::size_t ldc) {
+  const std::size_t K = static_cast<std::size_t>(kp);
+  auto lx = [](const std::uint8_t* p) { return vreinterpretq_s8_u8(vld1q_u8(p)); };
+  int j = 0;
+  for (; j + 2 <= n; j += 2) {
+    const std::uint8_t* x0 = x + j * K;
+    const std::uint8_t* x1 = x0 + K;
+    int i = 0;
+    for (; i + 4 <= m; i += 4) {
+      const std::int8_t* w0 = w + i * K;
+      int32x4_t a00 = vdupq_n_s32(0), a01 = a00, a10 = a00, a11 = a00, a20 = a00, a21 = a00,
+                a30 = a00, a31 = a00;
+      for (std::size_t k = 0; k < K; k += 16) {
+        const int8x16_t p0 = lx(x0 + k), p1 = lx(x1 + k);
+        const int8x16_t r0 = vld1q_s8(w0 + k), r1 = vld1q_s8(w0 + K + k),
+                        r2 = vld1q_s8(w0 + 2 * K + k), r3 = vld1q_s8(w0 + 3 * K + k);
+        a00 = int8_madd_neon(a00, p0, r0);
+        a01 = int8_madd_neon(a01, p1, r0);
+        a10 = int8_madd_neon(a10, p0, r1);
+        a11 = int8_madd_neon(a11, p1, r1);
+        a20 = int8_madd_neon(a20, p0, r2);
+        a21 = int8_madd_neon(a21, p1, r2);
+        a30 = int8_madd_neon(a30, p0, r3);
+        a31 = int8_madd_neon(a31, p1, r3);
+      }
+      std::int32_t* cr = c + static_cast<std::size_t>(i) * ldc + j;
+      cr[0] = vaddvq_s32(a00);
+      cr[1] = vaddvq_s32(a01);
+      cr[ldc] = vaddvq_s32(a10);
+      cr[ldc + 1] = vaddvq_s32(a11);
+      cr[2 * ldc] = vaddvq_s32(a20);
+      cr[2 * ldc + 1] = vaddvq_s32(a21);
+      cr[3 * ldc] = vaddvq_s32(a30);
+      cr[3 * ldc + 1] = vaddvq_s32(a31);
+    }
+    for (; i < m; ++i) {
+      const std::int8_t* w0 = w + i * K;
+      int32x4_t a0 = vdupq_n_s32(0), a1 = a0;
+      for (std::size_t k = 0; k < K; k += 16) {
+        const int8x16_t r0 = vld1q_s8(w0 + k);
+        a0 = int8_madd_neon(a0, lx(x0 + k), r0);
+        a1 = int8_madd_neon(a1, lx(x1 + k), r0);
+      }
+      c[static_cast<std::size_t>(i) * ldc + j] = vaddvq_s32(a0);
+      c[static_cast<std::size_t>(i) * ldc + j + 1] = vaddvq_s32(a1);
+    }
+  }
+  for (; j < n; ++j) {
+    const std::uint8_t* x0 = x + j * K;
+    for (int i = 0; i < m; ++i) {
+      const std::int8_t* w0 = w + i * K;
+      int32x4_t a0 = vdupq_n_s32(0);
+      for (std::size_t k = 0; k < K; k += 16) a0 = int8_madd_neon(a0, lx(x0 + k), vld1q_s8(w0 + k));
+      c[static_cast<std::size_t>(i) * ldc + j] = vaddvq_s32(a0);
+    }
+  }
+}
+#endif
+
+enum class Int8KernelKind { automatic, reference, avx2, neon };
+
+struct Int8Gemm {
+  Int8KernelKind kind = Int8KernelKind::reference;
+  const char* name = "int8-reference";
+  Int8GemmFn fn = gemm_s8u7_reference;
+};
+
+inline bool cpu_has_int8(Int8KernelKind kind) {
+  switch (kind) {
+  case Int8KernelKind::automatic:
+  case Int8KernelKind::reference:
+    return true;
+  case Int8KernelKind::avx2:
+#if SHADOWSENSE_X86_KERNELS
+    return __builtin_cpu_supports("avx2");
+#else
+    return false;
+#endif
+  case Int8KernelKind::neon:
+    return SHADOWSENSE_NEON_KERNELS != 0;
+  }
+  return false;
+}
+
+inline Int8Gemm select_int8_gemm(Int8KernelKind kind) {
+  if (kind == Int8KernelKind::automatic) {
+    if (cpu_has_int8(Int8KernelKind::avx2))
+      kind = Int8KernelKind::avx2;
+    else if (cpu_has_int8(Int8KernelKind::neon))
+      kind = Int8KernelKind::neon;
+    else
+      kind = Int8KernelKind::reference;
+  }
+  require(cpu_has_int8(kind), "select_int8_gemm: the requested int8 kernel (" +
+                                  std::to_string(static_cast<int>(kind)) +
+                                  ") is not available on this CPU");
+#if SHADOWSENSE_X86_KERNELS
+  if (kind == Int8KernelKind::avx2) return {kind, "int8-avx2", gemm_s8u7_avx2};
+#endif
+#if SHADOWSENSE_NEON_KERNELS
+  if (kind == Int8KernelKind::neon) return {kind, "int8-neon", gemm_s8u7_neon};
+#endif
+  return {};
+}
+
+// The kernels this CPU runs, reference first.
+inline std::vector<Int8KernelKind> available_int8_kernels() {
+  std::vector<Int8KernelKind> out;
+  for (auto k : {Int8KernelKind::reference, Int8KernelKind::avx2, Int8KernelKind::neon})
+    if (cpu_has_int8(k)) out.push_back(k);
+  return out;
+}
+
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END
