@@ -287,6 +287,36 @@ TEST_CASE("CameraHealth: black, black with one bright pixel, white, frozen; a li
                        doctest::Contains("saturated_level is 100"), InvalidArgument);
 }
 
+TEST_CASE("a bad frame is refused with the segmenter's message and is not judged by the camera "
+          "check") {
+  const cv::Mat good = render({}, 1).image;
+  const std::string model =
+      std::to_string(good.cols) + "x" + std::to_string(good.rows) + "; expected the same size";
+  TouchPipeline pipeline(segmenter_from(test::box_calibration()));
+  double t = 0;
+  for (int i = 0; i < 28; ++i) pipeline.update(good, t += 33); // 27 repeats: frozen at the 30th
+  REQUIRE(pipeline.camera_health().repeated_frames() == 27);
+  // Each bad frame: the segmenter's exact message; a black one (dark to the camera check) and a
+  // noisy one alike, the camera check untouched (no fault, the repeat count kept).
+  const cv::Mat noisy_small = render({}, 2).image(cv::Rect(0, 0, 10, 10)).clone();
+  const std::vector<std::pair<cv::Mat, std::string>> bad = {
+      {cv::Mat(), "Segmenter::segment: image: image is empty; expected an 8-bit 3-channel image"},
+      {filled({10, 10}, 0),
+       "Segmenter::segment: image is 10x10 but the empty-skin model is " + model},
+      {noisy_small, "Segmenter::segment: image is 10x10 but the empty-skin model is " + model},
+      {cv::Mat(good.size(), CV_8UC1, cv::Scalar(0)),
+       "Segmenter::segment: image: image type is CV_8UC1; expected CV_8UC3 (8-bit, 3 channels)"},
+  };
+  for (const auto& [frame, message] : bad) {
+    CAPTURE(message);
+    CHECK_THROWS_WITH_AS(pipeline.update(frame, t + 1), message.c_str(), InvalidArgument);
+    CHECK(pipeline.camera_health().fault() == CameraFault::none);
+    CHECK(pipeline.camera_health().repeated_frames() == 27);
+  }
+  CHECK(pipeline.update(good, t += 33).camera == CameraFault::none);
+  CHECK(pipeline.update(good, t += 33).camera == CameraFault::frozen); // the 30th, as without them
+}
+
 TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen sequences") {
   const cv::Size size = render({}, 1).image.size();
   // From the first frame on: no appear, no track, the fault on every frame, the change once.
