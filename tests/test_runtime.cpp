@@ -11,6 +11,8 @@
 
 #include <doctest/doctest.h>
 
+#include "common/files.hpp"
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -340,28 +342,13 @@ void readme_runtime_loop(const Camera& camera, React&& react) {
   // clang-format on
 }
 
-std::vector<std::string> readme_lines(const std::string& path, const std::string& from,
-                                      const std::string& to) {
-  std::vector<std::string> out;
-  std::ifstream in(path);
-  std::string line;
-  bool inside = false;
-  while (std::getline(in, line)) {
-    const auto first = line.find_first_not_of(' ');
-    const std::string t = first == std::string::npos ? "" : line.substr(first);
-    if (t.rfind(from, 0) == 0) inside = true;
-    if (inside) out.push_back(t);
-    if (inside && t.find(to) != std::string::npos) break;
-  }
-  return out;
-}
-
 } // namespace
 
 TEST_CASE("the README's Runtime loop is this compiled code, and it prints events with gestures") {
   const std::string first = "ss::Runtime sense{", last = "the lifts reach the sinks";
-  const auto readme = readme_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
-  const auto here = readme_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
+  const auto readme = tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
+  const auto here =
+      tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
   REQUIRE(readme.size() == 12);
   CHECK(readme == here);
   const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_runtime";

@@ -183,31 +183,13 @@ void readme_tracking_loop(const Camera& camera, Log log) {
   // README-END
 }
 
-std::vector<std::string> trimmed_lines(const std::string& text, const std::string& from,
-                                       const std::string& to) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  std::string line;
-  bool inside = false;
-  while (std::getline(in, line)) {
-    const auto first = line.find_first_not_of(' ');
-    const std::string t = first == std::string::npos ? "" : line.substr(first);
-    if (t.rfind(from, 0) == 0) inside = true;
-    if (inside && t != "// README-BEGIN" && t != "// README-END") out.push_back(t);
-    if (inside && t.find(to) != std::string::npos) break;
-  }
-  return out;
-}
-
 } // namespace
 
 TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
   const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
-  const auto readme = trimmed_lines(
-      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
-  const auto here = trimmed_lines(
-      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"),
-      first, last);
+  const auto readme = tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
+  const auto here =
+      tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_touch_pipeline.cpp", first, last);
   REQUIRE(readme.size() == 7);
   CHECK(readme == here);
   // Run it: a calibration file in the working folder, a short touch.

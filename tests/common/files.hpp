@@ -1,5 +1,5 @@
-// Files and folders for the tests: a fresh folder under the build's test temp folder, and a
-// file's bytes.
+// Files and folders for the tests: a fresh folder under the build's test temp folder, a file's
+// bytes, and a snippet of a text file (to compare the README's code with the compiled copy).
 //
 // std::filesystem::path fresh_dir(const std::filesystem::path& relative)
 //   requires: SHADOWSENSE_TEST_TMP_DIR is defined (tests/CMakeLists.txt does); `relative` names a
@@ -10,13 +10,22 @@
 // std::string read_file(const std::filesystem::path& p)
 //   ensures: every byte of p; "" when p cannot be opened.
 //
+// std::vector<std::string> snippet_lines(const std::filesystem::path& p, const std::string& from,
+//                                        const std::string& to)
+//   ensures: the lines of p from the first that starts with `from` (after its leading spaces) to
+//     the next that contains `to`, both included, each without its leading spaces (so the
+//     README's code and the same code indented in a test compare equal); empty when no line
+//     starts with `from`, and to the end of the file when none after it contains `to`.
+//
 // Threading: no state; tests running at the same time must use different folders.
 #pragma once
 
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <sstream>
 #include <string>
+#include <vector>
 
 namespace tests {
 
@@ -30,6 +39,22 @@ inline std::filesystem::path fresh_dir(const std::filesystem::path& relative) {
 inline std::string read_file(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), {}};
+}
+
+inline std::vector<std::string> snippet_lines(const std::filesystem::path& p,
+                                              const std::string& from, const std::string& to) {
+  std::vector<std::string> out;
+  std::istringstream in(read_file(p));
+  std::string line;
+  bool inside = false;
+  while (std::getline(in, line)) {
+    const auto first = line.find_first_not_of(' ');
+    const std::string t = first == std::string::npos ? "" : line.substr(first);
+    if (t.rfind(from, 0) == 0) inside = true;
+    if (inside) out.push_back(t);
+    if (inside && t.find(to) != std::string::npos) break;
+  }
+  return out;
 }
 
 } // namespace tests
