@@ -345,18 +345,12 @@ void readme_runtime_loop(const Camera& camera, React&& react) {
 } // namespace
 
 TEST_CASE("the README's Runtime loop is this compiled code, and it prints events with gestures") {
-  const std::string first = "ss::Runtime sense{", last = "the lifts reach the sinks";
-  const auto readme = tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
-  const auto here =
-      tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
-  REQUIRE(readme.size() == 12);
-  CHECK(readme == here);
-  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_runtime";
-  std::filesystem::create_directories(dir);
-  std::filesystem::copy_file(SHADOWSENSE_SOURCE_DIR "/models/default.ssm", dir / "default.ssm",
-                             std::filesystem::copy_options::overwrite_existing);
-  const auto old = std::filesystem::current_path();
-  std::filesystem::current_path(dir);
+  const auto snippet = tests::readme_snippet("tests/test_runtime.cpp", "ss::Runtime sense{",
+                                             "the lifts reach the sinks");
+  REQUIRE(snippet.readme.size() == 12);
+  CHECK(snippet.readme == snippet.here);
+  const tests::WorkingFolder folder("readme_runtime");
+  std::filesystem::copy_file(SHADOWSENSE_SOURCE_DIR "/models/default.ssm", "default.ssm");
   save_calibration(calibration().config.calibration, "skin.calib");
   const std::vector<cv::Mat> frames = sequence();
   std::vector<std::pair<cv::Mat, double>> camera;
@@ -367,7 +361,6 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
   std::vector<GestureEvent> reacted;
   readme_runtime_loop(camera, [&](const GestureEvent& g) { reacted.push_back(g); });
   std::cout.rdbuf(cout_buf);
-  std::filesystem::current_path(old);
   const std::string text = printed.str();
   CHECK(text.rfind(std::string(event_csv_header) + "\n", 0) == 0);
   CHECK(text.find(",appear,touch,") != std::string::npos);

@@ -186,17 +186,12 @@ void readme_tracking_loop(const Camera& camera, Log log) {
 } // namespace
 
 TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
-  const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
-  const auto readme = tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
-  const auto here =
-      tests::snippet_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_touch_pipeline.cpp", first, last);
-  REQUIRE(readme.size() == 7);
-  CHECK(readme == here);
+  const auto snippet = tests::readme_snippet("tests/test_touch_pipeline.cpp",
+                                             "ss::TouchPipeline touch", "the stream ended");
+  REQUIRE(snippet.readme.size() == 7);
+  CHECK(snippet.readme == snippet.here);
   // Run it: a calibration file in the working folder, a short touch.
-  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_loop";
-  std::filesystem::create_directories(dir);
-  const auto old = std::filesystem::current_path();
-  std::filesystem::current_path(dir);
+  const tests::WorkingFolder folder("readme_loop");
   save_calibration(test::box_calibration().config.calibration, "skin.calib");
   std::vector<std::pair<cv::Mat, double>> camera;
   camera.emplace_back(render({}, 1).image, 0.0);
@@ -204,7 +199,6 @@ TEST_CASE("the README's tracking loop is this compiled code, and it reports the 
   camera.emplace_back(render({finger(0, 0, 0)}, 3).image, 66.0);
   std::vector<TrackEvent> logged;
   readme_tracking_loop(camera, [&](const TrackEvent& e) { logged.push_back(e); });
-  std::filesystem::current_path(old);
   REQUIRE(logged.size() == 4); // appear + touch at 33 ms; lift + disappear at the flush
   CHECK(logged[1].event.to == TouchState::touch);
   CHECK(logged[1].event.timestamp_ms == 33.0);

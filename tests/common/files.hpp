@@ -2,7 +2,8 @@
 // bytes, and a snippet of a text file (to compare the README's code with the compiled copy).
 //
 // std::filesystem::path fresh_dir(const std::filesystem::path& relative)
-//   requires: SHADOWSENSE_TEST_TMP_DIR is defined (tests/CMakeLists.txt does); `relative` names a
+//   requires: SHADOWSENSE_TEST_TMP_DIR (and, for readme_snippet, SHADOWSENSE_SOURCE_DIR) is
+//     defined (tests/CMakeLists.txt does); `relative` names a
 //     folder below it that only the calling test uses.
 //   ensures: SHADOWSENSE_TEST_TMP_DIR/relative exists and is empty (whatever was there is
 //     removed); returns its path.
@@ -16,6 +17,14 @@
 //     the next that contains `to`, both included, each without its leading spaces (so the
 //     README's code and the same code indented in a test compare equal); empty when no line
 //     starts with `from`, and to the end of the file when none after it contains `to`.
+//
+// ReadmeSnippet readme_snippet(test_file, from, to)
+//   ensures: .readme = snippet_lines of the README, .here = snippet_lines of test_file (a path
+//     below the source tree, e.g. "tests/test_runtime.cpp": the compiled copy of the snippet).
+//
+// WorkingFolder(relative): the current folder is fresh_dir(relative) until the object is
+//   destroyed, then the one before again (also when the test throws). Not for tests that run at
+//   the same time (the current folder is the process's).
 //
 // Threading: no state; tests running at the same time must use different folders.
 #pragma once
@@ -56,5 +65,29 @@ inline std::vector<std::string> snippet_lines(const std::filesystem::path& p,
   }
   return out;
 }
+
+struct ReadmeSnippet {
+  std::vector<std::string> readme, here;
+};
+inline ReadmeSnippet readme_snippet(const std::string& test_file, const std::string& from,
+                                    const std::string& to) {
+  const std::filesystem::path source(SHADOWSENSE_SOURCE_DIR);
+  return {snippet_lines(source / "README.md", from, to),
+          snippet_lines(source / test_file, from, to)};
+}
+
+class WorkingFolder {
+public:
+  explicit WorkingFolder(const std::filesystem::path& relative)
+      : before_(std::filesystem::current_path()) {
+    std::filesystem::current_path(fresh_dir(relative));
+  }
+  ~WorkingFolder() { std::filesystem::current_path(before_); }
+  WorkingFolder(const WorkingFolder&) = delete;
+  WorkingFolder& operator=(const WorkingFolder&) = delete;
+
+private:
+  std::filesystem::path before_;
+};
 
 } // namespace tests
