@@ -457,16 +457,12 @@ TEST_CASE("a camera fault is sent as /shadowsense/camera after the TUIO bundles,
   OutputFrame f = frame_at(7, 700.0, 50.0f);
   f.camera = CameraFault::saturated;
   f.camera_before = CameraFault::saturated;
-  GestureEvent tap;
-  tap.gesture = TouchGesture::tap;
-  tap.phase = GesturePhase::complete;
-  tap.track_id = 1;
-  tap.start_ms = 600;
-  tap.end_ms = 680;
-  tap.decided_ms = 700;
-  tap.position = {50, 25};
-  tap.repetitions = 1;
-  f.touch_gestures = {tap};
+  f.touch_gestures = {GestureEvent{.track_id = 1,
+                                   .start_ms = 600,
+                                   .end_ms = 680,
+                                   .decided_ms = 700,
+                                   .position = {50, 25},
+                                   .hand_shape = {}}}; // a tap, complete
   const auto packets = encode(small, f);
   REQUIRE(packets.size() == 3); // 2Dcur, the camera, the gesture
   CHECK(packets[1].size() == 76);
