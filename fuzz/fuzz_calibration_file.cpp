@@ -1,8 +1,8 @@
 // libFuzzer target for the calibration-file parser (sense/calibration_file.hpp): any byte string
-// must either parse or throw ModelFileError - never crash, hang, read out of bounds or allocate
-// without bound (an empty_skin line claiming a huge image must not allocate it). A text that
-// parses re-serialises (version 2) to a file that parses to the same calibration. Built and run
-// by .ci/steps/fuzz.sh.
+// must either parse or throw CalibrationFileError - never crash, hang, read out of bounds or
+// allocate without bound (an empty_skin line claiming a huge image must not allocate it). A text
+// that parses re-serialises (version 2) to a file that parses to the same calibration. Built and
+// run by .ci/steps/fuzz.sh.
 #include <shadowsense/sense/calibration_file.hpp>
 
 #include <cstddef>
@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const shadowsense::SegmenterCalibration c = shadowsense::calibration_from_string(text, "fuzz");
     const std::string again = shadowsense::calibration_to_string(c);
     if (!(shadowsense::calibration_from_string(again, "fuzz") == c)) std::abort();
-  } catch (const shadowsense::ModelFileError&) {
+  } catch (const shadowsense::CalibrationFileError&) {
   }
   return 0;
 }

@@ -12,30 +12,9 @@
 # lighting normalisation + lighting and geometric augmentation, the paper's recipe (Adam 1e-3,
 # batch 16, 20 epochs, best epoch on the last 30% of every session x gesture block). About 35
 # minutes of one core, 5 of them data.
+# The steps are in models/c0_recipe.sh, which C1 and C2 run with more generator options.
 #   sh models/make_c0.sh [BUILD_DIR] [WORK_DIR]
 set -e
-BUILD=${1:-build}
-WORK=${2:-/tmp/shadowsense-default}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
-"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users 12 \
-  --first-user 100 --frames 12 --seed 2 --randomise
-"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised2" --overwrite --users 12 \
-  --first-user 124 --frames 12 --seed 2 --randomise
-"$BUILD/examples/ss_gesture_data" --out "$WORK/plain" --overwrite --users 12 --first-user 112 \
-  --frames 12 --seed 2
-rm -rf "$WORK/mixed"
-mkdir -p "$WORK/mixed"
-for c in nothing hug palm point punch two_hands; do
-  mkdir "$WORK/mixed/$c"
-  ln "$WORK/randomised/$c/"*.png "$WORK/randomised2/$c/"*.png "$WORK/plain/$c/"*.png \
-    "$WORK/mixed/$c/"
-done
-{
-  cat "$WORK/randomised/metadata.csv"
-  tail -n +2 "$WORK/randomised2/metadata.csv"
-  tail -n +2 "$WORK/plain/metadata.csv"
-} >"$WORK/mixed/metadata.csv"
-/usr/bin/python3 "$SRC/tools/train.py" "$WORK/mixed" -o "$SRC/models/candidates/c0.ssm" \
-  --mode scratch --growth-rate 12 --block-config 4 4 4 --init-features 24 \
-  --resize 160 88 --crop 0 0 --lighting-normalise --augment --augment-geometry --seed 0 \
-  --threads 1 --classes nothing,hug,palm,point,punch,two_hands
+exec sh "$SRC/models/c0_recipe.sh" "${1:-build}" "${2:-/tmp/shadowsense-default}" \
+  "$SRC/models/candidates/c0.ssm"

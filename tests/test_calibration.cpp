@@ -170,13 +170,14 @@ TEST_CASE("a cut or changed calibration file is rejected with an error naming th
                           text_end + 20, good.size() / 2, good.size() - 14, good.size() - 1}) {
     CAPTURE(cut);
     write_all(path, good.substr(0, cut));
-    CHECK_THROWS_WITH_AS(load_calibration(path), doctest::Contains(path.c_str()), ModelFileError);
+    CHECK_THROWS_WITH_AS(load_calibration(path), doctest::Contains(path.c_str()),
+                         CalibrationFileError);
   }
   std::string flipped = good;
   flipped[good.size() / 2] ^= 0x10;
   write_all(path, flipped);
   CHECK_THROWS_WITH_AS(load_calibration(path), doctest::Contains("checksum mismatch"),
-                       ModelFileError);
+                       CalibrationFileError);
   // A folder is refused before reading, as is a missing file.
   CHECK_THROWS_WITH_AS(load_calibration(dir), doctest::Contains("not a regular file"), IoError);
   CHECK_THROWS_AS(load_calibration(dir + "/missing.calib"), IoError);

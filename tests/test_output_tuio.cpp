@@ -411,3 +411,61 @@ TEST_CASE("temporal gestures follow the TUIO bundles as /shadowsense/touch_gestu
   f.touch_gestures[0].position.x = std::numeric_limits<float>::quiet_NaN();
   CHECK_THROWS_WITH_AS(encode(enc, f), doctest::Contains("non-finite position"), InvalidArgument);
 }
+
+TEST_CASE("a camera fault is sent as /shadowsense/camera after the TUIO bundles, every faulted "
+          "frame and the frame it ends") {
+  TuioEncoder enc;
+  // (state, previous state) per frame: healthy, the lens cap on for two frames, off, healthy.
+  const std::vector<std::pair<CameraFault, CameraFault>> states = {
+      {CameraFault::none, CameraFault::none}, {CameraFault::dark, CameraFault::none},
+      {CameraFault::dark, CameraFault::dark}, {CameraFault::none, CameraFault::dark},
+      {CameraFault::none, CameraFault::none}, {CameraFault::frozen, CameraFault::none}};
+  const std::vector<std::string> expected = {"",
+                                             "/shadowsense/camera s:dark s:none i:2",
+                                             "/shadowsense/camera s:dark s:dark i:3",
+                                             "/shadowsense/camera s:none s:dark i:4",
+                                             "",
+                                             "/shadowsense/camera s:frozen s:none i:6"};
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    CAPTURE(i);
+    OutputFrame f = frame_at(static_cast<std::int64_t>(i + 1), 33.0 * double(i + 1), 50.0f);
+    f.camera = states[i].first;
+    f.camera_before = states[i].second;
+    const auto packets = encode(enc, f);
+    // The TUIO bundles are the same as without the fault; the camera's bundle comes after them.
+    TuioEncoder plain;
+    OutputFrame healthy = f;
+    healthy.camera = healthy.camera_before = CameraFault::none;
+    const auto tuio = encode(plain, healthy);
+    REQUIRE(tuio.size() == 2);
+    if (expected[i].empty()) {
+      CHECK(packets == tuio);
+      continue;
+    }
+    REQUIRE(packets.size() == 3);
+    CHECK(std::vector<Bytes>(packets.begin(), packets.begin() + 2) == tuio);
+    const auto camera = messages(packets[2]);
+    REQUIRE(camera.size() == 1);
+    CHECK(text(camera[0]) == expected[i]);
+  }
+  // Before the temporal gestures; the longest state ("saturated" twice) is a 76-byte bundle, so it
+  // fits the smallest max_packet_bytes (128).
+  TuioEncoder::Config small_config;
+  small_config.max_packet_bytes = 160;
+  small_config.blobs = false;
+  TuioEncoder small(small_config);
+  OutputFrame f = frame_at(7, 700.0, 50.0f);
+  f.camera = CameraFault::saturated;
+  f.camera_before = CameraFault::saturated;
+  f.touch_gestures = {GestureEvent{.track_id = 1,
+                                   .start_ms = 600,
+                                   .end_ms = 680,
+                                   .decided_ms = 700,
+                                   .position = {50, 25},
+                                   .hand_shape = {}}}; // a tap, complete
+  const auto packets = encode(small, f);
+  REQUIRE(packets.size() == 3); // 2Dcur, the camera, the gesture
+  CHECK(packets[1].size() == 76);
+  CHECK(text(messages(packets[1]).at(0)) == "/shadowsense/camera s:saturated s:saturated i:7");
+  CHECK(messages(packets[2]).at(0).address == "/shadowsense/touch_gesture");
+}

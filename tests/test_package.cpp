@@ -25,6 +25,8 @@ TEST_CASE("every library exception derives from shadowsense::Error and std::runt
   static_assert(std::is_base_of_v<std::runtime_error, Error>);
   static_assert(std::is_base_of_v<Error, InvalidArgument>);
   static_assert(std::is_base_of_v<Error, ModelFileError>);
+  // A catch of ModelFileError still catches a bad calibration file (one type before).
+  static_assert(std::is_base_of_v<ModelFileError, CalibrationFileError>);
   static_assert(std::is_base_of_v<Error, DatasetError>);
   static_assert(std::is_base_of_v<Error, IoError>);
   CHECK_THROWS_WITH_AS(detail::require(false, "what was wrong"), "what was wrong", InvalidArgument);

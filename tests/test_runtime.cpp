@@ -11,6 +11,8 @@
 
 #include <doctest/doctest.h>
 
+#include "common/files.hpp"
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -340,36 +342,15 @@ void readme_runtime_loop(const Camera& camera, React&& react) {
   // clang-format on
 }
 
-std::vector<std::string> readme_lines(const std::string& path, const std::string& from,
-                                      const std::string& to) {
-  std::vector<std::string> out;
-  std::ifstream in(path);
-  std::string line;
-  bool inside = false;
-  while (std::getline(in, line)) {
-    const auto first = line.find_first_not_of(' ');
-    const std::string t = first == std::string::npos ? "" : line.substr(first);
-    if (t.rfind(from, 0) == 0) inside = true;
-    if (inside) out.push_back(t);
-    if (inside && t.find(to) != std::string::npos) break;
-  }
-  return out;
-}
-
 } // namespace
 
 TEST_CASE("the README's Runtime loop is this compiled code, and it prints events with gestures") {
-  const std::string first = "ss::Runtime sense{", last = "the lifts reach the sinks";
-  const auto readme = readme_lines(SHADOWSENSE_SOURCE_DIR "/README.md", first, last);
-  const auto here = readme_lines(SHADOWSENSE_SOURCE_DIR "/tests/test_runtime.cpp", first, last);
-  REQUIRE(readme.size() == 12);
-  CHECK(readme == here);
-  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_runtime";
-  std::filesystem::create_directories(dir);
-  std::filesystem::copy_file(SHADOWSENSE_SOURCE_DIR "/models/default.ssm", dir / "default.ssm",
-                             std::filesystem::copy_options::overwrite_existing);
-  const auto old = std::filesystem::current_path();
-  std::filesystem::current_path(dir);
+  const auto snippet = tests::readme_snippet("tests/test_runtime.cpp", "ss::Runtime sense{",
+                                             "the lifts reach the sinks");
+  REQUIRE(snippet.readme.size() == 12);
+  CHECK(snippet.readme == snippet.here);
+  const tests::WorkingFolder folder("readme_runtime");
+  std::filesystem::copy_file(SHADOWSENSE_SOURCE_DIR "/models/default.ssm", "default.ssm");
   save_calibration(calibration().config.calibration, "skin.calib");
   const std::vector<cv::Mat> frames = sequence();
   std::vector<std::pair<cv::Mat, double>> camera;
@@ -380,7 +361,6 @@ TEST_CASE("the README's Runtime loop is this compiled code, and it prints events
   std::vector<GestureEvent> reacted;
   readme_runtime_loop(camera, [&](const GestureEvent& g) { reacted.push_back(g); });
   std::cout.rdbuf(cout_buf);
-  std::filesystem::current_path(old);
   const std::string text = printed.str();
   CHECK(text.rfind(std::string(event_csv_header) + "\n", 0) == 0);
   CHECK(text.find(",appear,touch,") != std::string::npos);

@@ -281,7 +281,7 @@ TEST_CASE("calibration text round-trips exactly and malformed files are rejected
   CHECK(calibration_from_string(version1(calibration_to_string(c))) == c);
   CHECK_THROWS_WITH_AS(calibration_from_string(version1(calibration_to_string(c)) +
                                                "light_thresholds 100 0.3 0.4 0.1\n"),
-                       doctest::Contains("greater than the previous row"), ModelFileError);
+                       doctest::Contains("greater than the previous row"), CalibrationFileError);
   c.by_light.clear();
   const std::string path = std::string(SHADOWSENSE_TEST_TMP_DIR) + "/calibration_roundtrip.txt";
   std::filesystem::create_directories(SHADOWSENSE_TEST_TMP_DIR);
@@ -295,24 +295,25 @@ TEST_CASE("calibration text round-trips exactly and malformed files are rejected
     s.replace(s.find(from), from.size(), to);
     return s;
   };
-  CHECK_THROWS_WITH_AS(calibration_from_string(""), doctest::Contains("empty"), ModelFileError);
+  CHECK_THROWS_WITH_AS(calibration_from_string(""), doctest::Contains("empty"),
+                       CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("calibration 1", "calibration 3")),
-                       doctest::Contains("version 3"), ModelFileError);
+                       doctest::Contains("version 3"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("mode fixed_ranges", "mode magic")),
-                       doctest::Contains("calibration:3: mode 'magic'"), ModelFileError);
+                       doctest::Contains("calibration:3: mode 'magic'"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("100 110 120", "100 110 320")),
-                       doctest::Contains("outside 0..255"), ModelFileError);
+                       doctest::Contains("outside 0..255"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("0.5\n", "0.5x\n")),
-                       doctest::Contains("not a finite number"), ModelFileError);
+                       doctest::Contains("not a finite number"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("contact_warmth -0.0625\n", "")),
-                       doctest::Contains("'contact_warmth' is missing"), ModelFileError);
+                       doctest::Contains("'contact_warmth' is missing"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(
       calibration_from_string(replace("shadow_darkness 0.123456001", "shadow_darkness 1.5")),
-      doctest::Contains("shadow_darkness must be in [0, 1]"), ModelFileError);
+      doctest::Contains("shadow_darkness must be in [0, 1]"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(good + "reference_percentile 0.5\n"),
-                       doctest::Contains("appears twice"), ModelFileError);
+                       doctest::Contains("appears twice"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("1 2 3 100", "100 2 3 1")),
-                       doctest::Contains("lower exceeds upper"), ModelFileError);
+                       doctest::Contains("lower exceeds upper"), CalibrationFileError);
 }
 
 TEST_CASE("empty and wrong-type images, bad masks and bad configs are rejected") {

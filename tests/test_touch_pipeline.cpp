@@ -183,38 +183,15 @@ void readme_tracking_loop(const Camera& camera, Log log) {
   // README-END
 }
 
-std::vector<std::string> trimmed_lines(const std::string& text, const std::string& from,
-                                       const std::string& to) {
-  std::vector<std::string> out;
-  std::istringstream in(text);
-  std::string line;
-  bool inside = false;
-  while (std::getline(in, line)) {
-    const auto first = line.find_first_not_of(' ');
-    const std::string t = first == std::string::npos ? "" : line.substr(first);
-    if (t.rfind(from, 0) == 0) inside = true;
-    if (inside && t != "// README-BEGIN" && t != "// README-END") out.push_back(t);
-    if (inside && t.find(to) != std::string::npos) break;
-  }
-  return out;
-}
-
 } // namespace
 
 TEST_CASE("the README's tracking loop is this compiled code, and it reports the touch") {
-  const std::string first = "ss::TouchPipeline touch", last = "the stream ended";
-  const auto readme = trimmed_lines(
-      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/README.md"), first, last);
-  const auto here = trimmed_lines(
-      tests::read_file(std::string(SHADOWSENSE_SOURCE_DIR) + "/tests/test_touch_pipeline.cpp"),
-      first, last);
-  REQUIRE(readme.size() == 7);
-  CHECK(readme == here);
+  const auto snippet = tests::readme_snippet("tests/test_touch_pipeline.cpp",
+                                             "ss::TouchPipeline touch", "the stream ended");
+  REQUIRE(snippet.readme.size() == 7);
+  CHECK(snippet.readme == snippet.here);
   // Run it: a calibration file in the working folder, a short touch.
-  const auto dir = std::filesystem::path(SHADOWSENSE_TEST_TMP_DIR) / "readme_loop";
-  std::filesystem::create_directories(dir);
-  const auto old = std::filesystem::current_path();
-  std::filesystem::current_path(dir);
+  const tests::WorkingFolder folder("readme_loop");
   save_calibration(test::box_calibration().config.calibration, "skin.calib");
   std::vector<std::pair<cv::Mat, double>> camera;
   camera.emplace_back(render({}, 1).image, 0.0);
@@ -222,7 +199,6 @@ TEST_CASE("the README's tracking loop is this compiled code, and it reports the 
   camera.emplace_back(render({finger(0, 0, 0)}, 3).image, 66.0);
   std::vector<TrackEvent> logged;
   readme_tracking_loop(camera, [&](const TrackEvent& e) { logged.push_back(e); });
-  std::filesystem::current_path(old);
   REQUIRE(logged.size() == 4); // appear + touch at 33 ms; lift + disappear at the flush
   CHECK(logged[1].event.to == TouchState::touch);
   CHECK(logged[1].event.timestamp_ms == 33.0);
@@ -285,6 +261,36 @@ TEST_CASE("CameraHealth: black, black with one bright pixel, white, frozen; a li
                        doctest::Contains("frozen_frames is 1"), InvalidArgument);
   CHECK_THROWS_WITH_AS(CameraHealth(CameraHealthConfig{.dark_level = 200, .saturated_level = 100}),
                        doctest::Contains("saturated_level is 100"), InvalidArgument);
+}
+
+TEST_CASE("a bad frame is refused with the segmenter's message and is not judged by the camera "
+          "check") {
+  const cv::Mat good = render({}, 1).image;
+  const std::string model =
+      std::to_string(good.cols) + "x" + std::to_string(good.rows) + "; expected the same size";
+  TouchPipeline pipeline(segmenter_from(test::box_calibration()));
+  double t = 0;
+  for (int i = 0; i < 28; ++i) pipeline.update(good, t += 33); // 27 repeats: frozen at the 30th
+  REQUIRE(pipeline.camera_health().repeated_frames() == 27);
+  // Each bad frame: the segmenter's exact message; a black one (dark to the camera check) and a
+  // noisy one alike, the camera check untouched (no fault, the repeat count kept).
+  const cv::Mat noisy_small = render({}, 2).image(cv::Rect(0, 0, 10, 10)).clone();
+  const std::vector<std::pair<cv::Mat, std::string>> bad = {
+      {cv::Mat(), "Segmenter::segment: image: image is empty; expected an 8-bit 3-channel image"},
+      {filled({10, 10}, 0),
+       "Segmenter::segment: image is 10x10 but the empty-skin model is " + model},
+      {noisy_small, "Segmenter::segment: image is 10x10 but the empty-skin model is " + model},
+      {cv::Mat(good.size(), CV_8UC1, cv::Scalar(0)),
+       "Segmenter::segment: image: image type is CV_8UC1; expected CV_8UC3 (8-bit, 3 channels)"},
+  };
+  for (const auto& [frame, message] : bad) {
+    CAPTURE(message);
+    CHECK_THROWS_WITH_AS(pipeline.update(frame, t + 1), message.c_str(), InvalidArgument);
+    CHECK(pipeline.camera_health().fault() == CameraFault::none);
+    CHECK(pipeline.camera_health().repeated_frames() == 27);
+  }
+  CHECK(pipeline.update(good, t += 33).camera == CameraFault::none);
+  CHECK(pipeline.update(good, t += 33).camera == CameraFault::frozen); // the 30th, as without them
 }
 
 TEST_CASE("a dead camera is a camera fault, not a touch: black, white and frozen sequences") {

@@ -39,11 +39,12 @@ import os
 import re
 import struct
 import sys
-import tempfile
 import zlib
 
 import torch
 import torchvision
+
+from atomic_write import write_atomic
 
 MAGIC = b"SSDNMOD\n"
 VERSION = 2
@@ -240,27 +241,7 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
         out.extend(logits.contiguous().numpy().astype("<f4").tobytes())
         f32(tol)
     out.extend(struct.pack("<I", checksum(out)))
-    write_atomically(path, out)
-
-
-def write_atomically(path, data):
-    """Write data to path via a temporary file in the same folder (fsync, rename): the old file
-    is replaced completely or left untouched; the temporary file never outlives a failure."""
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix="." + os.path.basename(path) + ".tmp-")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    write_atomic(path, out)
 
 
 def upgrade(data, lighting_normalise, lighting_target, dark_threshold, path="model file"):
@@ -397,7 +378,7 @@ def main(argv=None):
             out = upgrade(data, args.lighting_normalise, args.lighting_target,
                           args.dark_threshold if args.dark_threshold is not None else 0.0,
                           args.upgrade)
-            write_atomically(args.output, out)
+            write_atomic(args.output, out)
         except (OSError, ValueError) as e:
             print(f"densenet_to_model.py: {e}", file=sys.stderr)
             sys.exit(2 if isinstance(e, ValueError) else 1)

@@ -52,6 +52,7 @@ from torchvision.transforms import InterpolationMode
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import dataset_reader  # noqa: E402
+from atomic_write import write_atomic  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
 import ss_version  # noqa: E402
 
@@ -527,7 +528,7 @@ def main(argv=None):
         if args.save_state_dict:
             buf = io.BytesIO()
             torch.save(model.state_dict(), buf)
-            d2m.write_atomically(args.save_state_dict, buf.getvalue())
+            write_atomic(args.save_state_dict, buf.getvalue())
     except OSError as e:
         raise SystemExit(f"train.py: cannot write the output: {e}")
     print(f"wrote {args.output} ({os.path.getsize(args.output)} bytes)", flush=True)

@@ -165,7 +165,8 @@ struct PyTuioSink {
 // Exceptions: one Python class per library error type (derived first when translating).
 
 struct Exceptions {
-  py::object error, invalid_argument, model_file_error, dataset_error, io_error, concurrent_use;
+  py::object error, invalid_argument, model_file_error, calibration_file_error, dataset_error,
+      io_error, concurrent_use;
 };
 
 py::object make_exception(py::module_& m, const char* name, const char* doc, py::tuple bases) {
@@ -190,8 +191,13 @@ void bind_exceptions(py::module_& m) {
                      py::make_tuple(e.error, builtins.attr("ValueError")));
   e.model_file_error = make_exception(
       m, "ModelFileError",
-      "A model or calibration file is malformed, truncated, of another version or inconsistent.",
+      "A model file is malformed, truncated, of another version or inconsistent (also the base "
+      "of CalibrationFileError).",
       py::make_tuple(e.error));
+  e.calibration_file_error = make_exception(
+      m, "CalibrationFileError",
+      "A calibration file is malformed, truncated, of another version or inconsistent.",
+      py::make_tuple(e.model_file_error));
   e.dataset_error = make_exception(m, "DatasetError",
                                    "A dataset folder or metadata file is missing or malformed.",
                                    py::make_tuple(e.error));
@@ -206,6 +212,8 @@ void bind_exceptions(py::module_& m) {
       if (p) std::rethrow_exception(p);
     } catch (const ss::InvalidArgument& x) {
       PyErr_SetString(e.invalid_argument.ptr(), x.what());
+    } catch (const ss::CalibrationFileError& x) {
+      PyErr_SetString(e.calibration_file_error.ptr(), x.what());
     } catch (const ss::ModelFileError& x) {
       PyErr_SetString(e.model_file_error.ptr(), x.what());
     } catch (const ss::DatasetError& x) {
@@ -393,7 +401,8 @@ void bind_calibration(py::module_& m) {
       "load_calibration", [](const std::string& path) { return ss::load_calibration(path); },
       py::arg("path"),
       "Load a calibration file (version 1 or 2; sense/calibration_file.hpp).\n\n"
-      "Raises ModelFileError naming the file (and line) for anything malformed, cut or changed;\n"
+      "Raises CalibrationFileError naming the file (and line) for anything malformed, cut or "
+      "changed;\n"
       "IoError when the path cannot be read, is not a regular file or is over 512 MiB.");
   m.def(
       "save_calibration",

@@ -6,9 +6,10 @@ import shadowsense as ss
 
 
 def test_the_exception_classes():
-    for name in ("InvalidArgument", "ModelFileError", "DatasetError", "IoError",
-                 "ConcurrentUseError"):
+    for name in ("InvalidArgument", "ModelFileError", "CalibrationFileError", "DatasetError",
+                 "IoError", "ConcurrentUseError"):
         assert issubclass(getattr(ss, name), ss.Error)
+    assert issubclass(ss.CalibrationFileError, ss.ModelFileError)
     assert issubclass(ss.Error, RuntimeError)
     assert issubclass(ss.InvalidArgument, ValueError)
     assert issubclass(ss.IoError, OSError)
@@ -18,11 +19,12 @@ def test_io_and_model_file_errors(tmp_path, test_data):
     with pytest.raises(ss.IoError, match="missing.calib"):
         ss.load_calibration(str(tmp_path / "missing.calib"))
     (tmp_path / "bad.calib").write_text("shadowsense_segmenter_calibration 2\nmode sideways\n")
-    with pytest.raises(ss.ModelFileError, match="bad.calib"):
+    with pytest.raises(ss.CalibrationFileError, match="bad.calib"):
         ss.load_calibration(str(tmp_path / "bad.calib"))
     (tmp_path / "bad.ssm").write_bytes(b"not a model")
-    with pytest.raises(ss.ModelFileError):
+    with pytest.raises(ss.ModelFileError) as e:
         ss.Classifier(str(tmp_path / "bad.ssm"))
+    assert not isinstance(e.value, ss.CalibrationFileError)
     with pytest.raises(ss.IoError):
         ss.CsvSink(str(tmp_path / "no such folder" / "events.csv"))
 

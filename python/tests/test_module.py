@@ -30,4 +30,4 @@ def test_docstrings_follow_the_headers():
     assert "hysteresis" in ss.TouchPipeline.__doc__ or "pending lift" in ss.TouchPipeline.__doc__
     assert "GIL is released" in ss.Runtime.__doc__
     assert "classify_every" in ss.Runtime.__doc__
-    assert "ModelFileError" in ss.load_calibration.__doc__
+    assert "CalibrationFileError" in ss.load_calibration.__doc__

@@ -23,6 +23,9 @@ import sys
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from atomic_write import write_atomic  # noqa: E402  (tools/atomic_write.py)
+
 COST_GESTURES = ["grab", "hit", "massage", "pat", "pinch", "poke", "press", "rub", "scratch",
                  "slap", "squeeze", "stroke", "tap", "tickle"]
 VARIANTS = ["gentle", "normal", "rough"]
@@ -95,15 +98,6 @@ def contacts(frames, base):
         area = float(pressed.sum()) * CELL_CM * CELL_CM * PX_PER_CM * PX_PER_CM
         out.append((x, y, area))
     return out
-
-
-def write_atomic(path, text):
-    tmp = path + ".tmp"
-    with open(tmp, "w", newline="") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def build(captures, fps):

@@ -33,6 +33,9 @@ import re
 import sys
 import zipfile
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from atomic_write import write_atomic  # noqa: E402  (tools/atomic_write.py)
+
 PX_PER_CM = 7.6            # the recogniser's default image scale
 CENTRE_PX = (320.0, 240.0)  # the screen centre goes here
 FINGER_CM2 = 1.5           # every contact is a fingertip (the logs have no physical area)
@@ -308,15 +311,6 @@ def build(streams, fps):
 def _shift_track(row):
     f = row.split(",", 2)
     return "%s,%d,%s" % (f[0], int(f[1]) + 1, f[2])
-
-
-def write_atomic(path, text):
-    tmp = path + ".tmp"
-    with open(tmp, "w", newline="") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
 
 
 def main():

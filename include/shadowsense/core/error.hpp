@@ -58,10 +58,19 @@ public:
   using Error::Error;
 };
 
-// A model file is malformed, truncated, of another version or inconsistent with itself.
+// A model file is malformed, truncated, of another version or inconsistent with itself. Also
+// the base of CalibrationFileError, so a catch of ModelFileError written for both files (they
+// were one type before) still catches a bad calibration file.
 class ModelFileError : public Error {
 public:
   using Error::Error;
+};
+
+// A segmenter calibration file (sense/calibration_file.hpp) is malformed, truncated, of another
+// version or inconsistent with itself.
+class CalibrationFileError : public ModelFileError {
+public:
+  using ModelFileError::ModelFileError;
 };
 
 // A dataset folder or metadata file is missing, malformed or inconsistent.

@@ -18,9 +18,17 @@
 //   confidence: float32, its probability; frame: int32, the fseq it was computed on (0 when
 //   gated off); then one (string, float32) pair per class in the model's order (none when gated
 //   off, or when the pairs would not fit in max_packet_bytes).
+// When the camera is faulted (OutputFrame::camera: dark, saturated or frozen; sense/
+// camera_health.hpp), and on the frame it returns to none, one bundle of its own (time tag
+// "immediately") follows the TUIO bundles with one message:
+//   /shadowsense/camera  state before fseq
+//   state, before: strings, the frame's fault state and the previous frame's (none, dark,
+//   saturated, frozen); fseq: int32, OutputFrame::frame_index. It is repeated on every faulted
+//   frame (a lost datagram is made good by the next frame), and a frame with no such message
+//   comes from a healthy camera; a healthy stream sends nothing more than before.
 // When the frame carries temporal gestures (OutputFrame::touch_gestures), they follow the TUIO
-// bundles in bundles of their own (time tag "immediately"), one message per gesture event, as
-// many per bundle as fit in max_packet_bytes:
+// (and camera) bundles in bundles of their own (time tag "immediately"), one message per gesture
+// event, as many per bundle as fit in max_packet_bytes:
 //   /shadowsense/touch_gesture  s_id gesture phase x y direction duration_ms latency_ms length
 //                               speed repetitions hand_shape confidence fseq
 //   s_id: int32, the track id (0: a whole-frame gesture, hug/punch/two_hands); gesture, phase,
@@ -56,7 +64,8 @@
 //   requires: frame.frame_size non-empty; 0 <= frame_index <= 2^31-1; ids unique per profile
 //             and >= 0; finite positions; send callable as send(std::span<const uint8_t>).
 //   ensures:  send called once per bundle, in order (2Dcur bundles, then 2Dblb bundles, then
-//             the touch-gesture bundles); the span is valid only during the call.
+//             the camera bundle, then the touch-gesture bundles); the span is valid only
+//             during the call.
 //             Ids beyond one bundle's alive list are left out (see above), counted in
 //             ids_left_out() (the run's total) and last_left_out() (this frame's).
 //   throws:   InvalidArgument for a broken requirement, or a max_packet_bytes too small for even
@@ -159,6 +168,7 @@ public:
       });
       blb_prev_.swap(blb_next_);
     }
+    emit_camera(frame, send);
     emit_touch_gestures(frame, send);
     left_out_ += last_left_out_;
   }
@@ -171,6 +181,7 @@ public:
   static constexpr std::string_view cursor_profile = "/tuio/2Dcur";
   static constexpr std::string_view gesture_address = "/shadowsense/gesture";
   static constexpr std::string_view touch_gesture_address = "/shadowsense/touch_gesture";
+  static constexpr std::string_view camera_address = "/shadowsense/camera";
   static constexpr std::string_view blob_profile = "/tuio/2Dblb";
 
 private:
@@ -362,6 +373,22 @@ private:
       writer_.end_bundle();
       send(writer_.bytes());
     } while (i < n);
+  }
+
+  // The camera's fault state, in a bundle of its own: at most 76 bytes, so it always fits the
+  // smallest max_packet_bytes (128).
+  template <class Send>
+  void emit_camera(const OutputFrame& frame, Send& send) {
+    if (frame.camera == CameraFault::none && !frame.camera_changed()) return;
+    writer_.clear();
+    writer_.begin_bundle(osc_immediately);
+    writer_.begin_message(camera_address);
+    writer_.add_string(to_string(frame.camera));
+    writer_.add_string(to_string(frame.camera_before));
+    writer_.add_int(static_cast<std::int32_t>(frame.frame_index));
+    writer_.end_message();
+    writer_.end_bundle();
+    send(writer_.bytes());
   }
 
   // Bytes of one /shadowsense/touch_gesture message.

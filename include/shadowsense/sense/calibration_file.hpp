@@ -25,8 +25,8 @@
 //   throws:   InvalidArgument (bad calibration), IoError naming the path.
 // calibration_from_string(bytes, source) / load_calibration(path)
 //   ensures:  the calibration (version 1 or 2).
-//   throws:   ModelFileError naming the source (and line, in the text part) for anything
-//             malformed, cut or changed; IoError when the path cannot be read, is not a regular
+//   throws:   CalibrationFileError (a ModelFileError) naming the source (and line, in the text
+//             part) for anything malformed, cut or changed; IoError when the path cannot be read, is not a regular
 //             file (a FIFO or device is refused before reading) or is larger than 512 MiB.
 // Plain functions; no shared state (any thread).
 #pragma once
@@ -124,7 +124,7 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
   bool header = false;
   std::vector<std::string> seen;
   auto fail = [&](const std::string& what) {
-    SHADOWSENSE_THROW(ModelFileError(
+    SHADOWSENSE_THROW(CalibrationFileError(
         source + (line_no > 0 ? ":" + std::to_string(line_no) : std::string()) + ": " + what));
   };
   while (std::getline(in, line)) {
@@ -228,19 +228,19 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
   }
   if (!header)
     SHADOWSENSE_THROW(
-        ModelFileError(source + ": empty; expected a shadowsense segmenter calibration"));
+        CalibrationFileError(source + ": empty; expected a shadowsense segmenter calibration"));
   for (const char* k : {"mode", "shadow_range", "contact_range", "shadow_darkness",
                         "contact_darkness", "contact_warmth", "reference_percentile"})
     if (std::find(seen.begin(), seen.end(), k) == seen.end())
-      SHADOWSENSE_THROW(ModelFileError(source + ": key '" + k + "' is missing"));
-  detail::add_context<InvalidArgument, ModelFileError>(
+      SHADOWSENSE_THROW(CalibrationFileError(source + ": key '" + k + "' is missing"));
+  detail::add_context<InvalidArgument, CalibrationFileError>(
       "", [&] { detail::validate_calibration(c, source); });
   return c;
 }
 
 } // namespace detail
 
-// Parses a version 1 or 2 calibration (see above); throws ModelFileError naming `source`.
+// Parses a version 1 or 2 calibration (see above); throws CalibrationFileError naming `source`.
 inline SegmenterCalibration calibration_from_string(const std::string& text,
                                                     const std::string& source = "calibration") {
   // The version decides whether the end line is required.
@@ -264,14 +264,14 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
                                ? text.substr(start + 1, n - start - 2)
                                : std::string();
   if (last.size() != 12 || last.compare(0, 4, "end ") != 0)
-    SHADOWSENSE_THROW(ModelFileError(
+    SHADOWSENSE_THROW(CalibrationFileError(
         source + ": truncated or damaged: the last line is not 'end <crc32>'; the file "
                  "was cut short or not written completely - save the calibration again"));
   const std::uint32_t actual = detail::calibration_crc32(text.data(), start + 1);
   if (last.substr(4) != detail::crc_hex(actual))
-    SHADOWSENSE_THROW(ModelFileError(source + ": checksum mismatch (file says " + last.substr(4) +
-                                     ", contents give " + detail::crc_hex(actual) +
-                                     "): the file is damaged or was edited"));
+    SHADOWSENSE_THROW(CalibrationFileError(
+        source + ": checksum mismatch (file says " + last.substr(4) + ", contents give " +
+        detail::crc_hex(actual) + "): the file is damaged or was edited"));
   return detail::parse_calibration(text.substr(0, start + 1), source, 2);
 }
 

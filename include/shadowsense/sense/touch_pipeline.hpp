@@ -149,12 +149,19 @@ public:
   const TouchFrame& update(const cv::Mat& frame, double timestamp_ms) {
     const auto guard = owner_.enter("TouchPipeline");
     require_time(timestamp_ms, "TouchPipeline::update");
-    segmenter_.check_frame(frame); // a bad frame is refused, not judged a camera fault
-    const CameraFault before = camera_.fault();
-    if (camera_.update(frame) == CameraFault::none)
+    // The camera is judged on a copy, kept once the segmenter has accepted the frame: a bad
+    // frame is refused with the segmenter's message and leaves the camera check as it was (it is
+    // not judged a fault), and the frame is checked once (segment() checks it; a faulted frame is
+    // not segmented, so check_frame does). The copy is a few words, no heap.
+    CameraHealth judged = camera_;
+    if (judged.update(frame) == CameraFault::none) {
       segmenter_.segment(frame, seg_);
-    else
+    } else {
+      segmenter_.check_frame(frame);
       clear_segmentation(frame.size());
+    }
+    const CameraFault before = camera_.fault();
+    camera_ = judged;
     reset_result(timestamp_ms); // keeps the vectors' storage: no allocation per frame
     result_.camera = camera_.fault();
     result_.camera_before = before;

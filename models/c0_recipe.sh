@@ -1,0 +1,36 @@
+#!/bin/sh
+# The C0 recipe (models/make_c0.sh says what it is and why), shared by the candidates built on it
+# (models/make_c0.sh, make_c1.sh, make_c2.sh): the scene generator's gesture sessions of users
+# 100-111 and 124-135 with domain randomisation and 112-123 without, 12 frames per gesture, merged
+# into one dataset folder (hard links, one metadata.csv), then the compact DenseNet trained on it.
+# DATA_FLAGS: more ss_gesture_data options for all three sessions (one word-split string, e.g.
+# "--scale-range 0.6,2"; empty for C0 itself).
+#   sh models/c0_recipe.sh BUILD_DIR WORK_DIR OUT [DATA_FLAGS]
+set -e
+BUILD=$1
+WORK=$2
+OUT=$3
+DATA_FLAGS=$4
+SRC=$(cd "$(dirname "$0")/.." && pwd)
+"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users 12 \
+  --first-user 100 --frames 12 --seed 2 --randomise $DATA_FLAGS
+"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised2" --overwrite --users 12 \
+  --first-user 124 --frames 12 --seed 2 --randomise $DATA_FLAGS
+"$BUILD/examples/ss_gesture_data" --out "$WORK/plain" --overwrite --users 12 --first-user 112 \
+  --frames 12 --seed 2 $DATA_FLAGS
+rm -rf "$WORK/mixed"
+mkdir -p "$WORK/mixed" "$(dirname "$OUT")"
+for c in nothing hug palm point punch two_hands; do
+  mkdir "$WORK/mixed/$c"
+  ln "$WORK/randomised/$c/"*.png "$WORK/randomised2/$c/"*.png "$WORK/plain/$c/"*.png \
+    "$WORK/mixed/$c/"
+done
+{
+  cat "$WORK/randomised/metadata.csv"
+  tail -n +2 "$WORK/randomised2/metadata.csv"
+  tail -n +2 "$WORK/plain/metadata.csv"
+} >"$WORK/mixed/metadata.csv"
+/usr/bin/python3 "$SRC/tools/train.py" "$WORK/mixed" -o "$OUT" \
+  --mode scratch --growth-rate 12 --block-config 4 4 4 --init-features 24 \
+  --resize 160 88 --crop 0 0 --lighting-normalise --augment --augment-geometry --seed 0 \
+  --threads 1 --classes nothing,hug,palm,point,punch,two_hands
