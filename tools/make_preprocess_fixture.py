@@ -19,6 +19,7 @@ import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
 import ss_version
+from atomic_write import write_atomic
 
 MEAN = [0.485, 0.456, 0.406]
 STD = [0.229, 0.224, 0.225]
@@ -76,8 +77,7 @@ def main():
         out += img.flip(0).permute(1, 2, 0).contiguous().numpy().tobytes()  # BGR HWC
         out += struct.pack("<2I", y.shape[1], y.shape[2])
         out += y.contiguous().numpy().astype("<f4").tobytes()
-    with open(args.output, "wb") as f:
-        f.write(out)
+    write_atomic(args.output, bytes(out))  # temp + fsync + rename: never a truncated fixture
     print(f"wrote {args.output}: {len(cases)} cases")
 
 
