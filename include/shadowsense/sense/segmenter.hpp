@@ -161,7 +161,7 @@ public:
     // Each frame's reference first, then the median in strips of rows: only one strip of each
     // frame is ever held in float (memory: the frames plus a fixed budget, not a float copy of
     // every frame). Values are those of the whole-frame computation, element by element.
-    inv_profile_.release(); // each frame's reference over the whole frame
+    for (cv::Mat& p : inv_planes_) p.release(); // each frame's reference over the whole frame
     const std::size_t n = empty_frames.size();
     std::vector<cv::Vec3f> refs(n);
     std::vector<cv::Mat> blurred; // the pre-blurred frames (Config::pre_blur > 1 only)
@@ -329,22 +329,22 @@ private:
       }
     }
     profile_.create(model_.size(), CV_32FC3);
-    inv_profile_.create(model_.size(), CV_32FC3);
+    for (int k = 0; k < 3; ++k)
+      inv_planes_[static_cast<std::size_t>(k)].create(model_.size(), CV_32F);
     for (int y = 0; y < model_.rows; ++y) {
       const cv::Vec3f* n = num.ptr<cv::Vec3f>(y);
       const float* d = den.ptr<float>(y);
       const uchar* v = valid_.ptr<uchar>(y);
       cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
-      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
       for (int x = 0; x < model_.cols; ++x)
         for (int k = 0; k < 3; ++k) {
           p[x][k] = v[x] && d[x] > 1e-6f ? std::max(n[x][k] / d[x], 0.05f) : 0.f;
-          ip[x][k] = p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
+          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] =
+              p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
         }
     }
     num.release();
     den.release();
-    cv::split(inv_profile_, inv_planes_.data());
     valid_.convertTo(inv_planes_[3], CV_32F, 1.0 / 255); // skin weight: darkness 0 off the skin
     refresh_ref_samples();
   }
@@ -374,7 +374,7 @@ private:
     constexpr int bins = 1024; // quarter-unit bins up to 256
     std::array<std::vector<int>, 3>& hist = hist_;
     for (auto& h : hist) h.assign(bins, 0);
-    const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
+    const bool prof = !inv_planes_[0].empty() && inv_planes_[0].size() == src_->size();
     int n = 0;
     if (prof) { // the model's precomputed sample grid (on the skin only), contiguous in memory
       n = static_cast<int>(ref_y_.size());
@@ -415,7 +415,7 @@ private:
     const cv::Size size = src_->size();
     out.shadow_mask.create(size, CV_8UC1);
     out.contact_mask.create(size, CV_8UC1);
-    const bool prof = !inv_profile_.empty();
+    const bool prof = !inv_planes_[0].empty();
     if (!prof && (uniform_valid_.size() != size)) { // no empty-skin model: all skin, flat
       for (cv::Mat& p : uniform_planes_) {
         p.create(size, CV_32F);
@@ -556,13 +556,14 @@ private:
     ref_y_.clear();
     ref_x_.clear();
     for (auto& v : ref_inv_) v.clear();
-    for (int y = 1; y < inv_profile_.rows; y += 3) {
-      const cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
-      for (int x = 1; x < inv_profile_.cols; x += 3)
-        if (ip[x][0] != 0.f) {
+    for (int y = 1; y < inv_planes_[0].rows; y += 3) {
+      const std::array<const float*, 3> ip{
+          inv_planes_[0].ptr<float>(y), inv_planes_[1].ptr<float>(y), inv_planes_[2].ptr<float>(y)};
+      for (int x = 1; x < inv_planes_[0].cols; x += 3)
+        if (ip[0][x] != 0.f) {
           ref_y_.push_back(y);
           ref_x_.push_back(x);
-          for (int k = 0; k < 3; ++k) ref_inv_[static_cast<std::size_t>(k)].push_back(ip[x][k]);
+          for (std::size_t k = 0; k < 3; ++k) ref_inv_[k].push_back(ip[k][x]);
         }
     }
   }
@@ -577,13 +578,13 @@ private:
       const cv::Vec3b* in = src_->ptr<cv::Vec3b>(y);
       const uchar* m = dilated_.ptr<uchar>(y);
       cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
-      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
+      const std::array<float*, 3> ip{inv_planes_[0].ptr<float>(y), inv_planes_[1].ptr<float>(y),
+                                     inv_planes_[2].ptr<float>(y)};
       for (int x = 0; x < src_->cols; ++x) {
-        if (m[x] || ip[x][0] == 0.f) continue;
+        if (m[x] || ip[0][x] == 0.f) continue;
         for (int k = 0; k < 3; ++k) {
           p[x][k] = std::max(p[x][k] + a * (in[x][k] * inv[k] - p[x][k]), 0.05f);
-          ip[x][k] = 1.f / p[x][k];
-          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] = ip[x][k];
+          ip[static_cast<std::size_t>(k)][x] = 1.f / p[x][k];
         }
       }
     }
@@ -626,7 +627,7 @@ private:
   cv::Mat colour_blur_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat model_;                         // the model as set (unsmoothed)
-  cv::Mat profile_, inv_profile_, valid_; // empty-skin model in use
+  cv::Mat profile_, valid_;               // empty-skin model in use (smoothed) and its skin
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
