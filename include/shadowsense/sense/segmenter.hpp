@@ -40,6 +40,8 @@
 //   requires: at least one CV_8UC3 frame, all the same size, none larger than max_image_side,
 //             none black or nearly black (reference luminance < 4 of 255).
 //   ensures:  the model is the per-pixel median of the frames, each over its own reference.
+//             Memory beyond the frames and the model: float strips of about 16 MB (at least one
+//             row of every frame), never a float copy of every frame.
 // set_empty_skin_profile(model)
 //   requires: CV_32FC3 with finite values in [0, 8] (relative brightness; an image in 0..255 is
 //             refused) showing skin (mean >= 0.5) on at least 1% of its pixels.
