@@ -221,7 +221,7 @@ public:
       : empty_(empty_frames), touch_(touch_frames), options_(options),
         size_(empty_frames[0].size()), seg_(relative_config(options.base)) {
     seg_.set_empty_skin(empty_frames); // validates the frames; refuses black ones
-    skin_ = seg_.skin_area().clone();
+    skin_ = seg_.skin_area();          // shared, not copied: seg_'s model is set only here
   }
 
   CalibrationResult run() {
@@ -629,7 +629,7 @@ private:
     SegmenterCalibration cal = options_.base.calibration;
     cal.mode = SegmentMode::relative;
     cal.by_light.clear();
-    cal.empty_skin = seg_.empty_skin_model().clone();
+    cal.empty_skin = seg_.empty_skin_model(); // shared: seg_ ends with this run, unchanged
     if (ng_ == 1) {
       cal.shadow_darkness = result_.groups[0].thresholds.shadow_darkness;
       cal.contact_darkness = result_.groups[0].thresholds.contact_darkness;

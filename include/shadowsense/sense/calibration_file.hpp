@@ -26,8 +26,9 @@
 // calibration_from_string(bytes, source) / load_calibration(path)
 //   ensures:  the calibration (version 1 or 2).
 //   throws:   CalibrationFileError (a ModelFileError) naming the source (and line, in the text
-//             part) for anything malformed, cut or changed; IoError when the path cannot be read, is not a regular
-//             file (a FIFO or device is refused before reading) or is larger than 512 MiB.
+//             part) for anything malformed, cut or changed; IoError when the path cannot be read,
+//             is not a regular file (a FIFO or device is refused before reading) or is larger than
+//             512 MiB.
 // Plain functions; no shared state (any thread).
 #pragma once
 
@@ -97,6 +98,7 @@ inline std::string calibration_to_string(const SegmenterCalibration& c) {
     const cv::Mat& m = c.empty_skin;
     out += "empty_skin " + std::to_string(m.cols) + " " + std::to_string(m.rows) + " f32\n";
     const std::size_t n = m.total() * 3, at = out.size();
+    out.reserve(at + 4 * n + 64); // the block, its newline and the end line: no regrowth copy
     out.resize(at + 4 * n);
     const cv::Mat cont = m.isContinuous() ? m : m.clone();
     const float* v = cont.ptr<float>(0);

@@ -40,6 +40,8 @@
 //   requires: at least one CV_8UC3 frame, all the same size, none larger than max_image_side,
 //             none black or nearly black (reference luminance < 4 of 255).
 //   ensures:  the model is the per-pixel median of the frames, each over its own reference.
+//             Memory beyond the frames and the model: float strips of about 16 MB (at least one
+//             row of every frame), never a float copy of every frame.
 // set_empty_skin_profile(model)
 //   requires: CV_32FC3 with finite values in [0, 8] (relative brightness; an image in 0..255 is
 //             refused) showing skin (mean >= 0.5) on at least 1% of its pixels.
@@ -78,6 +80,7 @@
 #include <span>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -157,32 +160,54 @@ public:
       detail::require(empty_frames[i].size() == empty_frames[0].size(),
                       name + " has a different size from frame 0; expected all the same size");
     }
-    std::vector<cv::Mat> normalised;
-    inv_profile_.release(); // each frame's reference over the whole frame
-    for (std::size_t i = 0; i < empty_frames.size(); ++i) {
+    // Each frame's reference first, then the median in strips of rows: only one strip of each
+    // frame is ever held in float (memory: the frames plus a fixed budget, not a float copy of
+    // every frame). Values are those of the whole-frame computation, element by element.
+    for (cv::Mat& p : inv_planes_) p.release(); // each frame's reference over the whole frame
+    const std::size_t n = empty_frames.size();
+    std::vector<cv::Vec3f> refs(n);
+    std::vector<cv::Mat> blurred; // the pre-blurred frames (Config::pre_blur > 1 only)
+    for (std::size_t i = 0; i < n; ++i) {
       smooth(empty_frames[i]);
-      const cv::Vec3f ref = global_reference();
-      detail::require(detail::luminance(ref) >= 4.f,
+      refs[i] = global_reference();
+      detail::require(detail::luminance(refs[i]) >= 4.f,
                       "Segmenter::set_empty_skin: frame " + std::to_string(i) +
                           " is black or nearly black (reference luminance " +
-                          std::to_string(detail::luminance(ref)) +
+                          std::to_string(detail::luminance(refs[i])) +
                           " of 255); expected a frame of the lit, empty skin");
-      cv::Mat f;
-      src_->convertTo(f, CV_32FC3);
-      normalised.push_back(f.mul(cv::Scalar(1.0 / ref[0], 1.0 / ref[1], 1.0 / ref[2])));
+      if (src_ == &colour_blur_) blurred.push_back(std::exchange(colour_blur_, cv::Mat()));
     }
-    cv::Mat sum(empty_frames[0].size(), CV_32FC3);
-    std::vector<float> v(normalised.size());
-    for (int y = 0; y < sum.rows; ++y)
-      for (int x = 0; x < sum.cols; ++x)
-        for (int k = 0; k < 3; ++k) {
-          for (std::size_t i = 0; i < normalised.size(); ++i)
-            v[i] = normalised[i].at<cv::Vec3f>(y, x)[k];
-          std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2),
-                           v.end());
-          sum.at<cv::Vec3f>(y, x)[k] = v[v.size() / 2];
-        }
-    set_empty_skin_profile(sum);
+    const cv::Size size = empty_frames[0].size();
+    cv::Mat median(size, CV_32FC3);
+    constexpr std::size_t strip_budget = std::size_t{16} << 20; // bytes of float strips
+    const std::size_t row_bytes = static_cast<std::size_t>(size.width) * sizeof(cv::Vec3f) * n;
+    const int strip_rows =
+        static_cast<int>(std::clamp<std::size_t>(strip_budget / row_bytes, 1, size.height));
+    std::vector<cv::Mat> strips(n);
+    cv::Mat f;
+    std::vector<float> v(n);
+    for (int y0 = 0; y0 < size.height; y0 += strip_rows) {
+      const cv::Range rows(y0, std::min(size.height, y0 + strip_rows));
+      for (std::size_t i = 0; i < n; ++i) {
+        const cv::Mat& src = blurred.empty() ? empty_frames[i] : blurred[i];
+        src.rowRange(rows).convertTo(f, CV_32FC3);
+        strips[i] = f.mul(cv::Scalar(1.0 / refs[i][0], 1.0 / refs[i][1], 1.0 / refs[i][2]));
+      }
+      for (int y = rows.start; y < rows.end; ++y) {
+        cv::Vec3f* out = median.ptr<cv::Vec3f>(y);
+        for (int x = 0; x < size.width; ++x)
+          for (int k = 0; k < 3; ++k) {
+            for (std::size_t i = 0; i < n; ++i)
+              v[i] = strips[i].ptr<cv::Vec3f>(y - rows.start)[x][k];
+            std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(n / 2), v.end());
+            out[x][k] = v[n / 2];
+          }
+      }
+    }
+    strips.clear();
+    blurred.clear();
+    detail::validate_empty_skin(median, "Segmenter::set_empty_skin_profile");
+    use_model(std::move(median));
   }
 
   // Sets the empty-skin model directly (CV_32FC3, 1 = lit skin at the reference brightness, as
@@ -191,40 +216,7 @@ public:
     const auto guard = owner_.enter("Segmenter");
     detail::validate_empty_skin(profile, "Segmenter::set_empty_skin_profile");
     require_size(profile, "Segmenter::set_empty_skin_profile: the model");
-    model_ = profile.clone();
-    cv::Mat lum;
-    cv::transform(profile, lum, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
-    valid_ = lum >= 0.5f;
-    // Normalised convolution: smooth inside the skin only, so the outline stays sharp.
-    const double sg = config_.profile_smoothing;
-    cv::Mat w, num, den;
-    valid_.convertTo(w, CV_32F, 1.0 / 255);
-    cv::Mat masked = profile.clone();
-    masked.setTo(cv::Scalar::all(0), ~valid_);
-    if (sg > 0) {
-      cv::GaussianBlur(masked, num, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
-      cv::GaussianBlur(w, den, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
-    } else {
-      num = masked;
-      den = w;
-    }
-    profile_.create(profile.size(), CV_32FC3);
-    inv_profile_.create(profile.size(), CV_32FC3);
-    for (int y = 0; y < profile.rows; ++y) {
-      const cv::Vec3f* n = num.ptr<cv::Vec3f>(y);
-      const float* d = den.ptr<float>(y);
-      const uchar* v = valid_.ptr<uchar>(y);
-      cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
-      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < profile.cols; ++x)
-        for (int k = 0; k < 3; ++k) {
-          p[x][k] = v[x] && d[x] > 1e-6f ? std::max(n[x][k] / d[x], 0.05f) : 0.f;
-          ip[x][k] = p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
-        }
-    }
-    cv::split(inv_profile_, inv_planes_.data());
-    valid_.convertTo(inv_planes_[3], CV_32F, 1.0 / 255); // skin weight: darkness 0 off the skin
-    refresh_ref_samples();
+    use_model(profile.clone());
   }
   void set_background(const cv::Mat& empty_frame) { set_empty_skin({empty_frame}); }
   bool has_empty_skin() const { return !profile_.empty(); }
@@ -313,6 +305,52 @@ private:
       return Rule{};
   }
 
+  // The model (validated, owned) becomes model_; the smoothed profile, its inverse and the skin
+  // area are derived from it. Temporaries are released as soon as they are used: at 4K each
+  // float plane is 33 MB.
+  void use_model(cv::Mat model) {
+    model_ = std::move(model);
+    {
+      cv::Mat lum;
+      cv::transform(model_, lum, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+      valid_ = lum >= 0.5f;
+    }
+    // Normalised convolution: smooth inside the skin only, so the outline stays sharp.
+    const double sg = config_.profile_smoothing;
+    cv::Mat num, den;
+    {
+      cv::Mat w, masked = model_.clone();
+      valid_.convertTo(w, CV_32F, 1.0 / 255);
+      masked.setTo(cv::Scalar::all(0), ~valid_);
+      if (sg > 0) {
+        cv::GaussianBlur(masked, num, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
+        cv::GaussianBlur(w, den, cv::Size(0, 0), sg, sg, cv::BORDER_REPLICATE);
+      } else {
+        num = masked;
+        den = w;
+      }
+    }
+    profile_.create(model_.size(), CV_32FC3);
+    for (int k = 0; k < 3; ++k)
+      inv_planes_[static_cast<std::size_t>(k)].create(model_.size(), CV_32F);
+    for (int y = 0; y < model_.rows; ++y) {
+      const cv::Vec3f* n = num.ptr<cv::Vec3f>(y);
+      const float* d = den.ptr<float>(y);
+      const uchar* v = valid_.ptr<uchar>(y);
+      cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < model_.cols; ++x)
+        for (int k = 0; k < 3; ++k) {
+          p[x][k] = v[x] && d[x] > 1e-6f ? std::max(n[x][k] / d[x], 0.05f) : 0.f;
+          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] =
+              p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
+        }
+    }
+    num.release();
+    den.release();
+    valid_.convertTo(inv_planes_[3], CV_32F, 1.0 / 255); // skin weight: darkness 0 off the skin
+    refresh_ref_samples();
+  }
+
   void require_size(const cv::Mat& m, const char* name) const {
     if (!(m.cols <= config_.max_image_side && m.rows <= config_.max_image_side))
       SHADOWSENSE_THROW(InvalidArgument(std::string(name) + " is " + std::to_string(m.cols) + "x" +
@@ -338,7 +376,7 @@ private:
     constexpr int bins = 1024; // quarter-unit bins up to 256
     std::array<std::vector<int>, 3>& hist = hist_;
     for (auto& h : hist) h.assign(bins, 0);
-    const bool prof = !inv_profile_.empty() && inv_profile_.size() == src_->size();
+    const bool prof = !inv_planes_[0].empty() && inv_planes_[0].size() == src_->size();
     int n = 0;
     if (prof) { // the model's precomputed sample grid (on the skin only), contiguous in memory
       n = static_cast<int>(ref_y_.size());
@@ -379,7 +417,7 @@ private:
     const cv::Size size = src_->size();
     out.shadow_mask.create(size, CV_8UC1);
     out.contact_mask.create(size, CV_8UC1);
-    const bool prof = !inv_profile_.empty();
+    const bool prof = !inv_planes_[0].empty();
     if (!prof && (uniform_valid_.size() != size)) { // no empty-skin model: all skin, flat
       for (cv::Mat& p : uniform_planes_) {
         p.create(size, CV_32F);
@@ -520,13 +558,14 @@ private:
     ref_y_.clear();
     ref_x_.clear();
     for (auto& v : ref_inv_) v.clear();
-    for (int y = 1; y < inv_profile_.rows; y += 3) {
-      const cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
-      for (int x = 1; x < inv_profile_.cols; x += 3)
-        if (ip[x][0] != 0.f) {
+    for (int y = 1; y < inv_planes_[0].rows; y += 3) {
+      const std::array<const float*, 3> ip{
+          inv_planes_[0].ptr<float>(y), inv_planes_[1].ptr<float>(y), inv_planes_[2].ptr<float>(y)};
+      for (int x = 1; x < inv_planes_[0].cols; x += 3)
+        if (ip[0][x] != 0.f) {
           ref_y_.push_back(y);
           ref_x_.push_back(x);
-          for (int k = 0; k < 3; ++k) ref_inv_[static_cast<std::size_t>(k)].push_back(ip[x][k]);
+          for (std::size_t k = 0; k < 3; ++k) ref_inv_[k].push_back(ip[k][x]);
         }
     }
   }
@@ -541,13 +580,13 @@ private:
       const cv::Vec3b* in = src_->ptr<cv::Vec3b>(y);
       const uchar* m = dilated_.ptr<uchar>(y);
       cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
-      cv::Vec3f* ip = inv_profile_.ptr<cv::Vec3f>(y);
+      const std::array<float*, 3> ip{inv_planes_[0].ptr<float>(y), inv_planes_[1].ptr<float>(y),
+                                     inv_planes_[2].ptr<float>(y)};
       for (int x = 0; x < src_->cols; ++x) {
-        if (m[x] || ip[x][0] == 0.f) continue;
+        if (m[x] || ip[0][x] == 0.f) continue;
         for (int k = 0; k < 3; ++k) {
           p[x][k] = std::max(p[x][k] + a * (in[x][k] * inv[k] - p[x][k]), 0.05f);
-          ip[x][k] = 1.f / p[x][k];
-          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] = ip[x][k];
+          ip[static_cast<std::size_t>(k)][x] = 1.f / p[x][k];
         }
       }
     }
@@ -590,7 +629,7 @@ private:
   cv::Mat colour_blur_, darkness_, warmth_, dilated_;
   const cv::Mat* src_ = nullptr;          // the frame being segmented (valid during segment())
   cv::Mat model_;                         // the model as set (unsmoothed)
-  cv::Mat profile_, inv_profile_, valid_; // empty-skin model in use
+  cv::Mat profile_, valid_;               // empty-skin model in use (smoothed) and its skin
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
   cv::Mat uniform_valid_;
