@@ -6,7 +6,7 @@
 #
 # usage: tools/realhand/score.sh --model M.ssm --source NAME --scale S [--valsets DIR]
 #                                [--bin DIR] [--json OUT.json] [--render-only]
-#   NAME: realhand | epsrc | rps_heldout      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
+#   NAME: realhand | epsrc | rps_heldout | cnngest      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
 #   name is <source>_s<S>; any number in [0.25, 4] works)
 #   --valsets DIR  rendered folders (default /work/valsets, or $VALSETS)
 #   --bin DIR      folder of ss_eval_classify (default build/examples, or $TRACK_EVAL_BIN_DIR)
@@ -41,7 +41,8 @@ case $source in
   realhand) hands="$root/data/realhand"; split="";;
   epsrc) hands="$root/data/hands/epsrc"; split="";;
   rps_heldout) hands="$root/data/hands/rps"; split="heldout";;
-  *) die "unknown --source '$source' (realhand, epsrc or rps_heldout)";;
+  cnngest) hands="$root/data/hands/cnngest"; split="";;
+  *) die "unknown --source '$source' (realhand, epsrc, rps_heldout or cnngest)";;
 esac
 out="$valsets/${source}_s$scale"
 if [ ! -f "$out/gestures/metadata.csv" ]; then
