@@ -1,12 +1,18 @@
 // FrameEncoder: the one frame -> tensor path (lighting normalisation, the dark-frame rule,
 // preprocessing), checked against the stages it is made of.
 #include <shadowsense/classify/frame_encoder.hpp>
+#include <shadowsense/sense/calibration_file.hpp>
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
 
 using namespace shadowsense;
 
@@ -284,4 +290,74 @@ TEST_CASE("skin_relative without a calibration is refused; colour ignores one") 
   cv::Mat frame(4, 4, CV_8UC3, cv::Scalar(10, 200, 90));
   CHECK(same(encode(plain, frame), encode(with, frame)));
   CHECK_THROWS_AS(plain.encode_input(frame, f), InvalidArgument);
+}
+
+TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encoding") {
+  // tools/make_encoding_fixture.py: the calibration file written by tools/calibration_file.py
+  // (so the C++ reader is checked on the Python writer) and six frames encoded by train.py's
+  // functions, at the model's size and resized, plain, dark and lighting-normalised.
+  const SegmenterCalibration cal =
+      load_calibration(SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib");
+  REQUIRE(cal.empty_skin.size() == cv::Size(40, 30));
+  std::ifstream f(SHADOWSENSE_TEST_DATA_DIR "/encoding_golden.bin", std::ios::binary);
+  REQUIRE(f.good());
+  const std::vector<char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::size_t at = 0;
+  auto take = [&](void* to, std::size_t n) {
+    REQUIRE(at + n <= b.size());
+    std::memcpy(to, b.data() + at, n);
+    at += n;
+  };
+  auto u32 = [&] {
+    std::uint32_t v = 0;
+    take(&v, 4);
+    return static_cast<int>(v);
+  };
+  auto f32 = [&] {
+    float v = 0;
+    take(&v, 4);
+    return v;
+  };
+  const int cases = u32();
+  REQUIRE(cases == 6);
+  double worst_stage0 = 0, worst_tensor = 0;
+  for (int k = 0; k < cases; ++k) {
+    const int h = u32(), w = u32();
+    const bool dark = u32() != 0;
+    PreprocessParams p;
+    p.lighting_normalise = u32() != 0;
+    p.resize_width = u32();
+    p.resize_height = u32();
+    p.crop_width = u32();
+    p.crop_height = u32();
+    p.contrast_factor = f32();
+    p.dark_brightness_factor = f32();
+    p.input_encoding = InputEncoding::skin_relative;
+    cv::Mat frame(h, w, CV_8UC3), expected_stage0(h, w, CV_32FC3);
+    take(frame.data, frame.total() * 3);
+    take(expected_stage0.data, expected_stage0.total() * 3 * 4);
+    const int oh = u32(), ow = u32();
+    Tensor expected;
+    expected.resize(1, 3, oh, ow);
+    take(expected.data(), expected.size() * 4);
+    FrameEncoder enc({p, ChannelOrder::bgr, cal.empty_skin});
+    cv::Mat stage0;
+    enc.encode_input(frame, stage0);
+    worst_stage0 = std::max(worst_stage0, cv::norm(stage0, expected_stage0, cv::NORM_INF));
+    Tensor got;
+    enc.run(frame, dark, got);
+    REQUIRE(got.h() == oh);
+    REQUIRE(got.w() == ow);
+    double d = 0;
+    for (std::size_t i = 0; i < got.size(); ++i)
+      d = std::max(d, double(std::abs(got.data()[i] - expected.data()[i])));
+    worst_tensor = std::max(worst_tensor, d);
+  }
+  CHECK(at == b.size());
+  MESSAGE("skin_relative vs train.py: stage 0 max abs diff "
+          << worst_stage0 << ", network input max abs diff " << worst_tensor);
+  // Stage 0 is the same float operations in the same order (cv2.resize is OpenCV's resize):
+  // the same bits. The rest is the Preprocessor's golden bound (test_preprocess.cpp).
+  CHECK(worst_stage0 == 0.0);
+  CHECK(worst_tensor <= 1e-5);
 }

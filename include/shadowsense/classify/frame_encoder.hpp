@@ -30,10 +30,10 @@
 //   needs a calibration (callers check before costly work).
 // set_empty_skin(model): replaces the empty-skin model (same requirements; an empty model is
 //   refused when the encoding needs one, and ignored by the colour encoding).
-// FrameEncoder(params, force_lighting_normalise)
-//   the BGR encoder of params, with lighting normalisation switched on when
-//   force_lighting_normalise is true (programs' --lighting-normalise for version-1 model
-//   files that do not record it); false keeps params.lighting_normalise as it is.
+// FrameEncoder(params, force_lighting_normalise, empty_skin = {})
+//   the BGR encoder of params (with that empty-skin model), with lighting normalisation switched on
+//   when force_lighting_normalise is true (programs' --lighting-normalise for version-1 model files
+//   that do not record it); false keeps params.lighting_normalise as it is.
 // mean_luminance(frame) const -> double
 //   requires: frame CV_8UC3 or CV_32FC3 (0..1) in config().input_order.
 //   ensures: the mean over all pixels of 0.2989 R + 0.587 G + 0.114 B, in 0..1.
@@ -88,8 +88,10 @@ public:
     config_.empty_skin.release();
     set_empty_skin(model);
   }
-  FrameEncoder(const PreprocessParams& params, bool force_lighting_normalise)
-      : FrameEncoder(Config{forced(params, force_lighting_normalise), ChannelOrder::bgr}) {}
+  FrameEncoder(const PreprocessParams& params, bool force_lighting_normalise,
+               cv::Mat empty_skin = {})
+      : FrameEncoder(Config{forced(params, force_lighting_normalise), ChannelOrder::bgr,
+                            std::move(empty_skin)}) {}
 
   const Config& config() const { return config_; }
   bool lighting_normalise() const { return config_.params.lighting_normalise; }
