@@ -122,8 +122,8 @@ def read_model_file(path):
     encoding = "colour"
     if version == d2m.VERSION_ENCODED:
         code = u32()
-        if code >= len(d2m.INPUT_ENCODINGS):
-            raise SystemExit(f"{path}: input encoding code {code}, expected 0..1")
+        if not 1 <= code < len(d2m.INPUT_ENCODINGS):  # colour is never version 4
+            raise SystemExit(f"{path}: input encoding code {code}, expected 1 (skin_relative)")
         encoding = d2m.INPUT_ENCODINGS[code]
     names = []
     for _ in range(u32()):

@@ -9,7 +9,8 @@
 // (ModelFile::int8: version 2 plus an int8 section before the checksum), or version 4 when
 // its input encoding is not colour (PreprocessParams::input_encoding: version 4 adds that
 // field after the dark-frame threshold and an int8 flag before the optional int8 section), and
-// reads versions 1..4; a colour model is written as before, byte for byte. Version 1 files
+// reads versions 1..4 (a version-4 file recording colour is refused: every model has one
+// byte form); a colour model is written as before, byte for byte. Version 1 files
 // hold no
 // lighting-normalisation flag and no dark-frame rule; they load with lighting_normalise = false
 // and dark_luminance_threshold = 0 (no frame is dark by the rule: the caller decides, as with
@@ -748,8 +749,11 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     p.lighting_normalise = false;
     p.dark_luminance_threshold = 0.0f;
   }
-  if (m.format_version >= 4)
-    p.input_encoding = static_cast<InputEncoding>(r.count("input encoding", 0, 1));
+  if (m.format_version >= 4) // colour is never written as version 4: one file per model
+    p.input_encoding = static_cast<InputEncoding>(
+        r.count("input encoding (version 4 records a calibrated one; colour models are version 2 "
+                "or 3)",
+                1, 1));
   p.validate<ModelFileError>();
   // class names
   r.section = "class names";
