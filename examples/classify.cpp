@@ -3,7 +3,7 @@
 // the model file itself.
 //
 //   ss_classify --input INPUT [--model FILE] [--format csv|json] [--truth] [--threads N]
-//               [--lighting-normalise] [--quiet]
+//               [--lighting-normalise] [--calibration FILE] [--quiet]
 //
 // INPUT (--input, or as the last word): a folder (images found by the one rule of
 // shadowsense/io/image_folder.hpp: recursively, .png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm,
@@ -24,6 +24,9 @@
 //   machine-readable.
 // --lighting-normalise: switch lighting normalisation on for version-1 model files, which do
 //   not record it (version-2 files apply what they record).
+// --calibration FILE: the robot's calibration (ss_calibrate); its empty-skin model is what a
+//   model with a calibrated input encoding (docs/input_encodings.md) divides frames by. Such a
+//   model refuses to run without it (exit 2); a colour model does not use it.
 // stderr: "ss_classify: frame i of n" at most once a second and "ss_classify: n frames" at the
 //   end, when the input is a video of unknown length or has more than 100 frames (--quiet: none).
 // Exit status: 0 on success; 2 on any error (message on stderr); --help (stdout) and
@@ -33,6 +36,7 @@
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/model_calibration.hpp"
 #include "common/model_path.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -57,7 +61,8 @@ namespace {
 
 constexpr const char* usage =
     "usage: ss_classify --input INPUT [--model FILE] [--format csv|json] [--truth]\n"
-    "                   [--threads N] [--lighting-normalise] [--quiet]\n"
+    "                   [--threads N] [--lighting-normalise] [--calibration FILE]\n"
+    "                   [--quiet]\n"
     "\n"
     "Classifies every frame of INPUT (a folder of images, searched recursively and sorted by\n"
     "path, or a video file) with a shadowsense model file and prints one line per frame.\n"
@@ -76,6 +81,9 @@ constexpr const char* usage =
     "  --threads N           inference threads, an integer in [1, 256] (default 1)\n"
     "  --lighting-normalise  normalise lighting for version-1 model files, which do not\n"
     "                        record it (version-2 files apply what they record)\n"
+    "  --calibration FILE    the robot's calibration (ss_calibrate): its empty-skin model,\n"
+    "                        needed by a model with a calibrated input encoding (such a model\n"
+    "                        refuses to run without it); a colour model does not use it\n"
     "  --quiet               no progress line on stderr (shown once a second for inputs\n"
     "                        over 100 frames or of unknown length)\n"
     "  --help                this text;  --version  the library version\n"
@@ -86,6 +94,7 @@ struct Options {
   std::string model;      // empty: cli::find_default_model
   std::string model_note; // where the default model was found (said once the input opened)
   std::string input;
+  std::string calibration;
   bool json = false, truth = false, force_normalise = false, quiet = false;
   int threads = 1;
 };
@@ -109,6 +118,7 @@ Options parse(int argc, char** argv) {
   p.flag("--truth", "the true class is the first folder below INPUT", o.truth);
   p.option("--threads", "N", "inference threads", o.threads).range(1, 256);
   p.flag("--lighting-normalise", "normalise lighting for version-1 model files", o.force_normalise);
+  p.option("--calibration", "FILE", "calibration file (empty-skin model)", o.calibration);
   p.flag("--quiet", "no progress line on stderr", o.quiet);
   // INPUT as the last word stays accepted (the command line ss_classify documented first).
   p.positional("INPUT", "a folder of images or a video file", [&o](std::string_view arg) {
@@ -305,7 +315,9 @@ int run(const Options& o) {
                  "  /usr/bin/python3 tools/densenet_to_model.py --upgrade "
               << o.model << " -o NEW.ssm [--lighting-normalise] [--dark-threshold X]\n";
   if (o.force_normalise) model.preprocess.lighting_normalise = true;
-  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
+  const cv::Mat empty_skin = cli::empty_skin_for(model, o.model, o.calibration);
+  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,
+                                          empty_skin);
   const auto& classes = model.class_names;
 
   FrameSource src(o.input);

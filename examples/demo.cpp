@@ -1,7 +1,7 @@
 // The whole pipeline on a generated sequence, no arguments needed:
 //
 //   ss_demo [--out DIR] [--model FILE] [--no-lighting-normalise] [--threads N] [--save-frames]
-//           [--source NAME]
+//           [--source NAME] [--calibration FILE]
 //
 // A person approaches the robot, touches it with a palm, slides, pats twice, lifts, punches and
 // hugs while the light fades from daylight to dusk and towards night. Every frame is rendered by
@@ -14,7 +14,10 @@
 // docs/temporal_gestures.md) and writes DIR/demo_strip.png (annotated frames) and
 // DIR/events.csv (the project's event schema, docs/output.md). With --save-frames the rendered
 // frames go to DIR/frames/ (frame_000001.png, ...): `ss_track --input DIR/frames --calibration
-// DIR/skin.calib --fps 10` then prints the same event lines.
+// DIR/skin.calib --fps 10` then prints the same event lines. --calibration FILE uses that
+// calibration (e.g. an earlier run's DIR/skin.calib) instead of calibrating on generated frames.
+// The classifier gets the calibration's empty-skin model, which a model with a calibrated input
+// encoding (docs/input_encodings.md) divides every frame by; a colour model does not use it.
 #include <shadowsense/eval.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/runtime/densenet_runtime.hpp>
@@ -210,7 +213,7 @@ void write_strip(const std::vector<Shot>& shots, const fs::path& path) {
 
 int main(int argc, char** argv) {
   return cli::run("ss_demo", [&] {
-    fs::path out = "shadowsense_demo", model_path;
+    fs::path out = "shadowsense_demo", model_path, calibration_path;
     std::string source = "ss_demo";
     bool normalise = true, save_frames = false;
     int threads = 1;
@@ -227,6 +230,10 @@ int main(int argc, char** argv) {
     p.option("--threads", "N", "classifier worker threads", threads).range(1, 256);
     p.flag("--save-frames", "also write the rendered frames to DIR/frames/", save_frames);
     p.option("--source", "NAME", "the events' source field in events.csv", source);
+    p.option("--calibration", "FILE",
+             "use this calibration (segmenter, and the empty-skin model of calibrated input "
+             "encodings) instead of calibrating on generated frames",
+             calibration_path);
     p.parse(argc, argv);
     if (model_path.empty()) model_path = runner::find_default_model(argv[0]);
     const auto t_start = std::chrono::steady_clock::now();
@@ -235,11 +242,19 @@ int main(int argc, char** argv) {
     model.preprocess.lighting_normalise = normalise;
 
     sim::Renderer renderer(sim::Rig::robot());
-    const ss::SegmenterCalibration calibration = generated_calibration(renderer);
+    const ss::SegmenterCalibration calibration = calibration_path.empty()
+                                                     ? generated_calibration(renderer)
+                                                     : ss::load_calibration(calibration_path);
+    if (ss::needs_calibration(model.preprocess.input_encoding) && calibration.empty_skin.empty())
+      throw ss::Error("model " + model_path.string() + " (input encoding " +
+                      ss::to_string(model.preprocess.input_encoding) +
+                      ") needs an empty-skin model, and calibration " + calibration_path.string() +
+                      " holds none; calibrate with ss_calibrate --empty to store one");
     fs::create_directories(out);
     ss::save_calibration(calibration, (out / "skin.calib").string());
     ss::Runtime sense(ss::TouchPipeline{ss::Segmenter({.calibration = calibration})},
-                      ss::make_densenet_classifier(model, {.threads = threads}));
+                      ss::make_densenet_classifier(model, {.threads = threads},
+                                                   ss::ChannelOrder::bgr, calibration.empty_skin));
     if (save_frames) fs::create_directories(out / "frames");
 
     sim::Rng urng(2024);

@@ -14,6 +14,8 @@
 // model (common/model_path.hpp), trained on generated users 100-135.
 // --backbone-dir: no_<lighting>.ssm (Table 3: never saw that lighting) and only_<lighting>.ssm
 // (Table 4: saw only that lighting), for daylight, dusk and night.
+// --calibration FILE: the empty-skin model that models with a calibrated input encoding
+// (docs/input_encodings.md) divide every frame by; such a model refuses to run without it.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
 // (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
@@ -22,6 +24,7 @@
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
 #include "common/json.hpp"
+#include "common/model_calibration.hpp"
 #include "common/model_path.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -48,6 +51,7 @@ const std::array<ss::sim::Lighting, 3> lightings{ss::sim::Lighting::daylight,
 
 struct Options {
   std::string data, backbone, backbone_dir, json, confusion_dir;
+  std::string calibration; // --calibration: the empty-skin model of calibrated encodings
   std::set<int> tables{1, 2, 3, 4};
   bool normalise = false;
   int threads = 1;
@@ -73,7 +77,8 @@ Features features_for(const std::string& path, const ss::GestureSamples& set, co
     throw ss::ModelFileError(path + ": classes differ from the Table-1 backbone's; every "
                                     "backbone must use the same class order");
   ss::FeatureExtractor fx(model, {.threads = o.threads});
-  ss::FrameEncoder enc(model.preprocess, o.normalise);
+  ss::FrameEncoder enc(model.preprocess, o.normalise,
+                       cli::empty_skin_for(model, path, o.calibration));
   if (!o.quiet) std::cerr << "features: " << path << "\n";
   Features f{path, Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(set.frames.size()), fx.dim())};
   const Eigen::MatrixXd part = ss::extract_features(fx, enc, set, all);
@@ -278,7 +283,8 @@ int run_speed(const Options& o) {
         throw ss::ModelFileError(path + ": class order differs from the first --speed model's");
       // Save the resized model so FeatureExtractor sees the same geometry.
       ss::FeatureExtractor fx(model, {.threads = o.threads, .run_self_test = false});
-      ss::FrameEncoder enc(model.preprocess, o.normalise);
+      ss::FrameEncoder enc(model.preprocess, o.normalise,
+                           cli::empty_skin_for(model, path, o.calibration));
       Features f{path,
                  Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(set->frames.size()), fx.dim())};
       const Eigen::MatrixXd part = ss::extract_features(fx, enc, *set, all);
@@ -318,8 +324,10 @@ int run_score(const Options& o) {
   if (o.data.empty()) throw cli::UsageError("--score: needs --input DIR");
   const auto model = ss::ModelFile::load(o.score_model);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
-  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads});
-  ss::FrameEncoder enc(model.preprocess, o.normalise);
+  const cv::Mat empty_skin = cli::empty_skin_for(model, o.score_model, o.calibration);
+  auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,
+                                          empty_skin);
+  ss::FrameEncoder enc(model.preprocess, o.normalise, empty_skin);
   const std::size_t k = set.class_names.size();
   std::map<std::string, Confusion> conf;
   ss::Tensor t;
@@ -391,6 +399,10 @@ Options parse_options(int argc, char** argv) {
            o.backbone_dir);
   p.list("--tables", "LIST", "tables to compute", tables).range(1, 4);
   p.flag("--lighting-normalise", "normalise lighting before the network", o.normalise);
+  p.option("--calibration", "FILE",
+           "the robot's calibration (ss_calibrate): its empty-skin model, needed by models "
+           "with a calibrated input encoding (docs/input_encodings.md)",
+           o.calibration);
   p.option("--json", "OUT.json", "write the results as JSON", o.json);
   p.option("--confusion-dir", "DIR", "write confusion matrices as PNG images", o.confusion_dir);
   p.option("--threads", "N", "worker threads", o.threads).range(1, 256);

@@ -6,7 +6,7 @@
 //   ss_gesture_data --out DIR [--users N] [--first-user K] [--frames F]
 //                   [--lightings daylight,dusk,night | levels 0..1] [--seed S] [--randomise]
 //                   [--scale-range LO,HI] [--hands DIR [--hands-split NAME]
-//                   [--real-hand-probability P]]
+//                   [--real-hand-probability P]] [--empty-skin]
 //
 // --randomise: domain randomisation (include/shadowsense/sim/randomise.hpp, ranges in
 // docs/scene_generator.md): fabric, light, camera, lens, noise, compression, body, occluders.
@@ -16,9 +16,17 @@
 // include/shadowsense/sim/hand_silhouette_file.hpp) replace each hand of palm, point, punch,
 // two_hands and hug frames with probability P (default 0.5), rendered by the same renderer.
 //
+// --empty-skin: per session also DIR/empty_skin/<session>_<k>.png (k = 0..2: three frames of the
+// session's empty skin, its light and rig) and DIR/empty_skin/<session>.calib (the calibration
+// file of a default Segmenter with the empty-skin model made from those frames, as ss_calibrate
+// --empty would store it): what tools/train.py --input-encoding skin_relative divides that
+// session's frames by (docs/dataset_format.md, docs/input_encodings.md).
+//
 // Users get ids K..K+N-1 and their body from the id and the seed, so disjoint id ranges give
 // disjoint people (a backbone trained on ids 100+ never saw users 0..N-1).
 #include <shadowsense/eval.hpp>
+#include <shadowsense/sense/calibration_file.hpp>
+#include <shadowsense/sense/segmenter.hpp>
 
 #include "common/cli.hpp"
 
@@ -60,7 +68,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> levels{"daylight", "dusk", "night"};
     int users = 4, first_user = 0, frames = 20;
     std::uint64_t seed = 1;
-    bool randomise = false, overwrite = false;
+    bool randomise = false, overwrite = false, empty_skin = false;
     std::vector<double> scale_range{1.0, 1.0};
     std::string hands_dir, hands_split = "train";
     double real_probability = 0.5;
@@ -73,6 +81,10 @@ int main(int argc, char** argv) {
     p.option("--frames", "F", "frames per gesture and session", frames).range(1, 100000);
     p.list("--lightings", "LIST", "lightings: daylight, dusk, night or levels in [0, 1]", levels);
     p.option("--seed", "S", "random seed", seed).range(0, std::uint64_t{1} << 30);
+    p.flag("--empty-skin",
+           "per session, also write 3 empty-skin frames and a calibration file with its empty-skin "
+           "model to DIR/empty_skin/",
+           empty_skin);
     p.flag("--randomise", "domain randomisation (fabric, light, camera, lens, noise, body)",
            randomise);
     p.list("--scale-range", "LO,HI",
@@ -134,6 +146,22 @@ int main(int argc, char** argv) {
             ss::sim::derive_seed(seed, (static_cast<std::uint64_t>(u) << 16) + li * 7919 +
                                            static_cast<std::uint64_t>(level * 1000));
         ss::sim::GestureSession session(sseed, user, level, cfg);
+        if (empty_skin) { // before the csv: the dataset is complete only once it exists
+          const fs::path dir = fs::path(out) / "empty_skin";
+          fs::create_directories(dir);
+          std::vector<cv::Mat> empties;
+          for (int k = 0; k < 3; ++k) {
+            session.render_empty_skin(renderer, k, frame);
+            ss::sim::internal::write_png(dir / (session.name() + "_" + std::to_string(k) + ".png"),
+                                         frame.image);
+            empties.push_back(frame.image.clone());
+          }
+          ss::Segmenter segmenter;
+          segmenter.set_empty_skin(empties);
+          ss::SegmenterCalibration cal;
+          cal.empty_skin = segmenter.empty_skin_model().clone();
+          ss::save_calibration(cal, (dir / (session.name() + ".calib")).string());
+        }
         for (int f = 0; f < session.size(); ++f) {
           ss::sim::GestureFrameInfo info;
           session.render(renderer, f, frame, &info);

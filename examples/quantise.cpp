@@ -3,18 +3,22 @@
 // version-3 model file (docs/model_format.md) that the DenseNet runs in int8 by default.
 //
 //   ss_quantise [--model IN.ssm] --input DIR --out OUT.ssm [--percentile 99.99]
-//               [--max-frames N] [--lighting-normalise]
+//               [--max-frames N] [--lighting-normalise] [--calibration FILE]
 //
 // DIR: a dataset folder with metadata.csv (docs/dataset_format.md) or a class-per-folder tree,
 // encoded exactly as the classifier encodes frames (the model's preprocessing). Every
 // quantised convolution's input scale is the --percentile of its calibration inputs / 127
 // (float forward, ReferenceForward); conv0 and the classifier stay float. --max-frames takes
 // that many frames spread evenly over the folder (0: all). The output is written atomically.
+// --calibration FILE: the empty-skin model of a model with a calibrated input encoding
+// (docs/input_encodings.md), which refuses to run without it; the output keeps the encoding
+// (model format version 4 with its int8 flag set).
 #include <shadowsense/backends/densenet/quantise.hpp>
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/model_calibration.hpp"
 #include "common/model_path.hpp"
 
 #include <iostream>
@@ -23,7 +27,7 @@ namespace ss = shadowsense;
 
 int main(int argc, char** argv) {
   return cli::run("ss_quantise", [&] {
-    std::string model_path, data, out;
+    std::string model_path, data, out, calibration;
     double percentile = 99.99;
     int max_frames = 0;
     bool normalise = false;
@@ -43,6 +47,10 @@ int main(int argc, char** argv) {
         .range(0, 100000000);
     p.flag("--lighting-normalise", "normalise lighting before the network (version-1 models)",
            normalise);
+    p.option("--calibration", "FILE",
+             "calibration file: its empty-skin model, for a model with a calibrated input "
+             "encoding",
+             calibration);
     p.parse(argc, argv);
     if (model_path.empty()) {
       std::string what;
@@ -51,12 +59,13 @@ int main(int argc, char** argv) {
     }
     auto model = ss::ModelFile::load(model_path);
     model.int8.reset(); // calibrate the float model, not an earlier quantisation
+    const cv::Mat empty_skin = cli::empty_skin_for(model, model_path, calibration);
     const auto set = ss::load_gesture_folder(data, model.class_names);
     if (set.frames.empty()) throw ss::DatasetError(data + ": no frames, expected at least one");
     const std::size_t total = set.frames.size();
     const std::size_t use =
         max_frames > 0 ? std::min(total, static_cast<std::size_t>(max_frames)) : total;
-    ss::FrameEncoder enc(model.preprocess, normalise);
+    ss::FrameEncoder enc(model.preprocess, normalise, empty_skin);
     ss::Int8Calibration cal(model, percentile);
     ss::Tensor t;
     for (std::size_t i = 0; i < use; ++i) {

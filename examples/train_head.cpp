@@ -6,7 +6,7 @@
 //                 [--users 0,1] [--lightings night] [--epochs 20] [--lighting-normalise]
 //                 [--fine-tune] [--seed S] [--threads N]
 //                 [--anchor L] [--balanced] [--standardise] [--augment K]
-//                 [--learning-rate R] [--batch-size B]
+//                 [--learning-rate R] [--batch-size B] [--calibration FILE]
 //
 // DIR: a dataset folder with metadata.csv (docs/dataset_format.md), or a plain class-per-folder
 // tree DIR/<class>/**/*.png (no metadata: user and lighting unknown, path order is the
@@ -20,12 +20,16 @@
 // trains on standardised features (folded back into the written classifier), --augment K adds
 // K randomly shifted/scaled/rotated/mirrored/re-exposed copies of every training frame
 // (FrameAugmenter, through the real preprocessing and backbone).
+// --calibration FILE: the empty-skin model a base model with a calibrated input encoding
+// (docs/input_encodings.md) divides every frame by; such a model refuses to run without it, and
+// the new model keeps the encoding.
 // --model defaults to the shipped model, found by common/model_path.hpp (installed,
 // $SHADOWSENSE_MODEL, or the source tree's when run from the build folder).
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
 #include "common/cli.hpp"
+#include "common/model_calibration.hpp"
 #include "common/model_path.hpp"
 
 #include <cstdio>
@@ -44,6 +48,7 @@ int main(int argc, char** argv) {
     int augment = 0;
     ss::HeadTrainer::Config tc;
     int threads = 1;
+    std::string calibration;
     cli::Parser p("ss_train_head",
                   "Trains a new linear classifier on the frozen DenseNet features of a model "
                   "(Adam 1e-3, batch 16, best epoch by validation accuracy) and writes a new model "
@@ -63,6 +68,10 @@ int main(int argc, char** argv) {
     p.list("--lightings", "LIST", "train on these lightings only (default: all)", lightings)
         .choices({"daylight", "dusk", "night", "custom"});
     p.option("--epochs", "N", "training epochs", tc.epochs).range(1, 100000);
+    p.option("--calibration", "FILE",
+             "calibration file: its empty-skin model, for a model with a calibrated input "
+             "encoding",
+             calibration);
     p.flag("--lighting-normalise", "normalise lighting before the network", normalise);
     p.flag("--fine-tune", "start from the model's own classifier (same classes required)",
            fine_tune);
@@ -89,6 +98,7 @@ int main(int argc, char** argv) {
       std::cerr << "ss_train_head: model " << model_path << " (" << what << ")\n";
     }
     const auto model = ss::ModelFile::load(model_path);
+    const cv::Mat empty_skin = cli::empty_skin_for(model, model_path, calibration);
     // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
     auto set = [&] {
       try {
@@ -120,7 +130,7 @@ int main(int argc, char** argv) {
     std::cout << "\n";
 
     ss::FeatureExtractor fx(model, {.threads = threads});
-    ss::FrameEncoder enc(model.preprocess, normalise);
+    ss::FrameEncoder enc(model.preprocess, normalise, empty_skin);
     auto progress = [](std::size_t d, std::size_t n) {
       std::cout << "  features " << d << "/" << n << "\n" << std::flush;
     };

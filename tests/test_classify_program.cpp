@@ -1,7 +1,9 @@
 // ss_classify end to end: a folder and a video of the same frames give the same lines, --truth
 // counts what the per-frame lines say, JSON/CSV stay valid for awkward paths, and every bad
 // argument is an error on stderr with exit status 2.
+#include <shadowsense/backends/densenet/model_file.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/calibration_file.hpp>
 
 #include <doctest/doctest.h>
 
@@ -259,6 +261,48 @@ TEST_CASE("a small PNG claiming 30000x30000 pixels is refused from its header, n
   CHECK(r.err.find("30000") != std::string::npos);
   CHECK(r.err.find("8192") != std::string::npos);
   CHECK(r.out.find("huge.png") == std::string::npos);
+}
+
+TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignores one") {
+  namespace ss = shadowsense;
+  const fs::path dir = tests::fresh_dir("classify_calibration");
+  fs::create_directories(dir / "frames");
+  for (int i = 0; i < 3; ++i) cv::imwrite((dir / "frames" / numbered("f", i)).string(), frame(i));
+  // The committed tiny model, once as it is (colour) and once recording skin_relative.
+  const std::string tiny = SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn";
+  ss::ModelFile m = ss::ModelFile::load(tiny);
+  m.preprocess.input_encoding = ss::InputEncoding::skin_relative;
+  const fs::path skin_model = dir / "skin.ssm";
+  m.save(skin_model);
+  const std::string frames = shell_quote((dir / "frames").string());
+  const std::string cal = SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib";
+  const auto missing = run_classify("--model " + shell_quote(skin_model.string()) + " " + frames);
+  CHECK(missing.status == 2);
+  CHECK(missing.out.empty());
+  CHECK(missing.err.find("model " + skin_model.string() +
+                         " was trained with input encoding skin_relative and needs "
+                         "--calibration FILE") != std::string::npos);
+  const auto with = run_classify("--model " + shell_quote(skin_model.string()) + " --calibration " +
+                                 shell_quote(cal) + " " + frames);
+  REQUIRE(with.status == 0);
+  CHECK(lines(with.out).size() == 4);
+  // A calibration without an empty-skin model is refused, naming both files.
+  const fs::path bare = dir / "bare.calib";
+  ss::save_calibration(ss::SegmenterCalibration{}, bare.string());
+  const auto no_model = run_classify("--model " + shell_quote(skin_model.string()) +
+                                     " --calibration " + shell_quote(bare.string()) + " " + frames);
+  CHECK(no_model.status == 2);
+  CHECK(no_model.err.find("calibration " + bare.string() + " holds no empty-skin model") !=
+        std::string::npos);
+  CHECK(no_model.err.find(skin_model.string()) != std::string::npos);
+  // A colour model gives the same lines with or without a calibration.
+  const auto plain = run_classify("--model " + shell_quote(tiny) + " " + frames);
+  const auto plain_cal = run_classify("--model " + shell_quote(tiny) + " --calibration " +
+                                      shell_quote(cal) + " " + frames);
+  REQUIRE(plain.status == 0);
+  CHECK(plain_cal.status == 0);
+  CHECK(plain_cal.out == plain.out);
+  CHECK(plain.out != with.out); // the encoding changes what the network sees
 }
 
 #else

@@ -1,12 +1,18 @@
 // FrameEncoder: the one frame -> tensor path (lighting normalisation, the dark-frame rule,
 // preprocessing), checked against the stages it is made of.
 #include <shadowsense/classify/frame_encoder.hpp>
+#include <shadowsense/sense/calibration_file.hpp>
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
 
 using namespace shadowsense;
 
@@ -163,4 +169,195 @@ TEST_CASE("8-bit frames: the table path (normalise while resizing) equals the fl
     const cv::Mat ref = reference_normalise(frame, 0.4f);
     CHECK(cv::countNonZero(normalised.reshape(1) != ref.reshape(1)) == 0);
   }
+}
+
+namespace {
+// An identity Preprocessor (no resize or crop, contrast 1, mean 0, std 1, no dark rule): the
+// tensor then holds the encoded image itself, in RGB planes.
+PreprocessParams identity_params(InputEncoding e) {
+  PreprocessParams p;
+  p.resize_width = p.resize_height = p.crop_width = p.crop_height = 0;
+  p.contrast_factor = 1.0f;
+  p.mean = {0, 0, 0};
+  p.std = {1, 1, 1};
+  p.dark_luminance_threshold = 0.0f;
+  p.input_encoding = e;
+  return p;
+}
+} // namespace
+
+TEST_CASE("skin_relative: the frame over the empty-skin model, 0 off the skin, clipped at 1") {
+  const PreprocessParams p = identity_params(InputEncoding::skin_relative);
+  cv::Mat model(2, 3, CV_32FC3, cv::Scalar(0.8, 0.8, 0.8)); // BGR
+  model.at<cv::Vec3f>(0, 1) = {0.2f, 0.2f, 0.2f};           // not skin: sum 0.6 < 1.5
+  model.at<cv::Vec3f>(0, 2) = {0.05f, 0.7f, 0.75f};         // skin (sum 1.5), B under the floor
+  model.at<cv::Vec3f>(1, 0) = {0.5f, 0.5f, 0.5f};           // skin exactly at the test
+  cv::Mat frame(2, 3, CV_8UC3, cv::Scalar(128, 64, 255));
+  FrameEncoder enc({p, ChannelOrder::bgr, model});
+  const Tensor t = encode(enc, frame);
+  REQUIRE(t.h() == 2);
+  REQUIRE(t.w() == 3);
+  const float b = 128.0f / 255.0f, g = 64.0f / 255.0f, r = 255.0f / 255.0f;
+  // (0, 0): plain division; R clipped (1 / 0.8 > 1). Planes are R, G, B.
+  CHECK(t(0, 0, 0, 0) == 1.0f);
+  CHECK(r / 0.8f > 1.0f);
+  CHECK(t(0, 1, 0, 0) == g / 0.8f);
+  CHECK(t(0, 2, 0, 0) == b / 0.8f);
+  for (int c = 0; c < 3; ++c) CHECK(t(0, c, 0, 1) == 0.0f); // off the skin
+  CHECK(t(0, 2, 0, 2) == std::min(b / 0.125f, 1.0f));       // the floor 0.125
+  CHECK(t(0, 1, 0, 2) == g / 0.7f);
+  CHECK(t(0, 0, 0, 2) == 1.0f);
+  CHECK(t(0, 1, 1, 0) == g / 0.5f);
+  CHECK(t(0, 2, 1, 0) == std::min(b / 0.5f, 1.0f));
+  // encode_input is stage 0 alone, in the input order.
+  cv::Mat e;
+  enc.encode_input(frame, e);
+  CHECK(e.at<cv::Vec3f>(0, 0)[1] == g / 0.8f);
+  CHECK(e.at<cv::Vec3f>(0, 1) == cv::Vec3f(0, 0, 0));
+  // A float frame in 0..1 gives the same values as its 8-bit original.
+  cv::Mat unit(frame.size(), CV_32FC3);
+  for (int y = 0; y < frame.rows; ++y)
+    for (int x = 0; x < frame.cols * 3; ++x)
+      unit.ptr<float>(y)[x] = static_cast<float>(frame.ptr<unsigned char>(y)[x]) / 255.0f;
+  CHECK(same(encode(enc, unit), t));
+  // RGB input: the same numbers on the channel-swapped frame (the model stays BGR).
+  cv::Mat rgb;
+  cv::cvtColor(frame, rgb, cv::COLOR_BGR2RGB);
+  FrameEncoder enc_rgb({p, ChannelOrder::rgb, model});
+  CHECK(same(encode(enc_rgb, rgb), t));
+}
+
+TEST_CASE("skin_relative: the model is resized to the frame; then the Preprocessor as usual") {
+  PreprocessParams p; // the paper's geometry and photometrics
+  p.resize_width = 41;
+  p.resize_height = 29;
+  p.crop_width = 36;
+  p.crop_height = 24;
+  p.input_encoding = InputEncoding::skin_relative;
+  cv::Mat model(20, 30, CV_32FC3);
+  cv::theRNG().state = 5;
+  cv::randu(model, cv::Scalar::all(0.3), cv::Scalar::all(1.2));
+  cv::Mat frame(57, 83, CV_8UC3);
+  cv::randu(frame, cv::Scalar::all(0), cv::Scalar::all(256));
+  cv::Mat big;
+  cv::resize(model, big, frame.size(), 0, 0, cv::INTER_LINEAR);
+  FrameEncoder small({p, ChannelOrder::bgr, model}), sized({p, ChannelOrder::bgr, big});
+  CHECK(same(encode(small, frame), encode(sized, frame)));
+  // The stages: encode_input, then the Preprocessor on the float image with the frame's own
+  // dark flag (the rule reads the frame, not the encoded image).
+  cv::Mat e;
+  sized.encode_input(frame, e);
+  Preprocessor pre({p, ChannelOrder::bgr});
+  for (const bool dark : {false, true}) CHECK(same(encode(sized, frame, dark), pre(e, dark)));
+  cv::Mat night = frame / 8; // dark by the rule
+  REQUIRE(sized.is_dark(night));
+  sized.encode_input(night, e);
+  CHECK(same(encode(sized, night), pre(e, true)));
+  // With lighting normalisation: the encoded image is normalised, never brightened.
+  p.lighting_normalise = true;
+  FrameEncoder norm({p, ChannelOrder::bgr, big});
+  norm.encode_input(night, e);
+  cv::Mat n;
+  LightingNormaliser({.target = p.lighting_target}).run(e, n);
+  CHECK(same(encode(norm, night, true), pre(n, false)));
+}
+
+TEST_CASE("skin_relative without a calibration is refused; colour ignores one") {
+  const PreprocessParams p = identity_params(InputEncoding::skin_relative);
+  CHECK_THROWS_WITH_AS(FrameEncoder({p, ChannelOrder::bgr}),
+                       doctest::Contains("input encoding is skin_relative, which needs a "
+                                         "calibration with an empty-skin model"),
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(FrameEncoder::require_empty_skin(InputEncoding::skin_relative, false),
+                       doctest::Contains("--calibration FILE"), InvalidArgument);
+  CHECK_NOTHROW(FrameEncoder::require_empty_skin(InputEncoding::colour, false));
+  const cv::Mat model(4, 4, CV_32FC3, cv::Scalar::all(1.0));
+  FrameEncoder enc({p, ChannelOrder::bgr, model});
+  CHECK_THROWS_AS(enc.set_empty_skin(cv::Mat()), InvalidArgument);
+  CHECK_THROWS_WITH_AS(enc.set_empty_skin(cv::Mat(4, 4, CV_8UC3, cv::Scalar::all(200))),
+                       doctest::Contains("expected CV_32FC3"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(enc.set_empty_skin(cv::Mat(4, 4, CV_32FC3, cv::Scalar::all(200))),
+                       doctest::Contains("outside [0, 8]"), InvalidArgument);
+  cv::Mat nan_model = model.clone();
+  nan_model.at<cv::Vec3f>(1, 1)[0] = std::nanf("");
+  CHECK_THROWS_AS(enc.set_empty_skin(nan_model), InvalidArgument);
+  cv::Mat f(4, 4, CV_32FC3, cv::Scalar::all(2.0)); // a float frame outside 0..1
+  Tensor t;
+  CHECK_THROWS_WITH_AS(enc.run(f, t), doctest::Contains("expected 0..1"), InvalidArgument);
+  // Colour: a model given or not, the same bits (every existing model file is colour).
+  const PreprocessParams c = identity_params(InputEncoding::colour);
+  FrameEncoder plain({c, ChannelOrder::bgr}), with({c, ChannelOrder::bgr, model});
+  cv::Mat frame(4, 4, CV_8UC3, cv::Scalar(10, 200, 90));
+  CHECK(same(encode(plain, frame), encode(with, frame)));
+  CHECK_THROWS_AS(plain.encode_input(frame, f), InvalidArgument);
+}
+
+TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encoding") {
+  // tools/make_encoding_fixture.py: the calibration file written by tools/calibration_file.py
+  // (so the C++ reader is checked on the Python writer) and six frames encoded by train.py's
+  // functions, at the model's size and resized, plain, dark and lighting-normalised.
+  const SegmenterCalibration cal =
+      load_calibration(SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib");
+  REQUIRE(cal.empty_skin.size() == cv::Size(40, 30));
+  std::ifstream f(SHADOWSENSE_TEST_DATA_DIR "/encoding_golden.bin", std::ios::binary);
+  REQUIRE(f.good());
+  const std::vector<char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::size_t at = 0;
+  auto take = [&](void* to, std::size_t n) {
+    REQUIRE(at + n <= b.size());
+    std::memcpy(to, b.data() + at, n);
+    at += n;
+  };
+  auto u32 = [&] {
+    std::uint32_t v = 0;
+    take(&v, 4);
+    return static_cast<int>(v);
+  };
+  auto f32 = [&] {
+    float v = 0;
+    take(&v, 4);
+    return v;
+  };
+  const int cases = u32();
+  REQUIRE(cases == 6);
+  double worst_stage0 = 0, worst_tensor = 0;
+  for (int k = 0; k < cases; ++k) {
+    const int h = u32(), w = u32();
+    const bool dark = u32() != 0;
+    PreprocessParams p;
+    p.lighting_normalise = u32() != 0;
+    p.resize_width = u32();
+    p.resize_height = u32();
+    p.crop_width = u32();
+    p.crop_height = u32();
+    p.contrast_factor = f32();
+    p.dark_brightness_factor = f32();
+    p.input_encoding = InputEncoding::skin_relative;
+    cv::Mat frame(h, w, CV_8UC3), expected_stage0(h, w, CV_32FC3);
+    take(frame.data, frame.total() * 3);
+    take(expected_stage0.data, expected_stage0.total() * 3 * 4);
+    const int oh = u32(), ow = u32();
+    Tensor expected;
+    expected.resize(1, 3, oh, ow);
+    take(expected.data(), expected.size() * 4);
+    FrameEncoder enc({p, ChannelOrder::bgr, cal.empty_skin});
+    cv::Mat stage0;
+    enc.encode_input(frame, stage0);
+    worst_stage0 = std::max(worst_stage0, cv::norm(stage0, expected_stage0, cv::NORM_INF));
+    Tensor got;
+    enc.run(frame, dark, got);
+    REQUIRE(got.h() == oh);
+    REQUIRE(got.w() == ow);
+    double d = 0;
+    for (std::size_t i = 0; i < got.size(); ++i)
+      d = std::max(d, double(std::abs(got.data()[i] - expected.data()[i])));
+    worst_tensor = std::max(worst_tensor, d);
+  }
+  CHECK(at == b.size());
+  MESSAGE("skin_relative vs train.py: stage 0 max abs diff "
+          << worst_stage0 << ", network input max abs diff " << worst_tensor);
+  // Stage 0 is the same float operations in the same order (cv2.resize is OpenCV's resize):
+  // the same bits. The rest is the Preprocessor's golden bound (test_preprocess.cpp).
+  CHECK(worst_stage0 == 0.0);
+  CHECK(worst_tensor <= 1e-5);
 }

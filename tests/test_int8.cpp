@@ -294,6 +294,26 @@ TEST_CASE("model file version 3: the int8 section round-trips; float files stay 
   CHECK(dropped.to_bytes() == plain_bytes);
 }
 
+TEST_CASE("model file version 4: a calibrated encoding with int8 weights keeps both") {
+  ModelFile q = quantised_tiny();
+  const auto v3 = q.to_bytes();
+  q.preprocess.input_encoding = InputEncoding::skin_relative;
+  const auto bytes = q.to_bytes();
+  CHECK(bytes[8] == 4);
+  CHECK(bytes.size() == v3.size() + 8); // the encoding field and the int8 flag
+  const ModelFile back = ModelFile::from_bytes(std::span<const std::uint8_t>(bytes));
+  CHECK(back.format_version == 4);
+  CHECK(back.preprocess.input_encoding == InputEncoding::skin_relative);
+  REQUIRE(back.int8);
+  REQUIRE(back.int8->size() == q.int8->size());
+  for (std::size_t i = 0; i < q.int8->size(); ++i)
+    CHECK((*back.int8)[i].weights == (*q.int8)[i].weights);
+  CHECK(back.to_bytes() == bytes);
+  ModelFile colour = back;
+  colour.preprocess.input_encoding = InputEncoding::colour;
+  CHECK(colour.to_bytes() == v3); // back to version 3, byte for byte
+}
+
 TEST_CASE("model file version 3: bad int8 sections are refused with a clear error") {
   const ModelFile good = quantised_tiny();
   auto error_of = [](const ModelFile& m) {

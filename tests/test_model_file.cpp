@@ -344,6 +344,50 @@ TEST_CASE("version-1 files still load, with the documented defaults, and save as
   CHECK(ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn").format_version == 1);
 }
 
+TEST_CASE("version 4 records the input encoding; colour models stay version 2 byte for byte") {
+  const ModelFile colour = tiny_model(true);
+  const auto v2 = colour.to_bytes();
+  CHECK(read_u32(v2, 8) == 2);
+  ModelFile m = colour;
+  m.preprocess.input_encoding = InputEncoding::skin_relative;
+  const auto bytes = m.to_bytes();
+  CHECK(read_u32(bytes, 8) == 4);
+  CHECK(bytes.size() == v2.size() + 8); // the encoding and the int8 flag
+  const ModelFile back = ModelFile::from_bytes(bytes);
+  CHECK(back.format_version == 4);
+  CHECK(back.preprocess.input_encoding == InputEncoding::skin_relative);
+  CHECK_FALSE(back.int8);
+  CHECK(back.to_bytes() == bytes);
+  // The encoding sits right before the class count; the int8 flag right before the checksum.
+  const std::size_t at = tensors_offset(m) - 4 - 4 - (4 + 4) - (4 + 4);
+  REQUIRE(read_u32(bytes, at) == 1);
+  CHECK(read_u32(bytes, bytes.size() - 8) == 0);
+  // Apart from those two fields (and the version), the bytes are version 2's.
+  CHECK(std::equal(v2.begin() + 12, v2.begin() + static_cast<long>(at), bytes.begin() + 12));
+  CHECK(std::equal(v2.begin() + static_cast<long>(at), v2.end() - 4,
+                   bytes.begin() + static_cast<long>(at) + 4));
+  auto bad = bytes;
+  write_u32(bad, at, 2);
+  fix_crc(bad);
+  CHECK(load_error(bad).find("colour models are version 2 or 3) is 2, expected 1..1") !=
+        std::string::npos);
+  bad = bytes;
+  write_u32(bad, bad.size() - 8, 2);
+  fix_crc(bad);
+  CHECK(load_error(bad).find("int8 flag is 2, expected 0..1") != std::string::npos);
+  // A version-4 file recording colour is refused: a colour model has one byte form (version
+  // 2 or 3), so every file that loads saves to its own bytes (fuzz/fuzz_model_file.cpp).
+  bad = bytes;
+  write_u32(bad, at, 0);
+  fix_crc(bad);
+  CHECK(load_error(bad).find("input encoding (version 4 records a calibrated one; colour models "
+                             "are version 2 or 3) is 0, expected 1..1") != std::string::npos);
+  // The truncation check covers the new fields too.
+  for (std::size_t cut : {at + 2, bytes.size() - 6})
+    CHECK(load_error({bytes.begin(), bytes.begin() + static_cast<long>(cut)}).find("truncated") !=
+          std::string::npos);
+}
+
 TEST_CASE("a resize or crop beyond 4096 per side is rejected before any image is made") {
   ModelFile m = tiny_model(false);
   m.preprocess.resize_width = m.preprocess.resize_height = 65536;

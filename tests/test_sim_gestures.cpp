@@ -161,3 +161,29 @@ TEST_CASE("a hug around a larger body keeps the hands near the chest's row; arou
   CHECK_THROWS_WITH_AS(gesture_scene(Gesture::punch, u, p), doctest::Contains("press_depth"),
                        InvalidArgument);
 }
+
+TEST_CASE("a session's empty skin: no body, the session's light, deterministic per noise index") {
+  Renderer r(Rig::robot());
+  User user;
+  user.id = 4;
+  for (const bool randomise : {false, true}) {
+    const GestureSession s(11, user, 0.0, {.frames_per_gesture = 2, .randomise = randomise});
+    Frame e0, e0b, e1, touch;
+    s.render_empty_skin(r, 0, e0);
+    s.render_empty_skin(r, 0, e0b);
+    s.render_empty_skin(r, 1, e1);
+    CHECK(cv::countNonZero(e0.gt.shadow_mask) == 0);
+    CHECK(cv::countNonZero(e0.gt.contact_mask) == 0);
+    CHECK_FALSE(e0.gt.shadow_box);
+    CHECK(cv::norm(e0.image, e0b.image, cv::NORM_INF) == 0); // same k: the same frame
+    CHECK(cv::norm(e0.image, e1.image, cv::NORM_INF) > 0);   // another k: other sensor noise
+    // The session's light: the empty skin is as bright as the session's frames away from the
+    // shadow (within the frames' own light jitter), and brighter than all of them on average.
+    s.render(r, 4, touch); // a palm frame (block 2)
+    REQUIRE(touch.gt.contact_point);
+    cv::Mat lit = touch.gt.shadow_mask == 0;
+    const double empty_lit = cv::mean(e0.image, lit)[1], touch_lit = cv::mean(touch.image, lit)[1];
+    CHECK(std::abs(empty_lit - touch_lit) < 0.35 * touch_lit);
+    CHECK(cv::mean(e0.image)[1] > cv::mean(touch.image)[1]);
+  }
+}

@@ -48,6 +48,11 @@ from atomic_write import write_atomic
 
 MAGIC = b"SSDNMOD\n"
 VERSION = 2
+# Version 4 (include/shadowsense/backends/densenet/model_file.hpp): version 2 plus the input
+# encoding after the dark-frame threshold and an int8 flag (always 0 here) before the checksum;
+# written only for an encoding other than colour, so colour models stay version 2.
+VERSION_ENCODED = 4
+INPUT_ENCODINGS = ("colour", "skin_relative")  # InputEncoding codes 0, 1
 MAX_SIDE = 4096  # preprocess_max_side in include/shadowsense/classify/preprocess_params.hpp
 DEFAULT_DARK_THRESHOLD = 0.165  # default_dark_luminance_threshold (same header)
 DEFAULT_LIGHTING_TARGET = 0.35  # LightingNormaliser::Config::target
@@ -192,8 +197,9 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
     out = bytearray()
     u32 = lambda v: out.extend(struct.pack("<I", v))
     f32 = lambda v: out.extend(struct.pack("<f", v))
+    encoding = INPUT_ENCODINGS.index(pre.get("input_encoding", "colour"))
     out.extend(MAGIC)
-    u32(VERSION)
+    u32(VERSION_ENCODED if encoding else VERSION)
     for v in (growth, bn_size, init, classes):
         u32(v)
     f32(eps)
@@ -210,6 +216,8 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
     u32(1 if pre.get("lighting_normalise") else 0)  # version 2
     f32(pre.get("lighting_target", DEFAULT_LIGHTING_TARGET))
     f32(pre.get("dark_threshold", DEFAULT_DARK_THRESHOLD))
+    if encoding:
+        u32(encoding)  # version 4
     if len(class_names) != classes:
         raise SystemExit(f"{len(class_names)} class names for {classes} classes")
     u32(classes)
@@ -240,6 +248,8 @@ def write_model(path, model, growth, blocks, init, bn_size, class_names, pre, se
         out.extend(x.contiguous().numpy().astype("<f4").tobytes())
         out.extend(logits.contiguous().numpy().astype("<f4").tobytes())
         f32(tol)
+    if encoding:
+        u32(0)  # version 4: no int8 section
     out.extend(struct.pack("<I", checksum(out)))
     write_atomic(path, out)
 

@@ -139,5 +139,85 @@ class TrainOnAPlainTree(unittest.TestCase):
             shutil.rmtree(work)
 
 
+class SkinRelativeEncoding(unittest.TestCase):
+    """The skin_relative encoding and the calibration file on the Python side (the C++ side and
+    the agreement of the two: tests/test_frame_encoder.cpp)."""
+
+    def test_values_by_hand(self):
+        import numpy as np
+        import torch
+        import train
+        m = np.full((2, 3, 3), 0.8, np.float32)  # B, G, R
+        m[0, 1] = 0.2                             # not skin (sum 0.6)
+        m[0, 2] = (0.05, 0.7, 0.75)               # skin (sum 1.5); B under the floor 0.125
+        x = torch.empty(3, 2, 3)                  # R, G, B
+        x[0], x[1], x[2] = 255 / 255.0, 64 / 255.0, 128 / 255.0
+        e = train.skin_relative(x, m)
+        f32 = np.float32
+        self.assertEqual(e[0, 0, 0].item(), 1.0)                          # R clipped
+        self.assertEqual(e[1, 0, 0].item(), f32(f32(64 / 255.0) / f32(0.8)))
+        self.assertEqual(e[:, 0, 1].tolist(), [0.0, 0.0, 0.0])
+        self.assertEqual(e[2, 0, 2].item(), 1.0)                          # 0.502 / 0.125 > 1
+        self.assertEqual(e[1, 0, 2].item(), f32(f32(64 / 255.0) / f32(0.7)))
+
+    def test_calibration_file_round_trip_and_damage(self):
+        import numpy as np
+        import calibration_file as cf
+        work = tempfile.mkdtemp()
+        try:
+            path = os.path.join(work, "c.calib")
+            m = np.random.default_rng(1).uniform(0, 2, (5, 7, 3)).astype(np.float32)
+            cf.write_calibration(path, m)
+            self.assertTrue(np.array_equal(cf.read_empty_skin(path), m))
+            data = read_bytes(path)
+            for bad, needle in ((data[:-3], "cut"), (data[:-200], "empty-skin block is cut"),
+                                (data[:40] + b"X" + data[41:], "checksum mismatch"),
+                                (b"hello\n", "not a calibration file")):
+                with open(path, "wb") as f:
+                    f.write(bad)
+                with self.assertRaises(cf.CalibrationFileError) as ctx:
+                    cf.read_empty_skin(path)
+                self.assertIn(needle, str(ctx.exception))
+                self.assertIn(path, str(ctx.exception))
+        finally:
+            shutil.rmtree(work)
+
+    def test_train_writes_version_4_and_needs_the_empty_skin(self):
+        import numpy as np
+        from PIL import Image
+        import calibration_file as cf
+        import train
+        work = tempfile.mkdtemp()
+        try:
+            tree = os.path.join(work, "tree")
+            for k, cls in enumerate(("dim", "lit")):
+                os.makedirs(os.path.join(tree, cls))
+                for i in range(6):
+                    v = 40 + 150 * k + i
+                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(tree, cls, f"{i}.png"))
+            cal = os.path.join(work, "c.calib")
+            cf.write_calibration(cal, np.full((30, 40, 3), 0.9, np.float32))
+            args = [tree, "--growth-rate", "2", "--block-config", "1", "--init-features", "4",
+                    "--resize", "32", "24", "--epochs", "1", "--input-encoding", "skin_relative"]
+            out = os.path.join(work, "m.ssm")
+            r = run("train.py", *args, "--calibration", cal, "-o", out)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            data = read_bytes(out)
+            self.assertEqual(struct.unpack_from("<I", data, 8)[0], 4)
+            at = 8 + 4 + 5 * 4 + 4 + 4 * 1 + 13 * 4 + 12  # one dense block; after the dark rule
+            self.assertEqual(struct.unpack_from("<I", data, at)[0], 1)
+            self.assertEqual(struct.unpack_from("<I", data, len(data) - 8)[0], 0)  # no int8
+            self.assertEqual(d2m.checksum(data[:-4]), struct.unpack("<I", data[-4:])[0])
+            self.assertEqual(train.read_model_file(out)[1]["input_encoding"], "skin_relative")
+            # Without --calibration a plain tree has no empty_skin/<session>.calib.
+            r = run("train.py", *args, "-o", os.path.join(work, "x.ssm"))
+            self.assertEqual(r.returncode, 1)
+            self.assertIn("needs the empty-skin model of session", r.stderr)
+            self.assertNotIn("Traceback", r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(work, "x.ssm")))
+        finally:
+            shutil.rmtree(work)
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -7,7 +7,15 @@ log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is
 lower validation loss). Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
 bilinear resize without antialias, centre crop, adjust_contrast, adjust_brightness for dark
 images, Normalize), optionally preceded by the lighting normalisation of
-include/shadowsense/classify/lighting_normalise.hpp (--lighting-normalise).
+include/shadowsense/classify/lighting_normalise.hpp (--lighting-normalise), and by the input
+encoding of include/shadowsense/classify/frame_encoder.hpp (--input-encoding):
+  colour          the frame as it is (the default; every model before format version 4)
+  skin_relative   the frame over the calibration's empty-skin model, 0 off the skin, clipped
+                  at 1 (skin_relative() below). The empty-skin model comes from --calibration
+                  FILE (one robot for every frame), or else per session from the dataset's
+                  empty_skin/<session>.calib (ss_gesture_data --empty-skin; docs/dataset_format.md).
+                  The model file records the encoding (format version 4): the C++ programs then
+                  need --calibration FILE, and refuse to run without one.
 
 Modes
   --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
@@ -51,6 +59,7 @@ import torchvision.transforms.functional as TF
 from torchvision.transforms import InterpolationMode
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import calibration_file  # noqa: E402
 import dataset_reader  # noqa: E402
 from atomic_write import write_atomic  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
@@ -62,6 +71,11 @@ DARK_LEVEL = 0.25
 # Lighting normalisation (include/shadowsense/classify/lighting_normalise.hpp): every channel scaled so its mean
 # over the image becomes TARGET (gray world + exposure), then clamped to [0, 1].
 NORMALISE_TARGET = 0.35
+# The skin_relative encoding (include/shadowsense/classify/frame_encoder.hpp): a pixel is skin
+# when B + G + R of the empty-skin model is at least SKIN_MODEL_SUM; each channel is divided
+# by the model's, floored at MODEL_FLOOR.
+SKIN_MODEL_SUM = 1.5
+MODEL_FLOOR = 0.125
 
 
 # ---------------------------------------------------------------------------------- model file
@@ -88,8 +102,9 @@ def read_model_file(path):
         return v
 
     version = u32()
-    if version not in (1, d2m.VERSION):
-        raise SystemExit(f"{path}: format version {version}, expected 1 or {d2m.VERSION}")
+    if version not in (1, d2m.VERSION, d2m.VERSION_ENCODED):  # not 3: int8 (docs/model_format.md)
+        raise SystemExit(f"{path}: format version {version}, expected 1, {d2m.VERSION} or "
+                         f"{d2m.VERSION_ENCODED}")
     growth, bn_size, init, classes = u32(), u32(), u32(), u32()
     eps = f32()
     blocks = tuple(u32() for _ in range(u32()))
@@ -104,6 +119,12 @@ def read_model_file(path):
         normalise, target, dark_threshold = u32() == 1, f32(), f32()
     else:  # version 1's behaviour
         normalise, target, dark_threshold = False, d2m.DEFAULT_LIGHTING_TARGET, 0.0
+    encoding = "colour"
+    if version == d2m.VERSION_ENCODED:
+        code = u32()
+        if not 1 <= code < len(d2m.INPUT_ENCODINGS):  # colour is never version 4
+            raise SystemExit(f"{path}: input encoding code {code}, expected 1 (skin_relative)")
+        encoding = d2m.INPUT_ENCODINGS[code]
     names = []
     for _ in range(u32()):
         n = u32()
@@ -125,7 +146,7 @@ def read_model_file(path):
     pre = dict(resize_width=rw, resize_height=rh, crop_width=cw, crop_height=ch,
                contrast=contrast, brightness=brightness, mean=mean, std=std,
                lighting_normalise=normalise, lighting_target=target,
-               dark_threshold=dark_threshold)
+               dark_threshold=dark_threshold, input_encoding=encoding)
     return arch, pre, names, sd
 
 
@@ -263,6 +284,56 @@ def load_image(path):
     return x.float().div(255)
 
 
+def skin_relative(x, empty_skin):
+    """The skin_relative encoding of FrameEncoder: x RGB 3 x H x W in [0, 1], empty_skin a
+    calibration's model (numpy float32 h x w x 3, B G R), bilinearly resized to H x W with
+    cv2.resize (INTER_LINEAR, the library's cv::resize) when its size differs. Per pixel:
+    skin = (B + G) + R of the model >= SKIN_MODEL_SUM; value = min(x / max(model, MODEL_FLOOR),
+    1) on the skin, 0 off it, per channel in float32."""
+    h, w = x.shape[1], x.shape[2]
+    m = empty_skin
+    if m.shape[0] != h or m.shape[1] != w:
+        import cv2
+        m = cv2.resize(m, (w, h), interpolation=cv2.INTER_LINEAR)
+    m = torch.from_numpy(m.astype("float32", copy=False)).permute(2, 0, 1)  # B, G, R planes
+    skin = (m[0] + m[1]) + m[2] >= SKIN_MODEL_SUM
+    v = torch.clamp(x / m.flip(0).clamp_min(MODEL_FLOOR), max=1.0)
+    return torch.where(skin, v, torch.zeros((), dtype=v.dtype))
+
+
+class EmptySkins:
+    """The empty-skin model of a row: one --calibration file for all, or the dataset's
+    empty_skin/<session>.calib (read once per session)."""
+
+    def __init__(self, root, calibration):
+        self.root, self.cache = root, {}
+        self.single = self.read(calibration) if calibration else None
+
+    @staticmethod
+    def read(path):
+        try:
+            m = calibration_file.read_empty_skin(path)
+        except calibration_file.CalibrationFileError as e:
+            raise SystemExit(f"train.py: {e}")
+        if m is None:
+            raise SystemExit(f"train.py: {path}: the calibration holds no empty-skin model, "
+                             f"which --input-encoding skin_relative needs (ss_calibrate --empty)")
+        return m
+
+    def __call__(self, row):
+        if self.single is not None:
+            return self.single
+        session = row["session"]
+        if session not in self.cache:
+            path = os.path.join(self.root, "empty_skin", f"{session}.calib")
+            if not os.path.isfile(path):
+                raise SystemExit(f"train.py: --input-encoding skin_relative needs the empty-skin "
+                                 f"model of session '{session}': no {path} (write the dataset "
+                                 f"with ss_gesture_data --empty-skin, or pass --calibration FILE)")
+            self.cache[session] = self.read(path)
+        return self.cache[session]
+
+
 def normalise_lighting(x):
     m = x.mean(dim=(1, 2), keepdim=True).clamp_min(1e-3)
     return (x * (NORMALISE_TARGET / m)).clamp(0, 1)
@@ -315,12 +386,21 @@ def augment_geometry(x, gen):
     return F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
 
 
-def cache(rows, pre, normalised, classes, label):
+def encode(x, pre, empty_skin=None):
+    """The frame -> the Preprocessor's input image (stage 0 of FrameEncoder)."""
+    if pre.get("input_encoding", "colour") == "skin_relative":
+        return skin_relative(x, empty_skin)
+    return x
+
+
+def cache(rows, pre, normalised, classes, label, empty_skins=None):
     xs, ys, dark = [], [], []
     t0 = time.time()
     for i, r in enumerate(rows):
         x = load_image(r["path"])
-        dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)))
+        dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)))  # the frame, not the encoding
+        if pre.get("input_encoding", "colour") != "colour":
+            x = encode(x, pre, empty_skins(r))
         if normalised:
             x = normalise_lighting(x)
         xs.append(geometry(x, pre))
@@ -400,6 +480,12 @@ def main(argv=None):
     ap.add_argument("--dark-threshold", type=float, default=d2m.DEFAULT_DARK_THRESHOLD,
                     help="dark-frame rule recorded in the model (mean luminance below it: "
                          "dark); 0 = never")
+    ap.add_argument("--input-encoding", choices=d2m.INPUT_ENCODINGS, default="colour",
+                    help="what the network sees (see above); recorded in the model file")
+    ap.add_argument("--calibration", metavar="FILE",
+                    help="skin_relative: the calibration file (ss_calibrate) whose empty-skin "
+                         "model every frame is divided by (default: the dataset's "
+                         "empty_skin/<session>.calib)")
     ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
     ap.add_argument("--augment-geometry", action="store_true",
                     help="flips, scale and shift augmentation (scratch)")
@@ -430,6 +516,8 @@ def main(argv=None):
     for name, v in (("--holdout", args.holdout), ("--val-fraction", args.val_fraction)):
         if not (d2m.finite(v) and 0 <= v < 1):
             ap.error(f"{name} {v}: expected a value in [0, 1)")
+    if args.calibration and args.input_encoding == "colour":
+        ap.error("--calibration is for --input-encoding skin_relative (colour needs none)")
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
     random.seed(args.seed)
@@ -450,14 +538,15 @@ def main(argv=None):
                crop_width=args.crop[0], crop_height=args.crop[1], contrast=args.contrast,
                brightness=args.brightness, mean=MEAN, std=STD,
                lighting_normalise=args.lighting_normalise,
-               lighting_target=d2m.DEFAULT_LIGHTING_TARGET, dark_threshold=args.dark_threshold)
+               lighting_target=d2m.DEFAULT_LIGHTING_TARGET, dark_threshold=args.dark_threshold,
+               input_encoding=args.input_encoding)
     if args.mode == "transfer":
         if not args.backbone:
             raise SystemExit("--mode transfer needs --backbone")
         model, growth, blocks, init, bn_size, bpre = load_backbone(args.backbone)
         if bpre is not None:  # keep the backbone's input geometry and photometrics
             pre = dict(bpre, lighting_normalise=args.lighting_normalise,
-                       dark_threshold=args.dark_threshold)
+                       dark_threshold=args.dark_threshold, input_encoding=args.input_encoding)
         model.classifier = torch.nn.Linear(model.classifier.in_features, len(classes))
     else:
         growth, blocks, init, bn_size = (args.growth_rate, tuple(args.block_config),
@@ -470,8 +559,10 @@ def main(argv=None):
     if missing:
         raise SystemExit(f"no training images of class(es) {missing}")
 
-    xt, yt, dt = cache(train_rows, pre, args.lighting_normalise, classes, "train")
-    xv, yv, dv = cache(val_rows, pre, args.lighting_normalise, classes, "val")
+    empty_skins = (EmptySkins(args.data, args.calibration)
+                   if args.input_encoding != "colour" else None)
+    xt, yt, dt = cache(train_rows, pre, args.lighting_normalise, classes, "train", empty_skins)
+    xv, yv, dv = cache(val_rows, pre, args.lighting_normalise, classes, "val", empty_skins)
     print(f"input {tuple(xt.shape[1:])}, mode {args.mode}, growth {growth}, blocks "
           f"{list(blocks)}, init {init}, bn_size {bn_size}", flush=True)
 

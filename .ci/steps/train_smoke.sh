@@ -40,3 +40,15 @@ acc = json.load(open(sys.argv[1]))["accuracy"]["all"]
 print(f"shipped model accuracy on unseen users: {acc:.4f}")
 sys.exit(0 if acc >= 0.90 else 1)
 PY
+# A calibrated input encoding (docs/input_encodings.md): per-session empty-skin calibrations in
+# the dataset, a tiny skin_relative model (format version 4) loaded and scored in C++ with a
+# calibration, and refused without one (exit 2, naming the model and --calibration).
+"$bin/ss_gesture_data" --out "$work/skin" --users 1 --frames 2 --seed 9 --empty-skin
+/usr/bin/python3 "$root/tools/train.py" "$work/skin" -o "$work/skin.ssm" --mode scratch \
+  --growth-rate 4 --block-config 2 --init-features 8 --resize 80 44 --epochs 1 \
+  --input-encoding skin_relative --classes nothing,hug,palm,point,punch,two_hands
+cal=$(ls "$work/skin/empty_skin/"*.calib | head -n 1)
+"$bin/ss_eval_classify" --score "$work/skin.ssm" --data "$work/skin" --calibration "$cal"
+status=0
+"$bin/ss_eval_classify" --score "$work/skin.ssm" --data "$work/skin" 2>"$work/err.txt" || status=$?
+test "$status" -eq 2 && grep -q "needs --calibration FILE" "$work/err.txt"

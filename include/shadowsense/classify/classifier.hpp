@@ -9,7 +9,8 @@
 //   requires: logits non-empty and finite; probabilities.size() == logits.size().
 //   ensures: probabilities = softmax(logits), summing to 1 up to rounding; else InvalidArgument.
 // Classifier(backend, config)
-//   requires: the backend has at least one class; config.preprocess valid (InvalidArgument).
+//   requires: the backend has at least one class; config.preprocess valid; config.empty_skin
+//             set when config.preprocess.input_encoding needs a calibration (InvalidArgument).
 // classify(frame)        encodes frame (the dark-frame rule decides the brightness factor),
 //                        infers, returns label, index and one probability per class.
 // classify(frame, dark)  the same with the caller's dark flag (evaluation protocols).
@@ -82,11 +83,15 @@ public:
   struct Config {
     PreprocessParams preprocess{};                // usually the model file's
     ChannelOrder input_order = ChannelOrder::bgr; // order of the cv::Mat images passed in
+    // The calibration's empty-skin model, for an input encoding that needs one
+    // (FrameEncoder::Config::empty_skin; the encoder throws InvalidArgument without it).
+    cv::Mat empty_skin{};
   };
 
   explicit Classifier(Backend backend, Config config = {})
       : backend_(std::move(backend)),
-        encoder_(FrameEncoder::Config{config.preprocess, config.input_order}) {
+        encoder_(FrameEncoder::Config{config.preprocess, config.input_order,
+                                      std::move(config.empty_skin)}) {
     detail::require(!class_names().empty(),
                     "Classifier: the backend has no classes, expected at least one");
   }

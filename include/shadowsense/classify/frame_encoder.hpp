@@ -1,6 +1,18 @@
 // FrameEncoder: a camera frame -> the network's input tensor, the one path every classifier
 // entry point shares (Classifier, ss_classify, ss_train_head, ss_eval_classify, ss_demo;
 // tools/train.py does the same arithmetic in PyTorch):
+//   0. the input encoding (params.input_encoding, classify/preprocess_params.hpp):
+//      colour: the frame as it is. skin_relative: with m the calibration's empty-skin model
+//      (SegmenterCalibration::empty_skin: per pixel and channel the lit empty skin's
+//      brightness over its frame's reference, about 1 on the skin; bilinearly resized with
+//      cv::resize INTER_LINEAR when its size is not the frame's) and f the frame in 0..1
+//      (v / 255 for 8-bit frames), per pixel and channel, in float:
+//        skin  = (m_B + m_G) + m_R >= 1.5      (the segmenter's skin test: mean >= 0.5)
+//        value = skin ? min(f / max(m, 0.125), 1) : 0
+//      so the lit empty skin becomes flat at its reference brightness (the light level stays:
+//      the dark-frame rule and the lighting normalisation keep their meaning), a shadow keeps
+//      its darkness relative to the skin under it, and whatever is not skin is black. The
+//      dark-frame rule reads the frame itself, never the encoded image;
 //   1. lighting normalisation (classify/lighting_normalise.hpp) when
 //      params.lighting_normalise is set; the brightness factor is then never applied;
 //   2. otherwise the dark-frame rule decides whether the brightness factor applies:
@@ -8,11 +20,20 @@
 //   3. the Preprocessor (resize, crop, contrast, brightness, Normalize).
 //
 // FrameEncoder(Config)
-//   requires: config.params.validate() passes; input order rgb or bgr (else InvalidArgument).
-// FrameEncoder(params, force_lighting_normalise)
-//   the BGR encoder of params, with lighting normalisation switched on when
-//   force_lighting_normalise is true (programs' --lighting-normalise for version-1 model
-//   files that do not record it); false keeps params.lighting_normalise as it is.
+//   requires: config.params.validate() passes; input order rgb or bgr (else InvalidArgument);
+//             config.empty_skin empty, or CV_32FC3 (B, G, R: the calibration's order whatever
+//             the input order) with finite values in [0, 8] (else InvalidArgument).
+//   throws:   InvalidArgument naming the input encoding when it needs a calibration
+//             (needs_calibration) and config.empty_skin is empty: a model trained on
+//             skin-relative frames never runs on raw colour.
+// require_empty_skin(encoding, have): throws that error when have is false and the encoding
+//   needs a calibration (callers check before costly work).
+// set_empty_skin(model): replaces the empty-skin model (same requirements; an empty model is
+//   refused when the encoding needs one, and ignored by the colour encoding).
+// FrameEncoder(params, force_lighting_normalise, empty_skin = {})
+//   the BGR encoder of params (with that empty-skin model), with lighting normalisation switched on
+//   when force_lighting_normalise is true (programs' --lighting-normalise for version-1 model files
+//   that do not record it); false keeps params.lighting_normalise as it is.
 // mean_luminance(frame) const -> double
 //   requires: frame CV_8UC3 or CV_32FC3 (0..1) in config().input_order.
 //   ensures: the mean over all pixels of 0.2989 R + 0.587 G + 0.114 B, in 0..1.
@@ -24,6 +45,8 @@
 //                        ignored when lighting normalisation is on.
 //   requires: frame CV_8UC3 (0..255) or CV_32FC3 (0..1) in config().input_order.
 //   ensures: out is the 1 x 3 x h x w input; throws InvalidArgument on a bad frame.
+// encode_input(frame, out) (skin_relative only): stage 0 alone, out CV_32FC3 in 0..1 in the
+//   input order (the golden tests compare it with tools/train.py's).
 // Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
@@ -35,8 +58,11 @@
 #include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <string>
+#include <utility>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
@@ -45,18 +71,70 @@ public:
   struct Config {
     PreprocessParams params{};                    // usually the model file's
     ChannelOrder input_order = ChannelOrder::bgr; // cv::imread / cv::VideoCapture give BGR
+    // The calibration's empty-skin model (SegmenterCalibration::empty_skin, BGR); needed by
+    // the skin_relative encoding, ignored by colour.
+    cv::Mat empty_skin{};
   };
+
+  // The skin test and the division floor of the skin_relative encoding (header comment).
+  static constexpr float skin_model_sum = 1.5f;
+  static constexpr float model_floor = 0.125f;
 
   FrameEncoder() : FrameEncoder(Config{}) {}
   explicit FrameEncoder(Config config)
-      : config_(config), pre_(Preprocessor::Config{config.params, config.input_order}),
-        norm_(LightingNormaliser::Config{.target = config.params.lighting_target}) {}
-  FrameEncoder(const PreprocessParams& params, bool force_lighting_normalise)
-      : FrameEncoder(Config{forced(params, force_lighting_normalise), ChannelOrder::bgr}) {}
+      : config_(std::move(config)), pre_(Preprocessor::Config{config_.params, config_.input_order}),
+        norm_(LightingNormaliser::Config{.target = config_.params.lighting_target}) {
+    cv::Mat model = std::move(config_.empty_skin);
+    config_.empty_skin.release();
+    set_empty_skin(model);
+  }
+  FrameEncoder(const PreprocessParams& params, bool force_lighting_normalise,
+               cv::Mat empty_skin = {})
+      : FrameEncoder(Config{forced(params, force_lighting_normalise), ChannelOrder::bgr,
+                            std::move(empty_skin)}) {}
 
   const Config& config() const { return config_; }
   bool lighting_normalise() const { return config_.params.lighting_normalise; }
   const Preprocessor& preprocessor() const { return pre_; }
+  InputEncoding input_encoding() const { return config_.params.input_encoding; }
+
+  // Throws the missing-calibration error when encoding e needs an empty-skin model and
+  // have_empty_skin is false (make_densenet_classifier checks before the self-test).
+  static void require_empty_skin(InputEncoding e, bool have_empty_skin) {
+    if (needs_calibration(e) && !have_empty_skin)
+      SHADOWSENSE_THROW(InvalidArgument(
+          std::string("FrameEncoder: the model's input encoding is ") + to_string(e) +
+          ", which needs a calibration with an empty-skin model (FrameEncoder::Config::"
+          "empty_skin; programs: --calibration FILE from ss_calibrate), and none was given"));
+  }
+
+  void set_empty_skin(const cv::Mat& model) {
+    const InputEncoding e = config_.params.input_encoding;
+    if (model.empty()) {
+      require_empty_skin(e, false);
+      config_.empty_skin.release();
+      model_.release();
+      return;
+    }
+    if (!(model.dims == 2 && model.type() == CV_32FC3))
+      SHADOWSENSE_THROW(InvalidArgument("FrameEncoder: the empty-skin model is " +
+                                        cv::typeToString(model.type()) +
+                                        ", expected CV_32FC3 (a calibration's empty_skin)"));
+    if (!cv::checkRange(model, true, nullptr, 0.0, 8.0))
+      SHADOWSENSE_THROW(InvalidArgument(
+          "FrameEncoder: the empty-skin model holds values outside [0, 8] or not finite, "
+          "expected brightness relative to the reference (about 1 on the skin)"));
+    config_.empty_skin = model.clone();
+    model_.release(); // resized (and reordered) for the first frame's size
+  }
+
+  // Stage 0 of the skin_relative encoding: out CV_32FC3 in 0..1, in the input order.
+  void encode_input(const cv::Mat& frame, cv::Mat& out) {
+    check_frame(frame);
+    detail::require(input_encoding() == InputEncoding::skin_relative,
+                    "FrameEncoder::encode_input: the input encoding is colour (nothing to do)");
+    skin_relative(frame, out);
+  }
 
   double mean_luminance(const cv::Mat& frame) const {
     check_frame(frame);
@@ -77,7 +155,15 @@ public:
   }
   void run(const cv::Mat& frame, bool dark, Tensor& out) {
     check_frame(frame);
-    if (lighting_normalise() && frame.type() == CV_8UC3) {
+    if (input_encoding() == InputEncoding::skin_relative) {
+      skin_relative(frame, encoded_);
+      if (lighting_normalise()) {
+        norm_.run(encoded_, float_);
+        pre_.run(float_, false, out);
+      } else {
+        pre_.run(encoded_, dark, out);
+      }
+    } else if (lighting_normalise() && frame.type() == CV_8UC3) {
       // The normalisation as a value table applied while resizing: the same values as
       // norm_.run then pre_.run, without a full-size float image.
       norm_.table(frame, table_);
@@ -104,10 +190,55 @@ private:
                           ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
   }
 
+  // The model at the frame's size in the input order (made on the first frame of a size).
+  const cv::Mat& model_for(cv::Size size) {
+    if (model_.empty() || model_.size() != size) {
+      const cv::Mat& m = config_.empty_skin;
+      if (m.size() == size)
+        model_ = m.clone();
+      else
+        cv::resize(m, model_, size, 0, 0, cv::INTER_LINEAR);
+      if (config_.input_order == ChannelOrder::rgb) cv::cvtColor(model_, model_, cv::COLOR_BGR2RGB);
+    }
+    return model_;
+  }
+
+  void skin_relative(const cv::Mat& frame, cv::Mat& out) {
+    const cv::Mat& m = model_for(frame.size());
+    // The skin test sums B, G, R in that order whatever the input order (as tools/train.py).
+    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
+    const bool bytes = frame.type() == CV_8UC3;
+    if (!bytes) { // a float frame's values are checked here (the Preprocessor sees only out)
+      detail::require(cv::checkRange(frame), "FrameEncoder: float frame holds NaN or Inf, "
+                                             "expected finite values in 0..1");
+      double lo = 0, hi = 0;
+      cv::minMaxIdx(frame.reshape(1), &lo, &hi);
+      if (!(lo >= 0.0 && hi <= 1.0))
+        SHADOWSENSE_THROW(InvalidArgument("FrameEncoder: float frame values span " +
+                                          std::to_string(lo) + ".." + std::to_string(hi) +
+                                          ", expected 0..1"));
+    }
+    out.create(frame.rows, frame.cols, CV_32FC3);
+    for (int y = 0; y < frame.rows; ++y) {
+      const float* mp = m.ptr<float>(y);
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < frame.cols; ++x) {
+        const float* mm = mp + 3 * x;
+        const bool skin = (mm[b] + mm[1]) + mm[r] >= skin_model_sum;
+        for (int c = 0; c < 3; ++c) {
+          const float f = bytes
+                              ? static_cast<float>(frame.ptr<unsigned char>(y)[3 * x + c]) / 255.0f
+                              : frame.ptr<float>(y)[3 * x + c];
+          d[3 * x + c] = skin ? std::min(f / std::max(mm[c], model_floor), 1.0f) : 0.0f;
+        }
+      }
+    }
+  }
+
   Config config_;
   Preprocessor pre_;
   LightingNormaliser norm_;
-  cv::Mat float_;
+  cv::Mat float_, encoded_, model_;
   LightingNormaliser::Table table_{};
 };
 

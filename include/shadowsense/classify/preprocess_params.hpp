@@ -5,6 +5,15 @@
 // ChannelOrder
 //   The order of the three colour channels of an image or of the network's input.
 //
+// InputEncoding
+//   What the network sees of a frame before lighting normalisation and the Preprocessor
+//   (classify/frame_encoder.hpp has the arithmetic):
+//   colour         the camera frame as it is (every model file before version 4).
+//   skin_relative  the frame over the calibration's empty-skin model (flat-field correction:
+//                  vignetting and the skin's own pattern divided out, the light level kept);
+//                  needs a calibration with an empty-skin model (needs_calibration).
+//   to_string(e) / parse_input_encoding(name) -> optional: the names above.
+//
 // PreprocessParams
 //   resize_width/height   bilinear resize target; 0x0 = no resize; else both in 1..4096
 //   crop_width/height     centre crop; 0x0 = no crop; else both in 1..4096
@@ -15,6 +24,7 @@
 //   lighting_normalise    scale every channel's mean to lighting_target first (and never
 //                         apply the brightness factor: the normalisation replaces it)
 //   lighting_target       the channel mean after normalisation, in (0, 1]
+//   input_encoding        InputEncoding above (0 colour, 1 skin_relative)
 //   dark_luminance_threshold
 //                         the dark-frame rule: a frame is dark (gets the brightness factor)
 //                         exactly when the mean of 0.2989 R + 0.587 G + 0.114 B over the whole
@@ -39,12 +49,32 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
 // Channel order of an image (the network's own order is RGB for torchvision models).
 enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
+
+// What the network sees of a frame (see the header comment).
+enum class InputEncoding : std::uint32_t { colour = 0, skin_relative = 1 };
+
+inline constexpr const char* to_string(InputEncoding e) {
+  return e == InputEncoding::colour          ? "colour"
+         : e == InputEncoding::skin_relative ? "skin_relative"
+                                             : "unknown";
+}
+inline std::optional<InputEncoding> parse_input_encoding(std::string_view name) {
+  if (name == "colour") return InputEncoding::colour;
+  if (name == "skin_relative") return InputEncoding::skin_relative;
+  return std::nullopt;
+}
+// True when frames can only be encoded with a calibration's empty-skin model.
+inline constexpr bool needs_calibration(InputEncoding e) {
+  return e != InputEncoding::colour;
+}
 
 inline constexpr int preprocess_max_side = 4096;
 
@@ -67,6 +97,7 @@ struct PreprocessParams {
   bool lighting_normalise = false;
   float lighting_target = 0.35f;
   float dark_luminance_threshold = default_dark_luminance_threshold;
+  InputEncoding input_encoding = InputEncoding::colour;
 
   template <class E = InvalidArgument>
   void validate() const {
@@ -108,6 +139,11 @@ struct PreprocessParams {
                        "preprocessing: dark luminance threshold " +
                            std::to_string(dark_luminance_threshold) +
                            ", expected a value in [0, 1] (0 = no frame is dark)");
+    detail::require<E>(input_encoding == InputEncoding::colour ||
+                           input_encoding == InputEncoding::skin_relative,
+                       "preprocessing: input encoding code " +
+                           std::to_string(static_cast<std::uint32_t>(input_encoding)) +
+                           ", expected 0 (colour) or 1 (skin_relative)");
   }
 };
 

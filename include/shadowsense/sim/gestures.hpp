@@ -509,6 +509,28 @@ public:
     if (info_out) *info_out = i;
   }
 
+  // The session's empty skin: no body and no distractor, the session's light (unjittered) and
+  // skin wrinkle, and with config.randomise its shading and camera; k picks the sensor noise.
+  // What a robot would record for its calibration (ss_gesture_data --empty-skin).
+  void render_empty_skin(Renderer& renderer, int k, Frame& out) const {
+    Scene s;
+    s.wrinkle = wrinkle_;
+    const std::uint64_t noise_seed =
+        derive_seed(seed_, 0xE5C10000ull + static_cast<std::uint64_t>(k));
+    if (!config_.randomise) {
+      renderer.render(s, light_, noise_seed, out);
+      return;
+    }
+    struct Restore {
+      Renderer& r;
+      RenderConfig c;
+      ~Restore() { r.set_shading(c); }
+    } restore{renderer, renderer.config()};
+    renderer.set_shading(randomise_shading(restore.c, domain_));
+    renderer.render(s, light_, noise_seed, out);
+    apply_camera(domain_, renderer.surface_mask(), noise_seed, out);
+  }
+
 private:
   std::uint64_t seed_;
   User user_;

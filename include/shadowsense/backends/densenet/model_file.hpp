@@ -6,8 +6,12 @@
 // tools/densenet_to_model.py and tools/train.py write it.
 //
 // Versions: this library writes version 2, or version 3 when the model holds int8 weights
-// (ModelFile::int8: version 2 plus an int8 section before the checksum), and reads versions
-// 1..3. Version 1 files hold no
+// (ModelFile::int8: version 2 plus an int8 section before the checksum), or version 4 when
+// its input encoding is not colour (PreprocessParams::input_encoding: version 4 adds that
+// field after the dark-frame threshold and an int8 flag before the optional int8 section), and
+// reads versions 1..4 (a version-4 file recording colour is refused: every model has one
+// byte form); a colour model is written as before, byte for byte. Version 1 files
+// hold no
 // lighting-normalisation flag and no dark-frame rule; they load with lighting_normalise = false
 // and dark_luminance_threshold = 0 (no frame is dark by the rule: the caller decides, as with
 // version 1), and ModelFile::format_version says 1. Upgrade one with
@@ -23,7 +27,8 @@
 //            naming what was wrong and what was expected otherwise.
 // ModelFile::to_bytes() const / save(path) const
 //   requires: validate() passes (else ModelFileError).
-//   ensures: save writes the version-2 bytes (version 3 with an int8 section) atomically: a
+//   ensures: save writes the version-2 bytes (version 3 with an int8 section, version 4 with a
+//            calibrated input encoding) atomically: a
 //   temporary file in path's folder,
 //            every write checked, fsync, then rename over path. On any failure (full disk,
 //            file size limit, missing folder) it throws IoError, removes the temporary file and
@@ -79,7 +84,9 @@ static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559,
 // The 8 bytes every model file starts with.
 inline constexpr std::array<char, 8> model_file_magic = {'S', 'S', 'D', 'N', 'M', 'O', 'D', '\n'};
 // The format version this library writes; it reads model_file_min_version..model_file_version.
-inline constexpr std::uint32_t model_file_version = 3;
+inline constexpr std::uint32_t model_file_version = 4;
+// The version written for a colour model with int8 weights.
+inline constexpr std::uint32_t model_file_int8_version = 3;
 // The version written when a model has no int8 section (such files are byte for byte what
 // earlier releases wrote, so readers of version 2 keep reading them).
 inline constexpr std::uint32_t model_file_float_version = 2;
@@ -237,15 +244,17 @@ struct QuantisedConv {
 };
 
 struct ModelFile {
-  // The version the file was read from (load/from_bytes); save() writes version 3 when int8
-  // is set, else 2. A 1 here means the preprocessing options are version-1 defaults.
+  // The version the file was read from (load/from_bytes); save() writes version 4 when
+  // preprocess.input_encoding is not colour, else 3 when int8 is set, else 2. A 1 here means
+  // the preprocessing options are version-1 defaults.
   std::uint32_t format_version = model_file_version;
   DenseNetArchitecture architecture;
   PreprocessParams preprocess;
   std::vector<std::string> class_names;
   std::vector<NamedTensor> tensors; // in architecture.expected_tensors() order
   std::optional<ModelSelfTest> self_test;
-  // Present in version-3 files: the architecture's expected_int8_convs(), in order.
+  // Present in version-3 files (and version-4 files whose int8 flag is 1): the architecture's
+  // expected_int8_convs(), in order.
   std::optional<std::vector<QuantisedConv>> int8;
 
   const NamedTensor& tensor(std::string_view name) const {
@@ -513,7 +522,8 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
   detail::ModelWriter w;
   // header
   w.out.insert(w.out.end(), model_file_magic.begin(), model_file_magic.end());
-  w.u32(int8 ? model_file_version : model_file_float_version);
+  const bool encoded = preprocess.input_encoding != InputEncoding::colour;
+  w.u32(encoded ? model_file_version : int8 ? model_file_int8_version : model_file_float_version);
   // architecture
   const auto& a = architecture;
   w.u32(static_cast<std::uint32_t>(a.growth_rate));
@@ -537,6 +547,7 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
   w.u32(p.lighting_normalise ? 1u : 0u); // version 2
   w.f32(p.lighting_target);
   w.f32(p.dark_luminance_threshold);
+  if (encoded) w.u32(static_cast<std::uint32_t>(p.input_encoding)); // version 4
   // class names
   w.u32(static_cast<std::uint32_t>(class_names.size()));
   for (const auto& n : class_names) w.str(n);
@@ -557,7 +568,8 @@ inline std::vector<std::uint8_t> ModelFile::to_bytes() const {
     w.floats(self_test->logits);
     w.f32(self_test->tolerance);
   }
-  if (int8) { // version 3
+  if (encoded) w.u32(int8 ? 1u : 0u); // version 4: the int8 flag
+  if (int8) {                         // version 3 (version 4: after the flag)
     w.u32(static_cast<std::uint32_t>(int8->size()));
     for (const auto& q : *int8) {
       w.str(q.name);
@@ -641,8 +653,9 @@ inline std::uint64_t model_max_bytes(const DenseNetArchitecture& a) {
     for (int d : t.shape) e = std::min(cap, e * static_cast<std::uint64_t>(d));
     n = std::min(cap, n + 4 + model_max_name_bytes + 4 + 4 * 4 + 4 * e);
   }
+  n += 4;                                                                 // input encoding (v4)
   n += 4 + 4 * 4 + 4 * model_self_test_max_values + 4 * 64 * classes + 4; // self-test
-  n = std::min(cap, n + 4);                                               // int8 section
+  n = std::min(cap, n + 4 + 4); // int8 flag (v4) and section
   for (const auto& t : a.expected_int8_convs()) {
     const auto rows = static_cast<std::uint64_t>(t.shape[0]);
     const auto len = static_cast<std::uint64_t>(t.shape[1]) * t.shape[2] * t.shape[3];
@@ -736,6 +749,11 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     p.lighting_normalise = false;
     p.dark_luminance_threshold = 0.0f;
   }
+  if (m.format_version >= 4) // colour is never written as version 4: one file per model
+    p.input_encoding = static_cast<InputEncoding>(
+        r.count("input encoding (version 4 records a calibrated one; colour models are version 2 "
+                "or 3)",
+                1, 1));
   p.validate<ModelFileError>();
   // class names
   r.section = "class names";
@@ -788,7 +806,12 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     st.tolerance = r.f32("self-test tolerance");
     m.self_test = std::move(st);
   }
-  if (m.format_version >= 3) {
+  bool has_int8 = m.format_version == 3;
+  if (m.format_version >= 4) {
+    r.section = "int8";
+    has_int8 = r.count("the int8 flag", 0, 1) == 1;
+  }
+  if (has_int8) {
     r.section = "int8";
     const auto expected_convs = a.expected_int8_convs();
     const auto n_convs = static_cast<std::uint32_t>(expected_convs.size());

@@ -1,0 +1,44 @@
+// The calibration a classifier program hands its model's frame encoder (--calibration FILE):
+// a model whose input encoding needs one (classify/preprocess_params.hpp, needs_calibration)
+// refuses to run without it, with a message naming the model and what to pass.
+//
+// empty_skin_for(model, model_path, calibration_path)
+//   ensures: the calibration's empty-skin model when the model's input encoding needs one;
+//            an empty Mat for a colour model (a --calibration given to it is not used).
+//   throws:  cli::UsageError (exit 2) naming the model when it needs a calibration and
+//            calibration_path is empty; the calibration file's own errors (IoError,
+//            CalibrationFileError naming the file); shadowsense::Error naming both files when
+//            the calibration holds no empty-skin model.
+// Plain function; no state.
+#pragma once
+
+#include <shadowsense/backends/densenet/model_file.hpp>
+#include <shadowsense/sense/calibration_file.hpp>
+
+#include "cli.hpp"
+
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace cli {
+
+inline cv::Mat empty_skin_for(const shadowsense::ModelFile& model, const std::string& model_path,
+                              const std::string& calibration_path) {
+  namespace ss = shadowsense;
+  const ss::InputEncoding e = model.preprocess.input_encoding;
+  if (!ss::needs_calibration(e)) return {};
+  if (calibration_path.empty())
+    throw UsageError("model " + model_path + " was trained with input encoding " +
+                     ss::to_string(e) +
+                     " and needs --calibration FILE (the robot's calibration with its empty-skin "
+                     "model, from ss_calibrate --empty)");
+  ss::SegmenterCalibration cal = ss::load_calibration(calibration_path);
+  if (cal.empty_skin.empty())
+    throw ss::Error("calibration " + calibration_path + " holds no empty-skin model, which model " +
+                    model_path + " (input encoding " + ss::to_string(e) +
+                    ") needs; calibrate with ss_calibrate --empty to store one");
+  return cal.empty_skin;
+}
+
+} // namespace cli
