@@ -246,10 +246,10 @@ private:
     std::vector<float> hover_cores; // frames without: used only when there is no other
     std::vector<std::size_t> box_frames; // labelled touch frames (indices), for the box search
   };
-  // Labelled-frame pixels whose role depends on the group's shadow threshold.
-  struct Pending {
-    std::size_t group;
-    std::vector<cv::Vec2f> contact_inner, shadow_only;
+  // A labelled frame's regions: the ring (outer minus inner) is "surely outside", the inset
+  // contact box (core_box) "surely contact", the shadow box away from the contact box the core.
+  struct Regions {
+    cv::Rect sb, outer, inner, away, core_box;
   };
 
   // Features with the relative mode on the calibration's own empty-skin model, no mask blur.
@@ -426,39 +426,35 @@ private:
     }
     const cv::Mat& d = seg_.darkness();
     const cv::Mat& w = seg_.warmth();
-    const cv::Rect sb = *f.shadow_box;
-    const cv::Rect outer = grow(sb, options_.ring_margin_px + options_.ring_width_px, size_);
-    const cv::Rect inner = grow(sb, options_.ring_margin_px, size_);
-    const cv::Rect away =
-        f.contact_box ? grow(*f.contact_box, options_.ring_margin_px, size_) : cv::Rect();
-    cv::Rect core_box;
-    if (f.contact_box) {
-      const cv::Rect& cb = *f.contact_box;
-      const int dx = static_cast<int>(std::floor(cb.width * options_.contact_inset));
-      const int dy = static_cast<int>(std::floor(cb.height * options_.contact_inset));
-      core_box = cv::Rect(cb.x + dx, cb.y + dy, cb.width - 2 * dx, cb.height - 2 * dy);
-    }
-    Pending p{g, {}, {}};
+    const Regions r = regions_of(f);
     std::vector<float> core;
-    for (int y = outer.y; y < outer.y + outer.height; ++y)
-      for (int x = outer.x; x < outer.x + outer.width; ++x) {
+    for (int y = r.outer.y; y < r.outer.y + r.outer.height; ++y)
+      for (int x = r.outer.x; x < r.outer.x + r.outer.width; ++x) {
         if (!skin_.at<uchar>(y, x)) continue;
         const cv::Point pt(x, y);
-        const cv::Vec2f v(d.at<float>(y, x), w.at<float>(y, x));
-        if (!inner.contains(pt)) {
-          add_contact(grp, v[0], v[1], false); // the ring: not contact (may hold penumbra)
-        } else if (sb.contains(pt)) {
-          if (core_box.contains(pt))
-            p.contact_inner.push_back(v);
-          else if (!away.contains(pt)) {
-            core.push_back(smoothed_.at<float>(y, x)); // on the noise's footing
-            p.shadow_only.push_back(v);
-          }
-        }
+        if (!r.inner.contains(pt)) // the ring: not contact (may hold penumbra)
+          add_contact(grp, d.at<float>(y, x), w.at<float>(y, x), false);
+        else if (r.sb.contains(pt) && !r.core_box.contains(pt) && !r.away.contains(pt))
+          core.push_back(smoothed_.at<float>(y, x)); // on the noise's footing
       }
     if (!core.empty())
       (f.contact_box ? grp.cores : grp.hover_cores).push_back(quantile(core, 0.99f));
-    pending_.push_back(std::move(p));
+    shadow_frames_.push_back({i, g});
+  }
+
+  Regions regions_of(const BoxLabelledFrame& f) const {
+    Regions r;
+    r.sb = *f.shadow_box;
+    r.outer = grow(r.sb, options_.ring_margin_px + options_.ring_width_px, size_);
+    r.inner = grow(r.sb, options_.ring_margin_px, size_);
+    if (f.contact_box) {
+      const cv::Rect& cb = *f.contact_box;
+      r.away = grow(cb, options_.ring_margin_px, size_);
+      const int dx = static_cast<int>(std::floor(cb.width * options_.contact_inset));
+      const int dy = static_cast<int>(std::floor(cb.height * options_.contact_inset));
+      r.core_box = cv::Rect(cb.x + dx, cb.y + dy, cb.width - 2 * dx, cb.height - 2 * dy);
+    }
+    return r;
   }
 
   // Shadow threshold per group: from the labelled boxes (best_box_threshold, searched from
@@ -467,6 +463,13 @@ private:
   void fit_shadow_thresholds() {
     shadow_t_.resize(ng_);
     bool any_shadow = false;
+    // The box search segments with a segmenter of its own: seg_'s planes (model, profile and
+    // per-frame features, about 60 bytes a pixel) are let go meanwhile and derived again from
+    // the same model after (deterministic: the same planes).
+    bool box_search = false;
+    for (const Group& grp : groups_) box_search = box_search || !grp.box_frames.empty();
+    const cv::Mat model = seg_.empty_skin_model();
+    if (box_search) seg_ = Segmenter(relative_config(options_.base));
     for (std::size_t g = 0; g < ng_; ++g) {
       LightGroupReport& r = result_.groups[g];
       r.noise_darkness = noise_[g];
@@ -487,8 +490,7 @@ private:
       const float floor = std::min(noise_[g] + 0.02f, 0.95f);
       float t = 0.5f * r.core_darkness;
       if (!groups_[g].box_frames.empty()) {
-        t = best_box_threshold(seg_.empty_skin_model(), options_.base, touch_,
-                               groups_[g].box_frames, floor);
+        t = best_box_threshold(model, options_.base, touch_, groups_[g].box_frames, floor);
       } else if (t < floor) {
         warn(CalibrationIssue::shadow_near_noise,
              "light group at luminance " + std::to_string(r.luminance) +
@@ -505,6 +507,7 @@ private:
       shadow_t_[g] = std::min(t, 1.f);
       any_shadow = true;
     }
+    if (box_search) seg_.set_empty_skin_profile(model);
     if (!touch_.empty())
       require(any_shadow, std::string(fn) +
                               ": no touch frame shows a shadow darker than the empty "
@@ -514,13 +517,29 @@ private:
 
   // "Surely contact": the inset contact box's pixels at least as dark as the group's shadow
   // threshold; the shadow core's pixels are contact negatives.
+  // The frames are segmented again rather than their pixels kept from sample_labelled_frame:
+  // memory stays one frame's planes whatever the number of labelled frames (the counts, and so
+  // the fit, are the same: the segmentation is deterministic and the histograms sum counts).
   void add_surely_contact_samples() {
-    for (const Pending& p : pending_) {
-      if (!shadow_t_[p.group]) continue;
-      Group& grp = groups_[p.group];
-      for (const auto& v : p.contact_inner)
-        if (v[0] >= *shadow_t_[p.group]) add_contact(grp, v[0], v[1], true);
-      for (const auto& v : p.shadow_only) add_contact(grp, v[0], v[1], false);
+    for (const auto& [i, g] : shadow_frames_) {
+      if (!shadow_t_[g]) continue;
+      Group& grp = groups_[g];
+      const float t = *shadow_t_[g];
+      seg_.segment(touch_[i].image, scratch_);
+      const cv::Mat& d = seg_.darkness();
+      const cv::Mat& w = seg_.warmth();
+      const Regions r = regions_of(touch_[i]);
+      for (int y = r.sb.y; y < r.sb.y + r.sb.height; ++y)
+        for (int x = r.sb.x; x < r.sb.x + r.sb.width; ++x) {
+          if (!skin_.at<uchar>(y, x)) continue;
+          const cv::Point pt(x, y);
+          const float dv = d.at<float>(y, x), wv = w.at<float>(y, x);
+          if (r.core_box.contains(pt)) {
+            if (dv >= t) add_contact(grp, dv, wv, true);
+          } else if (!r.away.contains(pt)) {
+            add_contact(grp, dv, wv, false);
+          }
+        }
     }
   }
 
@@ -667,7 +686,8 @@ private:
   std::vector<Group> groups_;
   ThresholdFit all_; // contact samples of every group
   std::vector<float> noise_;
-  std::vector<Pending> pending_;
+  std::vector<std::pair<std::size_t, std::size_t>> shadow_frames_; // labelled with a shadow box:
+                                                                   // (touch index, group)
   std::vector<std::optional<float>> shadow_t_;
   std::optional<std::pair<int, int>> overall_bins_; // the fit over all groups' contact bins
 };
