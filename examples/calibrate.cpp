@@ -20,7 +20,9 @@
 // evenly spaced. The fit is calibrate_from_frames (docs/calibration.md); its warnings go to
 // stderr naming the file (or "VIDEO#k"). --preview draws the fitted segmentation on up to 8
 // frames as a montage. The run ends with a summary on stdout: frames used per light level,
-// warnings, where the calibration was written. Writes are atomic.
+// warnings, where the calibration was written. Writes are atomic. Memory: --max-memory-mb plans
+// how many frames are held from the frame size (common/calibrate_budget.hpp); fewer than asked
+// for at large sizes, evenly spaced, with a warning (docs/calibration.md "Memory").
 // Exit status: 0 written (maybe with warnings), 2 bad command line, input or a refused fit.
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/io/image_folder.hpp>
