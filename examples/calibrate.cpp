@@ -42,6 +42,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -179,9 +180,9 @@ std::vector<cv::Mat> read_empty(const Options& o, std::size_t touch_wanted, bool
                 << " frames leave room for " << room << " frames held at once; using at most "
                 << plan.max_empty << " empty frames"
                 << (known ? " of " + std::to_string(*src.count()) : std::string())
-                << (touch_wanted ? " and " + std::to_string(s.touch) + " of " +
-                                       std::to_string(touch_wanted) + " touch frames"
-                                 : std::string())
+                << (s.touch < touch_wanted ? " and " + std::to_string(s.touch) + " of " +
+                                                 std::to_string(touch_wanted) + " touch frames"
+                                           : std::string())
                 << " (evenly spaced); raise --max-memory-mb to use more\n";
   }
   std::optional<std::set<std::size_t>> keep;
@@ -284,11 +285,11 @@ std::map<std::string, BoxLabelledFrame> read_labels(const std::string& path, boo
 // number): a dataset's rows, or the frame indices of a folder or of a video of known length.
 struct TouchInput {
   bool dataset = false, folder = false;
-  std::optional<Metadata> md;                     // dataset
+  std::shared_ptr<const Metadata> md;             // dataset
   std::vector<std::size_t> rows;                  // dataset: the rows used
   std::map<std::string, BoxLabelledFrame> labels; // folder or video: --labels
   std::optional<std::vector<std::size_t>> taken;  // folder, video of known length: indices
-  std::size_t wanted = 0;                         // frames that would be held
+  std::size_t wanted = 0;                         // frames that would be held at once
   bool labelled = false;                          // some are labelled: the box search runs
 };
 
@@ -298,7 +299,7 @@ struct TouchInput {
 TouchInput list_dataset_touch(const Options& o) {
   TouchInput t;
   t.dataset = true;
-  t.md = read_metadata(fs::path(o.touch) / "metadata.csv");
+  t.md = std::make_shared<const Metadata>(read_metadata(fs::path(o.touch) / "metadata.csv"));
   const Metadata& md = *t.md;
   if (md.rows.empty()) throw DatasetError(md.csv_path.string() + ": no frames");
   std::set<fs::path> empty_files;
@@ -310,7 +311,7 @@ TouchInput list_dataset_touch(const Options& o) {
       t.rows.push_back(r);
   if (t.rows.empty())
     throw DatasetError(md.csv_path.string() + ": every frame is one of --empty's; no touch frame");
-  t.wanted = t.rows.size();
+  t.wanted = 1; // read from its file whenever the fit needs it (BoxLabelledFrame::load)
   t.labelled = true;
   return t;
 }
@@ -331,10 +332,12 @@ TouchInput list_touch(const Options& o) {
     t.wanted = t.labels.size() + static_cast<std::size_t>(o.max_touch);
     return t;
   }
+  if (t.folder) { // every image, each read from its file whenever the fit needs it
+    t.wanted = 1;
+    return t;
+  }
   t.taken.emplace();
-  if (t.folder) {
-    for (std::size_t i = 0; i < *src.count(); ++i) t.taken->push_back(i);
-  } else {
+  {
     std::size_t unlabelled = 0;
     for (std::size_t i = 0; i < *src.count(); ++i)
       unlabelled += t.labels.count(std::to_string(i)) ? 0 : 1;
@@ -352,30 +355,51 @@ void warn_touch_thinned(const std::string& what, std::size_t used, std::size_t o
               << " used (evenly spaced)\n";
 }
 
-// The dataset's touch frames, at most `cap` of them (evenly spaced).
-std::vector<BoxLabelledFrame> read_dataset_touch(const Options& o, const TouchInput& t,
-                                                 std::size_t cap) {
+// The dataset's touch frames, none decoded here: each is read from its file whenever the fit
+// needs it (BoxLabelledFrame::load), so one is held at a time.
+std::vector<BoxLabelledFrame> read_dataset_touch(const Options& o, const TouchInput& t) {
   ImageLimits limits;
   limits.max_width = limits.max_height = o.max_side;
   std::vector<BoxLabelledFrame> out;
-  for (std::size_t k : evenly_spaced(t.rows.size(), static_cast<long long>(cap))) {
-    const MetadataRow& row = t.md->rows[t.rows[k]];
+  for (std::size_t r : t.rows) {
+    const MetadataRow& row = t.md->rows[r];
     BoxLabelledFrame b;
-    b.image = read_image(*t.md, row, limits);
+    b.load = [md = t.md, r, limits] { return read_image(*md, md->rows[r], limits); };
     b.shadow_box = row.shadow_box;
     b.contact_box = row.contact_box;
     b.name = row.file_name;
     out.push_back(std::move(b));
   }
-  warn_touch_thinned("dataset touch frames", out.size(), t.rows.size());
   return out;
 }
 
-// The frames of list_touch, at most `cap` of them held (evenly spaced over the frames taken;
-// a video of unknown length: the labelled frames, which must fit, then unlabelled ones).
+// The frames of list_touch. A folder's are not decoded here: each is read from its file whenever
+// the fit needs it (BoxLabelledFrame::load), one at a time. A video's are held, at most `cap` of
+// them (evenly spaced over the frames taken; a video of unknown length: the labelled frames,
+// which must fit, then unlabelled ones).
 std::vector<BoxLabelledFrame> read_touch(const Options& o, TouchInput t, std::size_t cap) {
-  const bool folder = t.folder;
   std::map<std::string, BoxLabelledFrame>& labels = t.labels;
+  std::vector<BoxLabelledFrame> touch;
+  if (t.folder) {
+    for (const fs::path& p : shadowsense::require_images(o.touch)) {
+      const std::string name = p.lexically_relative(o.touch).generic_string();
+      BoxLabelledFrame b;
+      const auto it = labels.find(name);
+      if (it != labels.end()) {
+        b = it->second;
+        labels.erase(it);
+      } else {
+        b.labelled = false;
+      }
+      b.load = [p, side = o.max_side] { return frames::read_image(p, side); };
+      b.name = name;
+      touch.push_back(std::move(b));
+    }
+    if (!labels.empty())
+      throw IoError("'" + o.labels + "' labels '" + labels.begin()->first +
+                    "', which is not an image in '" + o.touch + "'");
+    return touch;
+  }
   frames::FrameSource src = frames::FrameSource::open(o.touch, o.max_side);
   std::optional<std::set<std::size_t>> keep;
   std::size_t max_unlabelled = static_cast<std::size_t>(o.max_touch);
@@ -388,43 +412,31 @@ std::vector<BoxLabelledFrame> read_touch(const Options& o, TouchInput t, std::si
       throw cli::UsageError("--max-memory-mb " + std::to_string(o.max_memory_mb) +
                             " leaves room for " + std::to_string(cap) +
                             " touch frames, fewer than the " + std::to_string(labels.size()) +
-                            " labelled frames of a video of unknown "
-                            "length; raise --max-memory-mb");
+                            " labelled frames of a video of unknown length; raise --max-memory-mb");
     max_unlabelled = std::min(max_unlabelled, cap - labels.size());
   }
-  // Folder names by index, so that frames not kept are skipped undecoded.
-  std::vector<std::string> names;
-  if (folder)
-    for (const fs::path& p : shadowsense::require_images(o.touch))
-      names.push_back(p.lexically_relative(o.touch).generic_string());
-  std::vector<BoxLabelledFrame> touch;
   std::size_t unlabelled_taken = 0;
   cv::Mat f;
   std::string name;
   for (std::size_t i = 0;; ++i) {
-    const bool wanted = keep ? keep->count(i) > 0 : true;
-    if (!wanted) {
+    if (keep && !keep->count(i)) { // skipped undecoded
       if (!src.skip()) break;
-      if (folder)
-        labels.erase(names[i]);
-      else
-        labels.erase(std::to_string(i));
+      labels.erase(std::to_string(i));
       continue;
     }
     if (!src.next(f, name)) break;
-    const std::string key = folder ? name : std::to_string(i);
     BoxLabelledFrame b;
-    const auto it = labels.find(key);
+    const auto it = labels.find(std::to_string(i));
     if (it != labels.end()) {
       b = it->second;
       labels.erase(it);
     } else {
-      if (!keep && !folder && unlabelled_taken >= max_unlabelled) continue;
+      if (!keep && unlabelled_taken >= max_unlabelled) continue;
       b.labelled = false;
       ++unlabelled_taken;
     }
     b.image = f.clone();
-    b.name = folder ? name : o.touch + "#" + std::to_string(i);
+    b.name = o.touch + "#" + std::to_string(i);
     touch.push_back(std::move(b));
   }
   if (const std::string short_read = src.ended_early(); !short_read.empty())
@@ -432,8 +444,7 @@ std::vector<BoxLabelledFrame> read_touch(const Options& o, TouchInput t, std::si
                   "; a calibration from part of it would not say so");
   if (!labels.empty())
     throw IoError("'" + o.labels + "' labels '" + labels.begin()->first + "', which is not " +
-                  (folder ? "an image in '" + o.touch + "'"
-                          : "a frame of '" + o.touch + "' (frames are counted from 0)"));
+                  "a frame of '" + o.touch + "' (frames are counted from 0)");
   if (touch.empty()) throw IoError("'" + o.touch + "' gave no frame");
   if (t.taken) warn_touch_thinned("touch frames", touch.size(), t.taken->size());
   return touch;
@@ -474,7 +485,7 @@ int run(const Options& o) {
                                                 touch_input && touch_input->labelled, plan);
   std::vector<BoxLabelledFrame> touch;
   if (touch_input)
-    touch = touch_input->dataset ? read_dataset_touch(o, *touch_input, plan.max_touch_held)
+    touch = touch_input->dataset ? read_dataset_touch(o, *touch_input)
                                  : read_touch(o, std::move(*touch_input), plan.max_touch_held);
   std::size_t labelled = 0;
   for (const BoxLabelledFrame& b : touch) labelled += b.labelled ? 1 : 0;
@@ -495,8 +506,10 @@ int run(const Options& o) {
   if (!o.preview.empty()) {
     std::vector<cv::Mat> sample;
     const std::size_t n_touch = std::min<std::size_t>(6, touch.size()); // spread over the input
-    for (std::size_t k = 0; k < n_touch; ++k)
-      sample.push_back(touch[k * touch.size() / n_touch].image);
+    for (std::size_t k = 0; k < n_touch; ++k) {
+      const BoxLabelledFrame& b = touch[k * touch.size() / n_touch];
+      sample.push_back(b.image.empty() && b.load ? b.load() : b.image);
+    }
     for (std::size_t k = 0; k < empty.size() && sample.size() < 8; ++k) sample.push_back(empty[k]);
     frames::write_png_atomically(o.preview, montage(r.calibration, sample));
     std::cout << "preview: " << sample.size() << " frames -> " << o.preview << "\n";

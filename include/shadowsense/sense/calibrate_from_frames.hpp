@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -28,13 +29,17 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // whole shadow (hand and arm on the skin) and contact_box the box around the part in contact
 // (none: a hovering hand); both coarse. labelled = false: no labels; the frame is clustered.
 // name: how warnings and errors call the frame (a file name, "clip.mp4#12"); empty: "touch
-// frame <index>".
+// frame <index>". load: when image is empty, gives the frame each time the fit needs it (about
+// four times a labelled frame: sampling, the box search's coarse and fine passes, the contact
+// samples; twice an unlabelled one): only one such frame is held at a time, e.g. read from its
+// file. It must give the same frame every time; what it throws propagates.
 struct BoxLabelledFrame {
   cv::Mat image;
   bool labelled = true;
   std::optional<cv::Rect> shadow_box{};
   std::optional<cv::Rect> contact_box{};
   std::string name{};
+  std::function<cv::Mat()> load{};
 };
 
 namespace detail {
@@ -42,6 +47,19 @@ namespace detail {
 inline std::string touch_frame_name(const std::vector<BoxLabelledFrame>& frames, std::size_t i) {
   const std::string& n = frames[i].name;
   return "touch frame " + (n.empty() ? std::to_string(i) : "'" + n + "'");
+}
+
+// A touch frame's image: image, else load()'s (checked: 8-bit BGR of the empty frames' size).
+inline cv::Mat touch_image(const std::vector<BoxLabelledFrame>& frames, std::size_t i,
+                           const cv::Size& size, const std::string& fn) {
+  const BoxLabelledFrame& f = frames[i];
+  if (!f.image.empty() || !f.load) return f.image;
+  cv::Mat m = f.load();
+  const std::string n = fn + ": " + touch_frame_name(frames, i);
+  require_colour_image(m, n.c_str());
+  require(m.size() == size, n + " is " + std::to_string(m.cols) + "x" + std::to_string(m.rows) +
+                                "; expected the empty frames' size");
+  return m;
 }
 } // namespace detail
 
@@ -146,27 +164,33 @@ inline float best_box_threshold(const cv::Mat& model, const SegmenterConfig& bas
   BasicSegmenter<Probe> seg(cfg, Probe{&rule});
   seg.set_empty_skin_profile(model);
   Segmentation s;
-  auto score = [&](float t) {
-    rule.shadow_darkness = t;
-    double sum = 0;
+  // Each frame is taken once per pass (BoxLabelledFrame::load) and scored at every threshold;
+  // each threshold's sum still adds the frames in their order.
+  auto scores = [&](const std::vector<float>& ts) {
+    std::vector<double> sum(ts.size(), 0.0);
     for (std::size_t i : frames) {
-      seg.segment(touch[i].image, s);
+      const cv::Mat image = touch_image(touch, i, model.size(), "calibrate_from_frames");
       const auto& label = touch[i].shadow_box;
-      if (!label)
-        sum -= s.shadow_box ? 1 : 0;
-      else if (s.shadow_box) {
-        const double inter = (*s.shadow_box & *label).area();
-        sum += inter / (s.shadow_box->area() + label->area() - inter);
+      for (std::size_t k = 0; k < ts.size(); ++k) {
+        rule.shadow_darkness = ts[k];
+        seg.segment(image, s);
+        if (!label)
+          sum[k] -= s.shadow_box ? 1 : 0;
+        else if (s.shadow_box) {
+          const double inter = (*s.shadow_box & *label).area();
+          sum[k] += inter / (s.shadow_box->area() + label->area() - inter);
+        }
       }
     }
     return sum;
   };
   auto search = [&](float lo, float hi, float step, float& best_t) {
+    std::vector<float> ts;
+    for (float t = lo; t <= hi + 1e-6f; t += step) ts.push_back(t);
+    const std::vector<double> v = scores(ts);
     double best = -1e18;
-    for (float t = lo; t <= hi + 1e-6f; t += step) {
-      const double v = score(t);
-      if (v >= best) best = v, best_t = t;
-    }
+    for (std::size_t k = 0; k < ts.size(); ++k)
+      if (v[k] >= best) best = v[k], best_t = ts[k];
   };
   float coarse = floor;
   search(floor, 0.95f, 0.02f, coarse);
@@ -194,10 +218,14 @@ inline void check_calibration_input(const std::vector<cv::Mat>& empty_frames,
   for (std::size_t i = 0; i < touch_frames.size(); ++i) {
     const BoxLabelledFrame& f = touch_frames[i];
     const std::string n = fn + ": " + touch_frame_name(touch_frames, i);
-    require_colour_image(f.image, n.c_str());
-    require(f.image.size() == size, n + " is " + std::to_string(f.image.cols) + "x" +
-                                        std::to_string(f.image.rows) +
-                                        "; expected the empty frames' size");
+    if (f.image.empty() && f.load) {
+      // checked when loaded (touch_image)
+    } else {
+      require_colour_image(f.image, n.c_str());
+      require(f.image.size() == size, n + " is " + std::to_string(f.image.cols) + "x" +
+                                          std::to_string(f.image.rows) +
+                                          "; expected the empty frames' size");
+    }
     const cv::Rect img({}, size);
     for (const auto* b : {&f.shadow_box, &f.contact_box})
       if (*b)
@@ -346,7 +374,7 @@ private:
   // unlabelled, from its boxes when labelled.
   void sample_touch_frame(std::size_t i) {
     const BoxLabelledFrame& f = touch_[i];
-    seg_.segment(f.image, scratch_);
+    seg_.segment(touch_image(touch_, i, size_, fn), scratch_);
     const float lum = luminance(seg_.last_reference());
     const std::size_t g = group_of(lum);
     ++result_.groups[g].touch_frames;
@@ -525,7 +553,7 @@ private:
       if (!shadow_t_[g]) continue;
       Group& grp = groups_[g];
       const float t = *shadow_t_[g];
-      seg_.segment(touch_[i].image, scratch_);
+      seg_.segment(touch_image(touch_, i, size_, fn), scratch_);
       const cv::Mat& d = seg_.darkness();
       const cv::Mat& w = seg_.warmth();
       const Regions r = regions_of(touch_[i]);
