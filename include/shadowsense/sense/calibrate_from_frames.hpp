@@ -748,11 +748,13 @@ private:
 //    2-means on (darkness, warmth) of those pixels (initial split at the median darkness); the
 //    cluster with the higher mean warmth is contact when it is also darker and warmer by at least
 //    0.05 than the other, else the frame is a hover (contact_not_separated).
-// requires: at least one empty frame; all frames CV_8UC3 of one size; boxes inside the image.
+// requires: at least one empty frame; all frames CV_8UC3 of one size (a touch frame given by
+//           BoxLabelledFrame::load: checked when loaded); boxes inside the image.
 // ensures:  result.calibration passes validate_calibration; warnings list every degenerate part
 //           (see CalibrationIssue); result.groups reports each light level. Memory beyond the
 //           frames: planes of about 63 bytes a pixel, 74 with labelled touch frames (measured at
-//           4K), whatever the number of frames (docs/calibration.md "Memory").
+//           4K), whatever the number of frames; touch frames given by load are held one at a
+//           time (docs/calibration.md "Memory").
 // throws:   InvalidArgument for bad input (naming the frame), black empty frames, or when no
 //           touch frame shows a shadow darker than the empty skin's noise (hopeless).
 inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty_frames,
