@@ -127,6 +127,45 @@ TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from 
   CHECK_FALSE(fs::exists(out + ".tmp"));
 }
 
+// --max-memory-mb 104 on these 200x205 frames (41,000 px): 4 MiB over the program's 100 MiB,
+// less the fit's 80 bytes a pixel (3.28 MB), leaves room for 7 frames of 123 kB held at once
+// (examples/common/calibrate_budget.hpp). The touch folder's frames are read from their files
+// when the fit needs them (one held at a time), so of 12 empty frames (each frame written twice,
+// "a" and "b") 6 are used, evenly spaced: the "a" copies, i.e. the frames of the first test. The
+// calibration is calibrate_from_frames's on exactly those, with every touch frame, and a warning
+// says how many were used.
+TEST_CASE("ss_calibrate --max-memory-mb holds fewer frames, evenly spaced, and says so") {
+  const Written w = write_frames();
+  const fs::path twice = kCalibrateDir / "empty_twice";
+  fs::remove_all(twice);
+  fs::create_directories(twice);
+  for (const fs::path& p : shadowsense::find_images(kCalibrateDir / "empty"))
+    for (const char* copy : {"a", "b"})
+      fs::copy_file(p, twice / (p.stem().string() + copy + ".png"));
+  const std::string out = (kCalibrateDir / "budget.calib").string();
+  fs::remove(out);
+  const std::string touch = " --touch '" + (kCalibrateDir / "touch").string() + "' --labels '" +
+                            (kCalibrateDir / "labels.csv").string() + "'";
+  const Run r = run_calibrate("--empty '" + twice.string() + "'" + touch + " --out '" + out +
+                              "' --max-memory-mb 104");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  CHECK(r.err.find("ss_calibrate: warning: --max-memory-mb 104: 200x205 frames leave room for 7 "
+                   "frames held at once; using at most 6 empty frames of 12 (evenly spaced)") !=
+        std::string::npos);
+  CHECK(r.out.find("calibration: 6 empty frames, 18 touch frames (15 labelled, from a folder)") !=
+        std::string::npos);
+  const CalibrationResult expected = calibrate_from_frames(w.empty, w.touch);
+  CHECK(read_file(out) == calibration_to_string(expected.calibration));
+  // A budget too small for the fit and one frame of each kind is refused, naming what it needs.
+  const Run tiny = run_calibrate("--empty '" + twice.string() + "'" + touch + " --out '" + out +
+                                 "x' --max-memory-mb 101");
+  CHECK(tiny.status == 2);
+  CHECK(tiny.err.find("--max-memory-mb 101 is too small for 200x205 frames: the fit and one "
+                      "frame of each kind need about 104 MiB") != std::string::npos);
+  CHECK_FALSE(fs::exists(out + "x"));
+}
+
 TEST_CASE("ss_calibrate: bad labels and arguments exit 2 naming the problem") {
   write_frames();
   const std::string base = "--empty '" + (kCalibrateDir / "empty").string() + "' --touch '" +

@@ -97,6 +97,45 @@ TEST_CASE("box-labelled generator frames: three light groups, model included, no
   CHECK(r.calibration.empty_skin.size() == cv::Size(200, 205));
 }
 
+TEST_CASE("touch frames given by load: the same calibration, each frame loaded a few times") {
+  Frames f = render_frames(0xB0C5, 4, 16);
+  f.touch[5].labelled = false; // one unlabelled frame and one labelled "no shadow" too
+  f.touch[5].shadow_box.reset();
+  f.touch[5].contact_box.reset();
+  f.touch[6].shadow_box.reset();
+  f.touch[6].contact_box.reset();
+  const CalibrationResult held = calibrate_from_frames(f.empty, f.touch);
+  std::vector<int> loads(f.touch.size(), 0);
+  std::vector<BoxLabelledFrame> lazy = f.touch;
+  for (std::size_t i = 0; i < lazy.size(); ++i) {
+    lazy[i].image.release();
+    lazy[i].load = [&f, &loads, i] {
+      ++loads[i];
+      return f.touch[i].image.clone();
+    };
+  }
+  const CalibrationResult r = calibrate_from_frames(f.empty, lazy);
+  CHECK(calibration_to_string(r.calibration) == calibration_to_string(held.calibration));
+  REQUIRE(r.warnings.size() == held.warnings.size());
+  for (std::size_t k = 0; k < r.warnings.size(); ++k)
+    CHECK(r.warnings[k].message == held.warnings[k].message);
+  // Sampling, the box search's coarse and fine passes, the surely-contact samples (frames with
+  // a shadow box); an unlabelled frame only its sampling. Never held between them.
+  for (std::size_t i = 0; i < lazy.size(); ++i) {
+    INFO(i);
+    CHECK(loads[i] == (i == 5 ? 1 : i == 6 ? 3 : 4));
+  }
+  // A loaded frame is checked as a given one is.
+  lazy[3].load = [] { return cv::Mat(10, 12, CV_8UC3, cv::Scalar::all(90)); };
+  try {
+    calibrate_from_frames(f.empty, lazy);
+    FAIL("a 12x10 touch frame was accepted");
+  } catch (const InvalidArgument& e) {
+    CHECK(std::string(e.what()).find("touch frame 3 is 12x10; expected the empty frames' size") !=
+          std::string::npos);
+  }
+}
+
 TEST_CASE("the segmenter from box labels meets the mask-fitted accuracy on other frames") {
   Segmenter seg({.calibration = fitted().calibration}); // the model comes with the calibration
   REQUIRE(seg.has_empty_skin());

@@ -1,7 +1,9 @@
-// The programs' shared command line (examples/common/cli.hpp) and JSON writer (json.hpp); the
-// atomic file replacement they use is core/atomic_file.hpp (tests/test_atomic_file.cpp).
+// The programs' shared command line (examples/common/cli.hpp), JSON writer (json.hpp) and
+// ss_calibrate's memory plan (calibrate_budget.hpp); the atomic file replacement they use is
+// core/atomic_file.hpp (tests/test_atomic_file.cpp).
 #include <doctest/doctest.h>
 
+#include "common/calibrate_budget.hpp"
 #include "common/cli.hpp"
 #include "common/json.hpp"
 
@@ -559,4 +561,47 @@ TEST_CASE("JsonWriter::save replaces the file through core/atomic_file.hpp, neve
   std::vector<std::string> names;
   for (const auto& e : fs::directory_iterator(d)) names.push_back(e.path().filename().string());
   CHECK(names == std::vector<std::string>{"score.json"}); // no temporary file left
+}
+
+TEST_CASE("calibrate_budget: frames held at 4K stay within the default budget, under 1 GB") {
+  namespace cb = calib_budget;
+  const cv::Size k4(3840, 2160);
+  const double budget = static_cast<double>(cb::kDefaultMiB) * cb::kMiB;
+  CHECK(budget < 1e9);
+  // (943,718,400 - 104,857,600 - 66 x 8,294,400) / 24,883,200 = 11.7; with the box search's
+  // 80 bytes a pixel, 7.05.
+  CHECK(cb::frames_within(k4, budget, false) == 11);
+  CHECK(cb::frames_within(k4, budget, true) == 7);
+  for (const bool labelled : {false, true}) {
+    const std::size_t n = cb::frames_within(k4, budget, labelled);
+    CHECK(cb::estimate(k4, n, labelled) <= budget);
+    CHECK(cb::estimate(k4, n + 1, labelled) > budget);
+  }
+  // The generator's 635x350 frames: the defaults (60 empty, 60 touch) fit untouched.
+  CHECK(cb::frames_within({635, 350}, budget, true) >= 120);
+  // Too small for the fit alone: no frame.
+  CHECK(cb::frames_within(k4, 500 * cb::kMiB, true) == 0);
+}
+
+TEST_CASE("calibrate_budget: the split holds at most the room, whatever is wanted") {
+  namespace cb = calib_budget;
+  auto same = [](cb::Split s, std::size_t e, std::size_t t, bool ok) {
+    return s.empty == e && s.touch == t && s.ok == ok;
+  };
+  CHECK(same(cb::split(60, 20, 1000), 60, 20, true)); // fits: all of both
+  CHECK(same(cb::split(60, 20, 7), 4, 3, true));      // touch at most half the room
+  CHECK(same(cb::split(60, 0, 11), 11, 0, true));
+  CHECK(same(cb::split(2, 30, 10), 2, 8, true));  // what the empty frames leave goes to touch
+  CHECK(same(cb::split(60, 20, 1), 1, 1, false)); // no room for one frame of each
+  CHECK(same(cb::split(60, 0, 0), 1, 0, false));
+  // Ten thousand frames wanted or more: the frames held never exceed the room.
+  for (std::size_t room = 2; room < 40; ++room)
+    for (std::size_t e : {1, 5, 60, 10000, 1000000})
+      for (std::size_t t : {0, 1, 7, 60, 10000}) {
+        const cb::Split s = cb::split(e, t, room);
+        CHECK(s.ok);
+        CHECK(s.empty + s.touch <= room);
+        CHECK(s.empty >= 1);
+        CHECK(s.touch == (t ? std::max<std::size_t>(1, s.touch) : 0));
+      }
 }

@@ -17,6 +17,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -28,13 +29,17 @@ SHADOWSENSE_NAMESPACE_BEGIN
 // whole shadow (hand and arm on the skin) and contact_box the box around the part in contact
 // (none: a hovering hand); both coarse. labelled = false: no labels; the frame is clustered.
 // name: how warnings and errors call the frame (a file name, "clip.mp4#12"); empty: "touch
-// frame <index>".
+// frame <index>". load: when image is empty, gives the frame each time the fit needs it (about
+// four times a labelled frame: sampling, the box search's coarse and fine passes, the contact
+// samples; twice an unlabelled one): only one such frame is held at a time, e.g. read from its
+// file. It must give the same frame every time; what it throws propagates.
 struct BoxLabelledFrame {
   cv::Mat image;
   bool labelled = true;
   std::optional<cv::Rect> shadow_box{};
   std::optional<cv::Rect> contact_box{};
   std::string name{};
+  std::function<cv::Mat()> load{};
 };
 
 namespace detail {
@@ -42,6 +47,19 @@ namespace detail {
 inline std::string touch_frame_name(const std::vector<BoxLabelledFrame>& frames, std::size_t i) {
   const std::string& n = frames[i].name;
   return "touch frame " + (n.empty() ? std::to_string(i) : "'" + n + "'");
+}
+
+// A touch frame's image: image, else load()'s (checked: 8-bit BGR of the empty frames' size).
+inline cv::Mat touch_image(const std::vector<BoxLabelledFrame>& frames, std::size_t i,
+                           const cv::Size& size, const std::string& fn) {
+  const BoxLabelledFrame& f = frames[i];
+  if (!f.image.empty() || !f.load) return f.image;
+  cv::Mat m = f.load();
+  const std::string n = fn + ": " + touch_frame_name(frames, i);
+  require_colour_image(m, n.c_str());
+  require(m.size() == size, n + " is " + std::to_string(m.cols) + "x" + std::to_string(m.rows) +
+                                "; expected the empty frames' size");
+  return m;
 }
 } // namespace detail
 
@@ -146,27 +164,33 @@ inline float best_box_threshold(const cv::Mat& model, const SegmenterConfig& bas
   BasicSegmenter<Probe> seg(cfg, Probe{&rule});
   seg.set_empty_skin_profile(model);
   Segmentation s;
-  auto score = [&](float t) {
-    rule.shadow_darkness = t;
-    double sum = 0;
+  // Each frame is taken once per pass (BoxLabelledFrame::load) and scored at every threshold;
+  // each threshold's sum still adds the frames in their order.
+  auto scores = [&](const std::vector<float>& ts) {
+    std::vector<double> sum(ts.size(), 0.0);
     for (std::size_t i : frames) {
-      seg.segment(touch[i].image, s);
+      const cv::Mat image = touch_image(touch, i, model.size(), "calibrate_from_frames");
       const auto& label = touch[i].shadow_box;
-      if (!label)
-        sum -= s.shadow_box ? 1 : 0;
-      else if (s.shadow_box) {
-        const double inter = (*s.shadow_box & *label).area();
-        sum += inter / (s.shadow_box->area() + label->area() - inter);
+      for (std::size_t k = 0; k < ts.size(); ++k) {
+        rule.shadow_darkness = ts[k];
+        seg.segment(image, s);
+        if (!label)
+          sum[k] -= s.shadow_box ? 1 : 0;
+        else if (s.shadow_box) {
+          const double inter = (*s.shadow_box & *label).area();
+          sum[k] += inter / (s.shadow_box->area() + label->area() - inter);
+        }
       }
     }
     return sum;
   };
   auto search = [&](float lo, float hi, float step, float& best_t) {
+    std::vector<float> ts;
+    for (float t = lo; t <= hi + 1e-6f; t += step) ts.push_back(t);
+    const std::vector<double> v = scores(ts);
     double best = -1e18;
-    for (float t = lo; t <= hi + 1e-6f; t += step) {
-      const double v = score(t);
-      if (v >= best) best = v, best_t = t;
-    }
+    for (std::size_t k = 0; k < ts.size(); ++k)
+      if (v[k] >= best) best = v[k], best_t = ts[k];
   };
   float coarse = floor;
   search(floor, 0.95f, 0.02f, coarse);
@@ -194,10 +218,14 @@ inline void check_calibration_input(const std::vector<cv::Mat>& empty_frames,
   for (std::size_t i = 0; i < touch_frames.size(); ++i) {
     const BoxLabelledFrame& f = touch_frames[i];
     const std::string n = fn + ": " + touch_frame_name(touch_frames, i);
-    require_colour_image(f.image, n.c_str());
-    require(f.image.size() == size, n + " is " + std::to_string(f.image.cols) + "x" +
-                                        std::to_string(f.image.rows) +
-                                        "; expected the empty frames' size");
+    if (f.image.empty() && f.load) {
+      // checked when loaded (touch_image)
+    } else {
+      require_colour_image(f.image, n.c_str());
+      require(f.image.size() == size, n + " is " + std::to_string(f.image.cols) + "x" +
+                                          std::to_string(f.image.rows) +
+                                          "; expected the empty frames' size");
+    }
     const cv::Rect img({}, size);
     for (const auto* b : {&f.shadow_box, &f.contact_box})
       if (*b)
@@ -246,10 +274,10 @@ private:
     std::vector<float> hover_cores; // frames without: used only when there is no other
     std::vector<std::size_t> box_frames; // labelled touch frames (indices), for the box search
   };
-  // Labelled-frame pixels whose role depends on the group's shadow threshold.
-  struct Pending {
-    std::size_t group;
-    std::vector<cv::Vec2f> contact_inner, shadow_only;
+  // A labelled frame's regions: the ring (outer minus inner) is "surely outside", the inset
+  // contact box (core_box) "surely contact", the shadow box away from the contact box the core.
+  struct Regions {
+    cv::Rect sb, outer, inner, away, core_box;
   };
 
   // Features with the relative mode on the calibration's own empty-skin model, no mask blur.
@@ -346,7 +374,7 @@ private:
   // unlabelled, from its boxes when labelled.
   void sample_touch_frame(std::size_t i) {
     const BoxLabelledFrame& f = touch_[i];
-    seg_.segment(f.image, scratch_);
+    seg_.segment(touch_image(touch_, i, size_, fn), scratch_);
     const float lum = luminance(seg_.last_reference());
     const std::size_t g = group_of(lum);
     ++result_.groups[g].touch_frames;
@@ -426,39 +454,35 @@ private:
     }
     const cv::Mat& d = seg_.darkness();
     const cv::Mat& w = seg_.warmth();
-    const cv::Rect sb = *f.shadow_box;
-    const cv::Rect outer = grow(sb, options_.ring_margin_px + options_.ring_width_px, size_);
-    const cv::Rect inner = grow(sb, options_.ring_margin_px, size_);
-    const cv::Rect away =
-        f.contact_box ? grow(*f.contact_box, options_.ring_margin_px, size_) : cv::Rect();
-    cv::Rect core_box;
-    if (f.contact_box) {
-      const cv::Rect& cb = *f.contact_box;
-      const int dx = static_cast<int>(std::floor(cb.width * options_.contact_inset));
-      const int dy = static_cast<int>(std::floor(cb.height * options_.contact_inset));
-      core_box = cv::Rect(cb.x + dx, cb.y + dy, cb.width - 2 * dx, cb.height - 2 * dy);
-    }
-    Pending p{g, {}, {}};
+    const Regions r = regions_of(f);
     std::vector<float> core;
-    for (int y = outer.y; y < outer.y + outer.height; ++y)
-      for (int x = outer.x; x < outer.x + outer.width; ++x) {
+    for (int y = r.outer.y; y < r.outer.y + r.outer.height; ++y)
+      for (int x = r.outer.x; x < r.outer.x + r.outer.width; ++x) {
         if (!skin_.at<uchar>(y, x)) continue;
         const cv::Point pt(x, y);
-        const cv::Vec2f v(d.at<float>(y, x), w.at<float>(y, x));
-        if (!inner.contains(pt)) {
-          add_contact(grp, v[0], v[1], false); // the ring: not contact (may hold penumbra)
-        } else if (sb.contains(pt)) {
-          if (core_box.contains(pt))
-            p.contact_inner.push_back(v);
-          else if (!away.contains(pt)) {
-            core.push_back(smoothed_.at<float>(y, x)); // on the noise's footing
-            p.shadow_only.push_back(v);
-          }
-        }
+        if (!r.inner.contains(pt)) // the ring: not contact (may hold penumbra)
+          add_contact(grp, d.at<float>(y, x), w.at<float>(y, x), false);
+        else if (r.sb.contains(pt) && !r.core_box.contains(pt) && !r.away.contains(pt))
+          core.push_back(smoothed_.at<float>(y, x)); // on the noise's footing
       }
     if (!core.empty())
       (f.contact_box ? grp.cores : grp.hover_cores).push_back(quantile(core, 0.99f));
-    pending_.push_back(std::move(p));
+    shadow_frames_.push_back({i, g});
+  }
+
+  Regions regions_of(const BoxLabelledFrame& f) const {
+    Regions r;
+    r.sb = *f.shadow_box;
+    r.outer = grow(r.sb, options_.ring_margin_px + options_.ring_width_px, size_);
+    r.inner = grow(r.sb, options_.ring_margin_px, size_);
+    if (f.contact_box) {
+      const cv::Rect& cb = *f.contact_box;
+      r.away = grow(cb, options_.ring_margin_px, size_);
+      const int dx = static_cast<int>(std::floor(cb.width * options_.contact_inset));
+      const int dy = static_cast<int>(std::floor(cb.height * options_.contact_inset));
+      r.core_box = cv::Rect(cb.x + dx, cb.y + dy, cb.width - 2 * dx, cb.height - 2 * dy);
+    }
+    return r;
   }
 
   // Shadow threshold per group: from the labelled boxes (best_box_threshold, searched from
@@ -467,6 +491,13 @@ private:
   void fit_shadow_thresholds() {
     shadow_t_.resize(ng_);
     bool any_shadow = false;
+    // The box search segments with a segmenter of its own: seg_'s planes (model, profile and
+    // per-frame features, about 60 bytes a pixel) are let go meanwhile and derived again from
+    // the same model after (deterministic: the same planes).
+    bool box_search = false;
+    for (const Group& grp : groups_) box_search = box_search || !grp.box_frames.empty();
+    const cv::Mat model = seg_.empty_skin_model();
+    if (box_search) seg_ = Segmenter(relative_config(options_.base));
     for (std::size_t g = 0; g < ng_; ++g) {
       LightGroupReport& r = result_.groups[g];
       r.noise_darkness = noise_[g];
@@ -487,8 +518,7 @@ private:
       const float floor = std::min(noise_[g] + 0.02f, 0.95f);
       float t = 0.5f * r.core_darkness;
       if (!groups_[g].box_frames.empty()) {
-        t = best_box_threshold(seg_.empty_skin_model(), options_.base, touch_,
-                               groups_[g].box_frames, floor);
+        t = best_box_threshold(model, options_.base, touch_, groups_[g].box_frames, floor);
       } else if (t < floor) {
         warn(CalibrationIssue::shadow_near_noise,
              "light group at luminance " + std::to_string(r.luminance) +
@@ -505,6 +535,7 @@ private:
       shadow_t_[g] = std::min(t, 1.f);
       any_shadow = true;
     }
+    if (box_search) seg_.set_empty_skin_profile(model);
     if (!touch_.empty())
       require(any_shadow, std::string(fn) +
                               ": no touch frame shows a shadow darker than the empty "
@@ -514,13 +545,29 @@ private:
 
   // "Surely contact": the inset contact box's pixels at least as dark as the group's shadow
   // threshold; the shadow core's pixels are contact negatives.
+  // The frames are segmented again rather than their pixels kept from sample_labelled_frame:
+  // memory stays one frame's planes whatever the number of labelled frames (the counts, and so
+  // the fit, are the same: the segmentation is deterministic and the histograms sum counts).
   void add_surely_contact_samples() {
-    for (const Pending& p : pending_) {
-      if (!shadow_t_[p.group]) continue;
-      Group& grp = groups_[p.group];
-      for (const auto& v : p.contact_inner)
-        if (v[0] >= *shadow_t_[p.group]) add_contact(grp, v[0], v[1], true);
-      for (const auto& v : p.shadow_only) add_contact(grp, v[0], v[1], false);
+    for (const auto& [i, g] : shadow_frames_) {
+      if (!shadow_t_[g]) continue;
+      Group& grp = groups_[g];
+      const float t = *shadow_t_[g];
+      seg_.segment(touch_image(touch_, i, size_, fn), scratch_);
+      const cv::Mat& d = seg_.darkness();
+      const cv::Mat& w = seg_.warmth();
+      const Regions r = regions_of(touch_[i]);
+      for (int y = r.sb.y; y < r.sb.y + r.sb.height; ++y)
+        for (int x = r.sb.x; x < r.sb.x + r.sb.width; ++x) {
+          if (!skin_.at<uchar>(y, x)) continue;
+          const cv::Point pt(x, y);
+          const float dv = d.at<float>(y, x), wv = w.at<float>(y, x);
+          if (r.core_box.contains(pt)) {
+            if (dv >= t) add_contact(grp, dv, wv, true);
+          } else if (!r.away.contains(pt)) {
+            add_contact(grp, dv, wv, false);
+          }
+        }
     }
   }
 
@@ -667,7 +714,8 @@ private:
   std::vector<Group> groups_;
   ThresholdFit all_; // contact samples of every group
   std::vector<float> noise_;
-  std::vector<Pending> pending_;
+  std::vector<std::pair<std::size_t, std::size_t>> shadow_frames_; // labelled with a shadow box:
+                                                                   // (touch index, group)
   std::vector<std::optional<float>> shadow_t_;
   std::optional<std::pair<int, int>> overall_bins_; // the fit over all groups' contact bins
 };
@@ -700,9 +748,13 @@ private:
 //    2-means on (darkness, warmth) of those pixels (initial split at the median darkness); the
 //    cluster with the higher mean warmth is contact when it is also darker and warmer by at least
 //    0.05 than the other, else the frame is a hover (contact_not_separated).
-// requires: at least one empty frame; all frames CV_8UC3 of one size; boxes inside the image.
+// requires: at least one empty frame; all frames CV_8UC3 of one size (a touch frame given by
+//           BoxLabelledFrame::load: checked when loaded); boxes inside the image.
 // ensures:  result.calibration passes validate_calibration; warnings list every degenerate part
-//           (see CalibrationIssue); result.groups reports each light level.
+//           (see CalibrationIssue); result.groups reports each light level. Memory beyond the
+//           frames: planes of about 63 bytes a pixel, 74 with labelled touch frames (measured at
+//           4K), whatever the number of frames; touch frames given by load are held one at a
+//           time (docs/calibration.md "Memory").
 // throws:   InvalidArgument for bad input (naming the frame), black empty frames, or when no
 //           touch frame shows a shadow darker than the empty skin's noise (hopeless).
 inline CalibrationResult calibrate_from_frames(const std::vector<cv::Mat>& empty_frames,
