@@ -23,6 +23,7 @@
 
 #include "common/bench_util.hpp"
 #include "common/counting_new.hpp"
+#include "common/frame_options.hpp"
 
 #include <opencv2/core.hpp>
 
@@ -37,13 +38,12 @@
 #include <vector>
 
 namespace ss = shadowsense;
-using bench::positive_int;
 using bench::thread_cpu_ms;
 
 namespace {
 
 constexpr std::string_view usage =
-    "usage: frame_time [--model PATH] [--frames N] [--rounds R] [--json]\n"
+    "usage: frame_time [--model PATH] [--frames N] [--rounds R] [--json] [--help] [--version]\n"
     "Times the whole frame of a model (default models/default.ssm) on one core: segmenter,\n"
     "touch pipeline, frame encoder, forward pass, classify, and all of it together, on robot-rig\n"
     "generator frames; prints per-frame median wall and CPU ms and heap allocations per frame\n"
@@ -84,34 +84,14 @@ StageResult measure(const std::string& name, int frames, int rounds,
 } // namespace
 
 int main(int argc, char** argv) {
-  std::string model_path = "models/default.ssm";
-  int frames = 40, rounds = 7;
-  bool json = false;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string_view a = argv[i];
-      auto value = [&]() -> const char* {
-        if (i + 1 >= argc) throw ss::InvalidArgument(std::string(a) + " needs a value");
-        return argv[++i];
-      };
-      if (a == "--help") {
-        std::cout << usage;
-        return 0;
-      } else if (a == "--version") {
-        std::cout << "frame_time shadowsense " << ss::version_string << '\n';
-        return 0;
-      } else if (a == "--model") {
-        model_path = value();
-      } else if (a == "--frames") {
-        frames = positive_int(value(), "--frames");
-      } else if (a == "--rounds") {
-        rounds = positive_int(value(), "--rounds");
-      } else if (a == "--json") {
-        json = true;
-      } else {
-        throw ss::InvalidArgument("unknown argument '" + std::string(a) + "'");
-      }
-    }
+  bench::FrameOptions options{.frames = 40};
+  const std::string& model_path = options.model_path;
+  const int &frames = options.frames, &rounds = options.rounds;
+  const bool& json = options.json;
+  return cli::run("frame_time", [&] {
+    cli::Parser p("frame_time", "");
+    bench::declare_frame_options(p, usage, options);
+    p.parse(argc, argv);
     cv::setNumThreads(1);
     const ss::ModelFile model = ss::ModelFile::load(model_path);
     auto classifier = ss::make_densenet_classifier(model, {.threads = 1});
@@ -194,8 +174,5 @@ int main(int argc, char** argv) {
                   static_cast<std::size_t>(frames) * static_cast<std::size_t>(rounds + 1));
     }
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "frame_time: error: " << e.what() << '\n' << usage;
-    return 2;
-  }
+  });
 }

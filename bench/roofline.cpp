@@ -72,6 +72,7 @@
 #include <shadowsense/sim.hpp>
 
 #include "common/bench_util.hpp"
+#include "common/frame_options.hpp"
 
 #include <opencv2/core.hpp>
 
@@ -92,7 +93,6 @@
 #include <vector>
 
 namespace ss = shadowsense;
-using bench::positive_int;
 using bench::thread_cpu_ms;
 
 namespace {
@@ -100,6 +100,7 @@ namespace {
 constexpr std::string_view usage =
     "usage: roofline [--model PATH] [--frames N] [--rounds R] [--dram-mb M] [--out PATH] "
     "[--json]\n"
+    "       [--help] [--version]\n"
     "Measures this machine's memory bandwidth (stream-style copy/triad in L2, in the last-level\n"
     "cache and from DRAM) and the GEMM micro-kernel's peak, then times every stage of a model's\n"
     "frame (default models/default.ssm) on one core and prints each stage's floor\n"
@@ -578,39 +579,21 @@ std::string replace_marked(const std::filesystem::path& path, const std::string&
 } // namespace
 
 int main(int argc, char** argv) {
-  std::string model_path = "models/default.ssm", out_path;
-  int frames = 20, rounds = 7, dram_mb = 0;
-  bool want_json = false;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string_view a = argv[i];
-      auto value = [&]() -> const char* {
-        if (i + 1 >= argc) throw ss::InvalidArgument(std::string(a) + " needs a value");
-        return argv[++i];
-      };
-      if (a == "--help") {
-        std::cout << usage;
-        return 0;
-      } else if (a == "--version") {
-        std::cout << "roofline shadowsense " << ss::version_string << '\n';
-        return 0;
-      } else if (a == "--model") {
-        model_path = value();
-      } else if (a == "--frames") {
-        frames = positive_int(value(), "--frames");
-      } else if (a == "--rounds") {
-        rounds = positive_int(value(), "--rounds");
-      } else if (a == "--dram-mb") {
-        dram_mb = positive_int(value(), "--dram-mb");
-      } else if (a == "--out") {
-        out_path = value();
-        if (out_path.empty()) throw ss::InvalidArgument("--out needs a non-empty path");
-      } else if (a == "--json") {
-        want_json = true;
-      } else {
-        throw ss::InvalidArgument("unknown argument '" + std::string(a) + "'");
-      }
-    }
+  bench::FrameOptions options{.frames = 20};
+  const std::string& model_path = options.model_path;
+  const int &frames = options.frames, &rounds = options.rounds;
+  const bool& want_json = options.json;
+  std::string out_path;
+  int dram_mb = 0;
+  return cli::run("roofline", [&] {
+    cli::Parser p("roofline", "");
+    bench::declare_frame_options(p, usage, options);
+    p.option("--dram-mb", "M", "MB per array of the DRAM stream loop", dram_mb).range(1, 100000);
+    p.option("--out", "PATH", "replace the marked table in PATH", out_path)
+        .check([](const std::string& path) {
+          if (path.empty()) throw cli::UsageError("--out needs a non-empty path");
+        });
+    p.parse(argc, argv);
     if (!out_path.empty()) replace_marked(out_path, ""); // a bad --out fails before measuring
 
     Result r;
@@ -787,8 +770,5 @@ int main(int argc, char** argv) {
       std::cout << table;
     }
     return 0;
-  } catch (const std::exception& e) {
-    std::cerr << "roofline: error: " << e.what() << '\n' << usage;
-    return 2;
-  }
+  });
 }

@@ -15,27 +15,18 @@
 // the truth's gesture is a true positive (double_tap counts as tap), further ones of that gesture
 // are ignored, others are false positives; no prediction of the truth's gesture is a miss.
 // Predictions overlapping no truth are false positives. Prints the table of
-// eval/temporal_eval.hpp (format_temporal_eval) and the number of rows read.
+// eval/temporal_eval.hpp (format_temporal_eval) and the number of rows read. Both csv files
+// must be regular files of at most 1 GiB (a FIFO or device is refused naming it, exit 2).
 #include <shadowsense/eval/temporal_eval.hpp>
+#include <shadowsense/io/dataset.hpp>
 
 #include "common/cli.hpp"
 
-#include <fstream>
 #include <map>
-#include <sstream>
 
 using namespace shadowsense;
 
 namespace {
-
-std::vector<std::string> split_csv(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cell;
-  std::istringstream in(line);
-  while (std::getline(in, cell, ',')) out.push_back(cell);
-  if (!line.empty() && line.back() == ',') out.emplace_back();
-  return out;
-}
 
 double number(const std::string& s, const std::string& where) {
   double v = 0;
@@ -46,26 +37,26 @@ double number(const std::string& s, const std::string& where) {
   return v;
 }
 
+// The rows after the header, empty lines skipped. The text is read as the dataset reader reads
+// its csv files (io/dataset.hpp): a regular file of bounded size, so a FIFO or a device given
+// as input is refused naming the file instead of hanging or growing without bound.
 std::vector<std::vector<std::string>> read_csv(const std::filesystem::path& path,
                                                std::size_t min_columns,
                                                const std::string& first_header) {
-  std::ifstream in(path);
-  if (!in) throw IoError("cannot open " + path.string());
-  std::string line;
-  if (!std::getline(in, line) || split_csv(line).empty() || split_csv(line)[0] != first_header)
+  const std::string text = detail::read_csv_text(path);
+  const std::vector<std::string> lines = detail::csv_lines(text, path);
+  if (detail::split_csv(lines[0])[0] != first_header)
     throw InvalidArgument(path.string() + ": expected a header starting with '" + first_header +
                           "'");
   std::vector<std::vector<std::string>> rows;
-  std::size_t n = 1;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    auto r = split_csv(line);
-    if (r.size() < min_columns)
-      throw InvalidArgument(path.string() + ": line " + std::to_string(n) + " has " +
-                            std::to_string(r.size()) + " columns, expected at least " +
+  for (std::size_t i = 1; i < lines.size(); ++i) {
+    if (lines[i].empty()) continue;
+    const std::vector<std::string_view> cells = detail::split_csv(lines[i]);
+    if (cells.size() < min_columns)
+      throw InvalidArgument(path.string() + ": line " + std::to_string(i + 1) + " has " +
+                            std::to_string(cells.size()) + " columns, expected at least " +
                             std::to_string(min_columns));
-    rows.push_back(std::move(r));
+    rows.emplace_back(cells.begin(), cells.end());
   }
   return rows;
 }

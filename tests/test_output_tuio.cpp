@@ -248,6 +248,44 @@ TEST_CASE("host:port parsing and unresolvable hosts") {
     CAPTURE(bad);
     CHECK_THROWS_AS(parse_host_port(bad), InvalidArgument);
   }
+  // The messages, and the forms the programs' --tuio takes (a default port, a required host).
+  const std::string form = "; expected HOST:PORT, e.g. 127.0.0.1:3333 or [::1]:3333, PORT in "
+                           "1..65535";
+  CHECK_THROWS_WITH_AS(parse_host_port("3333"),
+                       ("parse_host_port: no port in '3333'" + form).c_str(), InvalidArgument);
+  CHECK_THROWS_WITH_AS(parse_host_port("host:65536"),
+                       ("parse_host_port: bad port '65536' in 'host:65536'" + form).c_str(),
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(
+      parse_host_port("::1:3333"),
+      ("parse_host_port: an IPv6 address needs brackets and a port in '::1:3333'" + form).c_str(),
+      InvalidArgument);
+  CHECK(parse_host_port("[::1]:3333").host == "::1");
+  CHECK(parse_host_port("[::1]:3333").port == 3333);
+  CHECK(parse_host_port("[]:3333").host == "127.0.0.1"); // an empty host takes the default
+  const auto optional_port = [](const char* text, HostPort& out) {
+    return try_parse_host_port(text, {.host = {}, .port = 4000}, out);
+  };
+  HostPort hp{.host = "unchanged", .port = 1};
+  CHECK(optional_port("::1", hp).empty());
+  CHECK(hp.host == "::1");
+  CHECK(hp.port == 4000);
+  CHECK(optional_port("[::1]:3333", hp).empty());
+  CHECK(hp.host == "::1");
+  CHECK(hp.port == 3333);
+  CHECK(optional_port("localhost", hp).empty());
+  CHECK(hp.host == "localhost");
+  CHECK(hp.port == 4000);
+  hp = {.host = "unchanged", .port = 1};
+  const std::string optional_form =
+      "; expected HOST[:PORT], e.g. 127.0.0.1:3333 or [::1]:3333, PORT in 1..65535";
+  CHECK(optional_port(":3333", hp) == "no host in ':3333'" + optional_form);
+  CHECK(optional_port("[]", hp) == "no host in '[]'" + optional_form);
+  CHECK(optional_port("h:0", hp) == "bad port '0' in 'h:0'" + optional_form);
+  CHECK(optional_port("[::1]x", hp) == "text after ']' in '[::1]x'" + optional_form);
+  CHECK(optional_port("[::1", hp) == "no ']' after the IPv6 address in '[::1'" + optional_form);
+  CHECK(hp.host == "unchanged"); // failures leave out untouched
+  CHECK(hp.port == 1);
   CHECK_THROWS_WITH_AS(TuioSink("no-such-host.invalid", 3333),
                        doctest::Contains("cannot resolve host 'no-such-host.invalid'"), IoError);
   CHECK_THROWS_AS(UdpSender("127.0.0.1", 0), InvalidArgument);

@@ -148,22 +148,37 @@ TEST_CASE("the truth read back scores the recogniser as evaluate_temporal does")
 }
 
 #ifdef SHADOWSENSE_SS_TRACK_EVAL
+// ss_track_eval --temporal on small_dataset() in `work` with `args` appended. One calibration
+// for the program and the test's own pipeline: fitted here on generator frames (`seed`), handed
+// to the program as a file; returned as that file loads.
+namespace {
+struct TrackEvalRun {
+  tests::ProgramRun run;
+  SegmenterCalibration calibration;
+};
+TrackEvalRun run_track_eval_temporal(const fs::path& work, std::uint64_t seed,
+                                     const std::string& args) {
+  fs::create_directories(work);
+  sim::Renderer renderer(sim::Rig::robot());
+  const SimCalibration cal = calibrate_on_sim(renderer, seed, 20);
+  const fs::path calib = work / "skin.calib";
+  save_calibration(cal.config.calibration, calib.string());
+  return {tests::run_program(SHADOWSENSE_SS_TRACK_EVAL,
+                             "--temporal " + tests::shell_quote(small_dataset().string()) +
+                                 " --calibration " + tests::shell_quote(calib.string()) +
+                                 " --calib-frames 10 " + args,
+                             work),
+          load_calibration(calib.string())};
+}
+} // namespace
+
 TEST_CASE("ss_track_eval --temporal prints the figures of the pipeline run on the same frames") {
   const fs::path& dir = small_dataset();
   const fs::path work = kDir / "program";
-  fs::create_directories(work);
-  // One calibration for both: fitted here on generator frames, handed to the program as a file.
-  sim::Renderer renderer(sim::Rig::robot());
-  const SimCalibration cal = calibrate_on_sim(renderer, 77, 20);
-  const fs::path calib = work / "skin.calib";
-  save_calibration(cal.config.calibration, calib.string());
-  const SegmenterCalibration loaded = load_calibration(calib.string());
-  const tests::ProgramRun run = tests::run_program(
-      SHADOWSENSE_SS_TRACK_EVAL,
-      "--temporal " + tests::shell_quote(dir.string()) + " --calibration " +
-          tests::shell_quote(calib.string()) + " --calib-frames 10 --temporal-confusion " +
-          tests::shell_quote((work / "confusion").string()),
-      work);
+  const TrackEvalRun program = run_track_eval_temporal(
+      work, 77, "--temporal-confusion " + tests::shell_quote((work / "confusion").string()));
+  const tests::ProgramRun& run = program.run;
+  const SegmenterCalibration& loaded = program.calibration;
   INFO(run.err);
   REQUIRE(run.status == 0);
   const std::vector<TemporalSequenceRow> rows = read_temporal_sequences(dir);
@@ -209,20 +224,13 @@ TEST_CASE("ss_track_eval --temporal prints the figures of the pipeline run on th
 TEST_CASE("ss_track_eval --temporal --temporal-shapes model: the Runtime's events, also as JSON") {
   const fs::path& dir = small_dataset();
   const fs::path work = kDir / "program_model";
-  fs::create_directories(work);
-  sim::Renderer renderer(sim::Rig::robot());
-  const SimCalibration cal = calibrate_on_sim(renderer, 78, 20);
-  const fs::path calib = work / "skin.calib";
-  save_calibration(cal.config.calibration, calib.string());
   const fs::path model_path = fs::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm";
   const fs::path json = work / "temporal.json";
-  const tests::ProgramRun run = tests::run_program(
-      SHADOWSENSE_SS_TRACK_EVAL,
-      "--temporal " + tests::shell_quote(dir.string()) + " --calibration " +
-          tests::shell_quote(calib.string()) + " --calib-frames 10 --temporal-shapes model" +
-          " --model " + tests::shell_quote(model_path.string()) + " --json " +
-          tests::shell_quote(json.string()),
-      work);
+  const TrackEvalRun program = run_track_eval_temporal(
+      work, 78,
+      "--temporal-shapes model --model " + tests::shell_quote(model_path.string()) + " --json " +
+          tests::shell_quote(json.string()));
+  const tests::ProgramRun& run = program.run;
   INFO(run.err);
   REQUIRE(run.status == 0);
   const std::string text = tests::read_file(json);
@@ -230,7 +238,7 @@ TEST_CASE("ss_track_eval --temporal --temporal-shapes model: the Runtime's event
   CHECK(text.find("\"shapes\": \"model\"") != std::string::npos);
   const ModelFile model = ModelFile::load(model_path);
   Segmenter::Config sc;
-  sc.calibration = load_calibration(calib.string());
+  sc.calibration = program.calibration;
   sc.calibration.mode = SegmentMode::relative;
   const std::vector<TemporalSequenceRow> rows = read_temporal_sequences(dir);
   for (double fps : {15.0, 30.0}) {

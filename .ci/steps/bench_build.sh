@@ -1,12 +1,20 @@
 #!/bin/sh
 # The benchmarks are out of the default build (bench/CMakeLists.txt): build them here in the
 # README build's folder, so they keep compiling, and run the fastest ones once as a smoke check:
-# bench_temporal, and roofline at tiny sizes (a few seconds) replacing the marked table of a
-# scratch document, whose text around the markers must survive.
+# bench_temporal, the command lines of frame_time and roofline, and roofline at tiny sizes (a
+# few seconds) replacing the marked table of a scratch document, whose text around the markers
+# must survive.
 set -eu
 root=$(cd "$(dirname "$0")/../.." && pwd)
 cmake --build "$root/build" -j2 --target benchmarks
 "$root/build/bench/bench_temporal" --benchmark-samples 2 >/dev/null
+# frame_time and roofline parse their options as the programs do: the programs' command-line
+# check (--help, --version, a bad flag, bad numbers; tests/programs_cli_test.cmake).
+version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$root/build/CMakeCache.txt")
+for timer in frame_time roofline; do
+  cmake -DPROGRAM="$root/build/bench/$timer" -DNUMERIC_OPTION=--frames -DVERSION="$version" \
+    -P "$root/tests/programs_cli_test.cmake"
+done
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 printf 'before\n<!-- roofline:begin -->\nold table\n<!-- roofline:end -->\nafter\n' >"$tmp/roofline.md"
@@ -19,4 +27,4 @@ if grep -q 'old table' "$tmp/roofline.md"; then
   echo "roofline --out kept the old table" >&2
   exit 1
 fi
-echo "benchmarks built; bench_temporal and roofline ran"
+echo "benchmarks built; bench_temporal and roofline ran; frame_time and roofline command lines checked"

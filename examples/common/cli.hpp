@@ -45,6 +45,7 @@
 
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
+#include <shadowsense/output/udp_sender.hpp>
 
 #include <algorithm>
 #include <charconv>
@@ -588,49 +589,18 @@ inline void require_display(std::string_view option) {
 }
 
 // Where TUIO goes: --tuio HOST[:PORT].
-struct TuioTarget {
-  std::string host;
-  std::uint16_t port = 3333;
-};
+using TuioTarget = shadowsense::HostPort;
 // Parses "HOST", "HOST:PORT", "[IPV6]", "[IPV6]:PORT" (e.g. "127.0.0.1", "localhost:3334",
-// "[::1]:3334"); a bare IPv6 address ("::1") is taken whole, with the default port.
+// "[::1]:3334"); a bare IPv6 address ("::1") is taken whole, with the default port. The
+// library's parser (output/udp_sender.hpp, try_parse_host_port) with a required host.
 // ensures: host without brackets, non-empty; port in 1..65535 (default_port when not given).
-// throws: UsageError "<option>: ..." quoting the text and the expected form.
+// throws: UsageError "<option>: <reason> in '<spec>'; expected HOST[:PORT], ...".
 inline TuioTarget parse_tuio_target(std::string_view spec, std::string_view option = "--tuio",
                                     std::uint16_t default_port = 3333) {
-  const auto fail = [&](const std::string& what) {
-    return UsageError(std::string(option) + ": " + what + " in '" + std::string(spec) +
-                      "'; expected HOST[:PORT], e.g. 127.0.0.1:3333 or [::1]:3333, PORT in "
-                      "1..65535");
-  };
-  TuioTarget t{.host = {}, .port = default_port};
-  std::string_view host = spec, port;
-  if (spec.starts_with('[')) {
-    const std::size_t close = spec.find(']');
-    if (close == std::string_view::npos) throw fail("no ']' after the IPv6 address");
-    host = spec.substr(1, close - 1);
-    const std::string_view rest = spec.substr(close + 1);
-    if (!rest.empty()) {
-      if (rest[0] != ':') throw fail("text after ']'");
-      port = rest.substr(1);
-      if (port.empty()) throw fail("no port after ':'");
-    }
-  } else if (const std::size_t colon = spec.find(':');
-             colon != std::string_view::npos &&
-             spec.find(':', colon + 1) == std::string_view::npos) {
-    host = spec.substr(0, colon);
-    port = spec.substr(colon + 1);
-    if (port.empty()) throw fail("no port after ':'");
-  }
-  if (host.empty()) throw fail("no host");
-  t.host = std::string(host);
-  if (!port.empty()) {
-    unsigned value = 0;
-    const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
-    if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
-      throw fail("bad port '" + std::string(port) + "'");
-    t.port = static_cast<std::uint16_t>(value);
-  }
+  TuioTarget t;
+  const std::string why =
+      shadowsense::try_parse_host_port(spec, {.host = {}, .port = default_port}, t);
+  if (!why.empty()) throw UsageError(std::string(option) + ": " + why);
   return t;
 }
 

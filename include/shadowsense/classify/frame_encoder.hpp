@@ -138,12 +138,7 @@ public:
 
   double mean_luminance(const cv::Mat& frame) const {
     check_frame(frame);
-    const bool bgr = config_.input_order == ChannelOrder::bgr;
-    const double wr = 0.2989, wg = 0.587, wb = 0.114;
-    const cv::Scalar s = cv::mean(frame);
-    const double scale = frame.type() == CV_8UC3 ? 1.0 / 255.0 : 1.0;
-    const double r = bgr ? s[2] : s[0], b = bgr ? s[0] : s[2];
-    return scale * (wr * r + wg * s[1] + wb * b);
+    return checked_mean_luminance(frame);
   }
   bool is_dark(const cv::Mat& frame) const {
     const float t = config_.params.dark_luminance_threshold;
@@ -151,10 +146,28 @@ public:
   }
 
   void run(const cv::Mat& frame, Tensor& out) {
-    run(frame, !lighting_normalise() && is_dark(frame), out);
+    check_frame(frame);
+    const float t = config_.params.dark_luminance_threshold;
+    const bool dark =
+        !lighting_normalise() && t > 0.0f && checked_mean_luminance(frame) < double(t);
+    checked_run(frame, dark, out);
   }
   void run(const cv::Mat& frame, bool dark, Tensor& out) {
     check_frame(frame);
+    checked_run(frame, dark, out);
+  }
+
+private:
+  // The checked_* functions take a frame check_frame has passed (each entry point checks once).
+  double checked_mean_luminance(const cv::Mat& frame) const {
+    const bool bgr = config_.input_order == ChannelOrder::bgr;
+    const double wr = 0.2989, wg = 0.587, wb = 0.114;
+    const cv::Scalar s = cv::mean(frame);
+    const double scale = frame.type() == CV_8UC3 ? 1.0 / 255.0 : 1.0;
+    const double r = bgr ? s[2] : s[0], b = bgr ? s[0] : s[2];
+    return scale * (wr * r + wg * s[1] + wb * b);
+  }
+  void checked_run(const cv::Mat& frame, bool dark, Tensor& out) {
     if (input_encoding() == InputEncoding::skin_relative) {
       skin_relative(frame, encoded_);
       if (lighting_normalise()) {
@@ -176,7 +189,6 @@ public:
     }
   }
 
-private:
   static PreprocessParams forced(PreprocessParams p, bool force) {
     if (force) p.lighting_normalise = true;
     return p;

@@ -1,9 +1,21 @@
 // UdpSender: datagrams to one host:port over a POSIX UDP socket (IPv4 or IPv6).
 //
+// The one host:port parser of the project (the programs' --tuio is a thin use of it).
+// try_parse_host_port(text, defaults, out) -> "" with out set, or the reason it failed
+//   accepts:  "HOST:PORT", "[IPV6]:PORT", "HOST", "[IPV6]" and a bare IPv6 address ("::1",
+//             taken whole, no port); an empty HOST takes defaults.host, a missing PORT
+//             defaults.port; with neither default, that part is required. PORT a decimal
+//             number 1..65535. out.host has no brackets.
+//   ensures:  on failure out is untouched and the reason reads "<what> in '<text>'; expected
+//             HOST[:PORT], e.g. 127.0.0.1:3333 or [::1]:3333, PORT in 1..65535" (HOST:PORT
+//             when the port is required), <what> one of
+//             "no ']' after the IPv6 address", "text after ']'", "no port after ':'", "no host",
+//             "no port", "an IPv6 address needs brackets and a port", "bad port '<port>'".
+//             Throws nothing but std::bad_alloc (callers pick their own error type).
 // parse_host_port("HOST:PORT") -> HostPort
 //   requires: "127.0.0.1:3333", "localhost:3333", "[::1]:3333" or ":3333" (host defaults to
-//             127.0.0.1); PORT a decimal number 1..65535.
-//   throws:   InvalidArgument naming the text and the expected form.
+//             127.0.0.1): try_parse_host_port with defaults {"127.0.0.1", no port}.
+//   throws:   InvalidArgument "parse_host_port: <reason>".
 // UdpSender(host, port)
 //   ensures:  a socket for the first address `host` resolves to (getaddrinfo: a name lookup
 //             may block; pass a numeric address on a robot without DNS).
@@ -28,6 +40,7 @@
 #include <charconv>
 #include <cstdint>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -40,27 +53,60 @@ struct HostPort {
   std::uint16_t port = 3333;
 };
 
+// What the text may leave out: an empty host or no port makes that part required.
+struct HostPortDefaults {
+  std::string host;
+  std::optional<std::uint16_t> port;
+};
+
+inline std::string try_parse_host_port(std::string_view text, const HostPortDefaults& defaults,
+                                       HostPort& out) {
+  const auto fail = [&](const std::string& what) {
+    return what + " in '" + std::string(text) + "'; expected " +
+           (defaults.port ? "HOST[:PORT]" : "HOST:PORT") +
+           ", e.g. 127.0.0.1:3333 or [::1]:3333, PORT in 1..65535";
+  };
+  std::string_view host = text, port;
+  if (text.starts_with('[')) {
+    const std::size_t close = text.find(']');
+    if (close == std::string_view::npos) return fail("no ']' after the IPv6 address");
+    host = text.substr(1, close - 1);
+    const std::string_view rest = text.substr(close + 1);
+    if (!rest.empty()) {
+      if (rest[0] != ':') return fail("text after ']'");
+      port = rest.substr(1);
+      if (port.empty()) return fail("no port after ':'");
+    }
+  } else if (const std::size_t colon = text.find(':');
+             colon != std::string_view::npos &&
+             text.find(':', colon + 1) == std::string_view::npos) {
+    host = text.substr(0, colon);
+    port = text.substr(colon + 1);
+    if (port.empty()) return fail("no port after ':'");
+  } // else no colon, or a bare IPv6 address: all of it is the host
+  if (host.empty() && defaults.host.empty()) return fail("no host");
+  HostPort hp{.host = host.empty() ? defaults.host : std::string(host), .port = 0};
+  if (port.empty()) {
+    if (!defaults.port)
+      return fail(host.find(':') == std::string_view::npos
+                      ? "no port"
+                      : "an IPv6 address needs brackets and a port");
+    hp.port = *defaults.port;
+  } else {
+    unsigned value = 0;
+    const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
+    if (r.ec != std::errc() || r.ptr != port.data() + port.size() || value < 1 || value > 65535)
+      return fail("bad port '" + std::string(port) + "'");
+    hp.port = static_cast<std::uint16_t>(value);
+  }
+  out = std::move(hp);
+  return {};
+}
+
 inline HostPort parse_host_port(std::string_view text) {
-  const std::string expected = "'" + std::string(text) +
-                               "': expected HOST:PORT, e.g. 127.0.0.1:3333 or [::1]:3333, with "
-                               "PORT in 1..65535";
-  const std::size_t colon = text.rfind(':');
-  detail::require(colon != std::string_view::npos, "parse_host_port: no port in " + expected);
-  std::string_view host = text.substr(0, colon);
-  const std::string_view port = text.substr(colon + 1);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
-    host = host.substr(1, host.size() - 2);
-  else
-    detail::require(host.find(':') == std::string_view::npos,
-                    "parse_host_port: an IPv6 address needs brackets in " + expected);
-  unsigned value = 0;
-  const auto r = std::from_chars(port.data(), port.data() + port.size(), value);
-  detail::require(!port.empty() && r.ec == std::errc() && r.ptr == port.data() + port.size() &&
-                      value >= 1 && value <= 65535,
-                  "parse_host_port: bad port in " + expected);
   HostPort hp;
-  if (!host.empty()) hp.host = std::string(host);
-  hp.port = static_cast<std::uint16_t>(value);
+  const std::string why = try_parse_host_port(text, {.host = "127.0.0.1", .port = {}}, hp);
+  detail::require(why.empty(), "parse_host_port: " + why);
   return hp;
 }
 

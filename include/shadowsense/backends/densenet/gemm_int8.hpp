@@ -84,8 +84,33 @@ __attribute__((target("avx2"))) inline __m256i int8_madd_avx2(__m256i acc, __m25
   return _mm256_add_epi32(acc, _mm256_madd_epi16(_mm256_maddubs_epi16(xv, wv), ones));
 }
 
-// 4 weight rows x 2 pixels per step (8 accumulators, 6 operand registers), remainders one row
-// or one pixel at a time with the same instructions.
+// Rows weight rows (w0, K apart) x 2 pixels (x0, x1) into c (rows ldc apart, 2 columns): the
+// block of gemm_s8u7_avx2 (Rows = 4: 8 accumulators, 6 operand registers) and its remainder
+// rows (Rows = 1). The loops over Rows have constant bounds and unroll to straight code.
+template <std::size_t Rows>
+__attribute__((target("avx2"))) inline void
+int8_rows_x2_avx2(const std::int8_t* w0, const std::uint8_t* x0, const std::uint8_t* x1,
+                  std::size_t K, std::int32_t* c, std::size_t ldc) {
+  const __m256i ones = _mm256_set1_epi16(1);
+  __m256i a[Rows][2];
+  for (std::size_t r = 0; r < Rows; ++r) a[r][0] = a[r][1] = _mm256_setzero_si256();
+  for (std::size_t k = 0; k < K; k += 32) {
+    const __m256i p0 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(x0 + k));
+    const __m256i p1 = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(x1 + k));
+    for (std::size_t r = 0; r < Rows; ++r) {
+      const __m256i wr = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(w0 + r * K + k));
+      a[r][0] = int8_madd_avx2(a[r][0], p0, wr, ones);
+      a[r][1] = int8_madd_avx2(a[r][1], p1, wr, ones);
+    }
+  }
+  for (std::size_t r = 0; r < Rows; ++r) {
+    c[r * ldc] = int8_hsum_avx2(a[r][0]);
+    c[r * ldc + 1] = int8_hsum_avx2(a[r][1]);
+  }
+}
+
+// 4 weight rows x 2 pixels per step, remainders one row or one pixel at a time with the same
+// instructions.
 __attribute__((target("avx2"))) inline void gemm_s8u7_avx2(const std::int8_t* w, int m,
                                                            const std::uint8_t* x, int n, int kp,
                                                            std::int32_t* c, std::size_t ldc) {
@@ -97,45 +122,12 @@ __attribute__((target("avx2"))) inline void gemm_s8u7_avx2(const std::int8_t* w,
   for (; j + 2 <= n; j += 2) {
     const std::uint8_t* x0 = x + j * K;
     const std::uint8_t* x1 = x0 + K;
+    std::int32_t* cj = c + j;
     int i = 0;
-    for (; i + 4 <= m; i += 4) {
-      const std::int8_t* w0 = w + i * K;
-      __m256i a00 = _mm256_setzero_si256(), a01 = a00, a10 = a00, a11 = a00, a20 = a00, a21 = a00,
-              a30 = a00, a31 = a00;
-      for (std::size_t k = 0; k < K; k += 32) {
-        const __m256i p0 = load(x0 + k), p1 = load(x1 + k);
-        const __m256i r0 = load(w0 + k), r1 = load(w0 + K + k), r2 = load(w0 + 2 * K + k),
-                      r3 = load(w0 + 3 * K + k);
-        a00 = madd(a00, p0, r0);
-        a01 = madd(a01, p1, r0);
-        a10 = madd(a10, p0, r1);
-        a11 = madd(a11, p1, r1);
-        a20 = madd(a20, p0, r2);
-        a21 = madd(a21, p1, r2);
-        a30 = madd(a30, p0, r3);
-        a31 = madd(a31, p1, r3);
-      }
-      std::int32_t* cr = c + static_cast<std::size_t>(i) * ldc + j;
-      cr[0] = int8_hsum_avx2(a00);
-      cr[1] = int8_hsum_avx2(a01);
-      cr[ldc] = int8_hsum_avx2(a10);
-      cr[ldc + 1] = int8_hsum_avx2(a11);
-      cr[2 * ldc] = int8_hsum_avx2(a20);
-      cr[2 * ldc + 1] = int8_hsum_avx2(a21);
-      cr[3 * ldc] = int8_hsum_avx2(a30);
-      cr[3 * ldc + 1] = int8_hsum_avx2(a31);
-    }
-    for (; i < m; ++i) {
-      const std::int8_t* w0 = w + i * K;
-      __m256i a0 = _mm256_setzero_si256(), a1 = a0;
-      for (std::size_t k = 0; k < K; k += 32) {
-        const __m256i r0 = load(w0 + k);
-        a0 = madd(a0, load(x0 + k), r0);
-        a1 = madd(a1, load(x1 + k), r0);
-      }
-      c[static_cast<std::size_t>(i) * ldc + j] = int8_hsum_avx2(a0);
-      c[static_cast<std::size_t>(i) * ldc + j + 1] = int8_hsum_avx2(a1);
-    }
+    for (; i + 4 <= m; i += 4)
+      int8_rows_x2_avx2<4>(w + i * K, x0, x1, K, cj + static_cast<std::size_t>(i) * ldc, ldc);
+    for (; i < m; ++i)
+      int8_rows_x2_avx2<1>(w + i * K, x0, x1, K, cj + static_cast<std::size_t>(i) * ldc, ldc);
   }
   for (; j < n; ++j) {
     const std::uint8_t* x0 = x + j * K;
