@@ -2,22 +2,8 @@
 // the one-instance-per-thread check, and the DenseNet reference classifier end to end on
 // images (the whole frame encoding taken from the model file).
 #include <shadowsense/classify/classifier.hpp>
-
-// classify/classifier.hpp alone must not declare the DenseNet backend (a user backend does not
-// drag in the GEMM and thread pool): if it did, DenseNet and ModelFile below would be ambiguous
-// and this file would not compile.
-namespace include_probe_names {
-struct DenseNet;
-struct ModelFile;
-struct ThreadPool;
-} // namespace include_probe_names
-namespace include_probe {
-using namespace shadowsense;
-using namespace shadowsense::detail;
-using namespace include_probe_names;
-static_assert(sizeof(DenseNet*) + sizeof(ModelFile*) + sizeof(ThreadPool*) > 0);
-} // namespace include_probe
-
+// That classifier.hpp alone does not declare the DenseNet backend is checked by
+// tests/firmware/classifier_alone.cpp (include_closure).
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/classify/lighting_normalise.hpp>
 

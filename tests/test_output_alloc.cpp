@@ -14,21 +14,22 @@
 
 using namespace shadowsense;
 
+// The user's own frame types (OutputFrameBuilder takes any with these members).
 namespace {
-struct Track {
+struct UserTrack {
   int id = 0;
   cv::Rect shadow_box{};
   std::optional<cv::Point2f> contact{};
   TouchState state = TouchState::none;
 };
-struct Event {
+struct UserEvent {
   int track_id = 0;
   TouchEvent event{};
 };
-struct Frame {
+struct UserFrame {
   double timestamp_ms = 0;
-  std::vector<Track> tracks;
-  std::vector<Event> events;
+  std::vector<UserTrack> tracks;
+  std::vector<UserEvent> events;
 };
 } // namespace
 
@@ -40,7 +41,7 @@ TEST_CASE("the counting operator new sees allocations in this binary") {
 }
 
 TEST_CASE("OutputFrameBuilder + TuioEncoder allocate nothing per frame after warm-up") {
-  Frame f;
+  UserFrame f;
   for (int id = 1; id <= 4; ++id)
     f.tracks.push_back(
         {id, cv::Rect(10 * id, 10, 30, 20), cv::Point2f(12.f * id, 15.f), TouchState::touch});
@@ -59,7 +60,7 @@ TEST_CASE("OutputFrameBuilder + TuioEncoder allocate nothing per frame after war
   const std::size_t before = counting_new::count();
   for (int i = 3; i < 100; ++i) {
     f.timestamp_ms = 33.0 * i;
-    for (Track& t : f.tracks) t.contact->x += 1.0f;
+    for (UserTrack& t : f.tracks) t.contact->x += 1.0f;
     encoder.encode(builder.build(f, {320, 240}), count_bytes);
   }
   CHECK(counting_new::count() - before == 0);

@@ -1,10 +1,14 @@
 # Compiles tests/firmware/firmware_main.cpp with only the runtime's include paths and lists every
 # header it opens (-H); fails when a header outside the runtime is in the closure.
+# Then compiles tests/firmware/classifier_alone.cpp: classify/classifier.hpp alone must not
+# declare the DenseNet backend.
 # Variables: CXX, SOURCE_DIR, OPENCV_INCLUDE_DIRS (;-list).
 set(args -std=c++20 -fsyntax-only -H -I${SOURCE_DIR}/include)
+set(opencv_args "")
 foreach(dir IN LISTS OPENCV_INCLUDE_DIRS)
-  list(APPEND args -I${dir})
+  list(APPEND opencv_args -I${dir})
 endforeach()
+list(APPEND args ${opencv_args})
 execute_process(COMMAND ${CXX} ${args} ${SOURCE_DIR}/tests/firmware/firmware_main.cpp
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE headers)
 if(NOT rc EQUAL 0)
@@ -34,3 +38,12 @@ if(bad)
   message(FATAL_ERROR "the runtime umbrella pulls in headers outside the runtime:\n${bad}")
 endif()
 message(STATUS "include closure: ${count} headers, none outside the runtime")
+
+execute_process(COMMAND ${CXX} -std=c++20 -fsyntax-only -I${SOURCE_DIR}/include ${opencv_args}
+                        ${SOURCE_DIR}/tests/firmware/classifier_alone.cpp
+                RESULT_VARIABLE rc ERROR_VARIABLE errors)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "classify/classifier.hpp alone declares the DenseNet backend (or does not "
+                      "compile):\n${errors}")
+endif()
+message(STATUS "classify/classifier.hpp alone: no DenseNet backend declared")
