@@ -493,19 +493,7 @@ public:
     const GestureFrameInfo i = info(index);
     const std::uint64_t noise_seed =
         derive_seed(seed_, 0xAB0000ull + static_cast<std::uint64_t>(index));
-    if (!config_.randomise) {
-      renderer.render(scene(index), i.light, noise_seed, out);
-    } else {
-      // Session shading on the shared renderer, restored even if rendering throws.
-      struct Restore {
-        Renderer& r;
-        RenderConfig c;
-        ~Restore() { r.set_shading(c); }
-      } restore{renderer, renderer.config()};
-      renderer.set_shading(randomise_shading(restore.c, domain_));
-      renderer.render(scene(index), i.light, noise_seed, out);
-      apply_camera(domain_, renderer.surface_mask(), noise_seed, out);
-    }
+    render_scene(renderer, scene(index), i.light, noise_seed, out);
     if (info_out) *info_out = i;
   }
 
@@ -517,8 +505,16 @@ public:
     s.wrinkle = wrinkle_;
     const std::uint64_t noise_seed =
         derive_seed(seed_, 0xE5C10000ull + static_cast<std::uint64_t>(k));
+    render_scene(renderer, s, light_, noise_seed, out);
+  }
+
+private:
+  // A scene as this session's camera sees it: with config.randomise, the session's shading
+  // (on the shared renderer, restored even if rendering throws) and camera.
+  void render_scene(Renderer& renderer, const Scene& scene, const Light& light,
+                    std::uint64_t noise_seed, Frame& out) const {
     if (!config_.randomise) {
-      renderer.render(s, light_, noise_seed, out);
+      renderer.render(scene, light, noise_seed, out);
       return;
     }
     struct Restore {
@@ -527,11 +523,10 @@ public:
       ~Restore() { r.set_shading(c); }
     } restore{renderer, renderer.config()};
     renderer.set_shading(randomise_shading(restore.c, domain_));
-    renderer.render(s, light_, noise_seed, out);
+    renderer.render(scene, light, noise_seed, out);
     apply_camera(domain_, renderer.surface_mask(), noise_seed, out);
   }
 
-private:
   std::uint64_t seed_;
   User user_;
   GestureSessionConfig config_;
