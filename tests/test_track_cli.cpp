@@ -31,6 +31,10 @@
 
 #ifdef SHADOWSENSE_SS_TRACK
 
+// Its own namespace: the file is compiled in one translation unit with the other tests of
+// tests_runtime (tests/CMakeLists.txt), whose helpers have the same names.
+namespace track_cli_tests {
+
 using namespace shadowsense;
 namespace fs = std::filesystem;
 
@@ -524,6 +528,8 @@ TEST_CASE("ss_demo's events and ss_track's on the demo's frames and calibration 
   CHECK(events.find(",hug,ended,") != std::string::npos);
 }
 #endif
+
+} // namespace track_cli_tests
 
 #else
 // Reported as skipped (not passed): the program is not built.
