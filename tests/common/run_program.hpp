@@ -12,6 +12,8 @@
 //   ensures: runs "program args" through std::system (/bin/sh) with stdout and stderr sent to
 //     dir/stdout.txt and dir/stderr.txt (created or replaced; dir is created if missing), waits
 //     for it and returns the status and both files' contents.
+//   throws: std::runtime_error naming the program when it does not exist (not built yet: the
+//     tests do not make the build wait for the programs, tests/CMakeLists.txt).
 //
 // std::string shell_quote(const std::string& s)
 //   ensures: `s` as one /bin/sh word: in single quotes, each ' inside written as '\''.
@@ -27,6 +29,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <stdexcept>
 #include <string>
 
 #include "files.hpp"
@@ -46,6 +49,9 @@ inline std::string shell_quote(const std::string& s) {
 
 inline ProgramRun run_program(const std::string& program, const std::string& args,
                               const std::filesystem::path& dir) {
+  if (!std::filesystem::exists(program))
+    throw std::runtime_error("program not built: " + program +
+                             " (build it, e.g. cmake --build build, then run the test again)");
   std::filesystem::create_directories(dir);
   const std::filesystem::path out = dir / "stdout.txt", err = dir / "stderr.txt";
   const std::string cmd = shell_quote(program) + " " + args + " > " + shell_quote(out.string()) +
