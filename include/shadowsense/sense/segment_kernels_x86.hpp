@@ -8,8 +8,11 @@
 // relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
 //   rest with the portable loop.
 // reference_bins_avx2: 8 samples a step (a 32-bit gather per sample).
-// hsum_row_avx2<K>, vsum_row_avx2<K>: the portable loop bodies compiled for AVX2 (the compiler
-//   vectorises them 16 lanes of 16 bits a step).
+// hsum_row_avx2<K>, vsum_row_avx2<K>: 16 lanes of 16 bits a step, written with intrinsics (left
+//   to the compiler, they were vectorised at -O3 only: at GCC's -O2, what Debian and CMake's
+//   RelWithDebInfo build with, they ran scalar and the segmenter took 5x longer), the rest with
+//   the portable loop body. The sums cannot overflow 16 bits (at most 16 * 16 * 255), so the
+//   lane arithmetic is exact.
 // No state; callable from any thread.
 #pragma once
 
@@ -163,15 +166,57 @@ reference_bins_avx2(const std::uint8_t* frame, std::size_t step, const std::int3
   reference_bins_tail(frame, step, ys, xs, ib, ig, ir, i, n, bb, bg, br);
 }
 
+// sum_t wt[t] * v[t] with the weights 1 2 1 or 1 4 6 4 1 as shifts and adds.
+template <int K>
+__attribute__((target("avx2"))) inline __m256i weighted_sum_avx2(const __m256i* v) {
+  if constexpr (K == 3) {
+    return _mm256_add_epi16(_mm256_add_epi16(v[0], v[2]), _mm256_slli_epi16(v[1], 1));
+  } else {
+    const __m256i c = v[2];
+    return _mm256_add_epi16(_mm256_add_epi16(_mm256_add_epi16(v[0], v[4]),
+                                             _mm256_slli_epi16(_mm256_add_epi16(v[1], v[3]), 2)),
+                            _mm256_add_epi16(_mm256_slli_epi16(c, 2), _mm256_slli_epi16(c, 1)));
+  }
+}
+
 template <int K>
 __attribute__((target("avx2"))) inline void hsum_row_avx2(const std::uint8_t* pad, int w,
                                                           std::uint16_t* out) {
-  hsum_row_body<K>(pad, w, out);
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    __m256i v[K];
+    for (int t = 0; t < K; ++t)
+      v[t] = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(pad + x + t)));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + x), weighted_sum_avx2<K>(v));
+  }
+  if (x < w) hsum_row_body<K>(pad + x, w - x, out + x);
 }
 template <int K>
 __attribute__((target("avx2"))) inline bool vsum_row_avx2(const std::uint16_t* const* rows, int w,
                                                           std::uint8_t* mask, std::uint8_t* marks) {
-  return vsum_row_body<K>(rows, w, mask, marks);
+  const __m256i on = _mm256_set1_epi16(static_cast<short>(smoothing_on<K>));
+  const __m128i one = _mm_set1_epi8(1);
+  int any = 0;
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    __m256i r[K];
+    for (int t = 0; t < K; ++t)
+      r[t] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows[t] + x));
+    const __m256i v = weighted_sum_avx2<K>(r);
+    // v >= on, unsigned: 0xFFFF or 0 per lane, then one byte per lane (0xFF or 0).
+    const __m256i ge = _mm256_cmpeq_epi16(_mm256_max_epu16(v, on), v);
+    const __m128i bytes =
+        _mm_packs_epi16(_mm256_castsi256_si128(ge), _mm256_extracti128_si256(ge, 1));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(mask + x), bytes);
+    if (marks) _mm_storeu_si128(reinterpret_cast<__m128i*>(marks + x), _mm_and_si128(bytes, one));
+    any |= _mm_movemask_epi8(bytes);
+  }
+  if (x < w) {
+    std::array<const std::uint16_t*, K> rest{};
+    for (std::size_t t = 0; t < K; ++t) rest[t] = rows[t] + x;
+    if (vsum_row_body<K>(rest.data(), w - x, mask + x, marks ? marks + x : nullptr)) any = 1;
+  }
+  return any != 0;
 }
 
 } // namespace detail
