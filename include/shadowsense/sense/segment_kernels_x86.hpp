@@ -169,6 +169,9 @@ reference_bins_avx2(const std::uint8_t* frame, std::size_t step, const std::int3
 // sum_t wt[t] * v[t] with the weights 1 2 1 or 1 4 6 4 1 as shifts and adds.
 template <int K>
 __attribute__((target("avx2"))) inline __m256i weighted_sum_avx2(const __m256i* v) {
+  // The shifts below hard-code these weights; a change to them must change this function.
+  static_assert(smoothing_weights<3> == std::array<std::uint16_t, 5>{1, 2, 1, 0, 0});
+  static_assert(smoothing_weights<5> == std::array<std::uint16_t, 5>{1, 4, 6, 4, 1});
   if constexpr (K == 3) {
     return _mm256_add_epi16(_mm256_add_epi16(v[0], v[2]), _mm256_slli_epi16(v[1], 1));
   } else {
