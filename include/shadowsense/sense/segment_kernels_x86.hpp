@@ -188,6 +188,8 @@ __attribute__((target("avx2"))) inline void hsum_row_avx2(const std::uint8_t* pa
   int x = 0;
   for (; x + 16 <= w; x += 16) {
     __m256i v[K];
+    // Unrolled so v stays in registers at -O2 too (GCC unrolls this fully at -O3 only).
+#pragma GCC unroll 5
     for (int t = 0; t < K; ++t)
       v[t] = _mm256_cvtepu8_epi16(_mm_loadu_si128(reinterpret_cast<const __m128i*>(pad + x + t)));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + x), weighted_sum_avx2<K>(v));
@@ -203,6 +205,7 @@ __attribute__((target("avx2"))) inline bool vsum_row_avx2(const std::uint16_t* c
   int x = 0;
   for (; x + 16 <= w; x += 16) {
     __m256i r[K];
+#pragma GCC unroll 5
     for (int t = 0; t < K; ++t)
       r[t] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(rows[t] + x));
     const __m256i v = weighted_sum_avx2<K>(r);
