@@ -16,6 +16,9 @@
 // (Table 4: saw only that lighting), for daylight, dusk and night.
 // --calibration FILE: the empty-skin model that models with a calibrated input encoding
 // (docs/input_encodings.md) divide every frame by; such a model refuses to run without it.
+// --session-calibrations (with --score): instead, each frame's own session's calibration,
+// INPUT/empty_skin/<session>.calib (ss_gesture_data --empty-skin, tools/realhand/score.sh), as
+// tools/train.py reads them; a session without its file is an error naming the file.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
 // (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
@@ -51,7 +54,8 @@ const std::array<ss::sim::Lighting, 3> lightings{ss::sim::Lighting::daylight,
 
 struct Options {
   std::string data, backbone, backbone_dir, json, confusion_dir;
-  std::string calibration; // --calibration: the empty-skin model of calibrated encodings
+  std::string calibration;           // --calibration: the empty-skin model of calibrated encodings
+  bool session_calibrations = false; // --session-calibrations: INPUT/empty_skin/<session>.calib
   std::set<int> tables{1, 2, 3, 4};
   bool normalise = false;
   int threads = 1;
@@ -324,17 +328,44 @@ int run_score(const Options& o) {
   if (o.data.empty()) throw cli::UsageError("--score: needs --input DIR");
   const auto model = ss::ModelFile::load(o.score_model);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
-  const cv::Mat empty_skin = cli::empty_skin_for(model, o.score_model, o.calibration);
+  // Per session (--session-calibrations on a calibrated model): one encoder per session, made
+  // when its first frame comes; otherwise one encoder for every frame.
+  const bool per_session =
+      o.session_calibrations && ss::needs_calibration(model.preprocess.input_encoding);
+  auto session_skin = [&](const ss::GestureSample& f) {
+    if (f.session.find_first_of("/\\") != std::string::npos || f.session == "." ||
+        f.session == "..")
+      throw ss::DatasetError(f.path.string() + ": session '" + f.session +
+                             "' is not a file name, so it names no empty_skin/<session>.calib");
+    const fs::path cal = fs::path(o.data) / "empty_skin" / (f.session + ".calib");
+    if (!fs::is_regular_file(cal))
+      throw ss::DatasetError(cal.string() +
+                             ": missing; --session-calibrations needs the "
+                             "calibration of session '" +
+                             f.session + "' (ss_gesture_data --empty-skin writes it)");
+    return cli::empty_skin_for(model, o.score_model, cal.string());
+  };
+  std::map<std::string, ss::FrameEncoder> encoders;
+  auto encoder_for = [&](const ss::GestureSample& f) -> ss::FrameEncoder& {
+    const std::string key = per_session ? f.session : std::string();
+    auto it = encoders.find(key);
+    if (it != encoders.end()) return it->second;
+    const cv::Mat skin =
+        per_session ? session_skin(f) : cli::empty_skin_for(model, o.score_model, o.calibration);
+    return encoders.try_emplace(key, model.preprocess, o.normalise, skin).first->second;
+  };
+  // The classifier runs on the encoders' tensors; its own encoder (which needs an empty-skin
+  // model to exist) gets the first frame's.
+  ss::FrameEncoder& first = encoder_for(set.frames.front());
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,
-                                          empty_skin);
-  ss::FrameEncoder enc(model.preprocess, o.normalise, empty_skin);
+                                          first.config().empty_skin);
   const std::size_t k = set.class_names.size();
   std::map<std::string, Confusion> conf;
   ss::Tensor t;
   for (const auto& f : set.frames) {
     ss::Classification c;
     try {
-      enc.run(ss::read_colour_image(f.path), ss::is_dark(f), t);
+      encoder_for(f).run(ss::read_colour_image(f.path), ss::is_dark(f), t);
       c = clf.classify(t);
     } catch (const ss::IoError&) {
       throw;
@@ -403,6 +434,10 @@ Options parse_options(int argc, char** argv) {
            "the robot's calibration (ss_calibrate): its empty-skin model, needed by models "
            "with a calibrated input encoding (docs/input_encodings.md)",
            o.calibration);
+  p.flag("--session-calibrations",
+         "with --score: each frame's session's own calibration, INPUT/empty_skin/<session>.calib "
+         "(ss_gesture_data --empty-skin), instead of one --calibration",
+         o.session_calibrations);
   p.option("--json", "OUT.json", "write the results as JSON", o.json);
   p.option("--confusion-dir", "DIR", "write confusion matrices as PNG images", o.confusion_dir);
   p.option("--threads", "N", "worker threads", o.threads).range(1, 256);
@@ -423,6 +458,10 @@ Options parse_options(int argc, char** argv) {
   p.flag("--head-balanced", "heads: class-balanced batches", o.head.balanced_batches);
   p.parse(argc, argv);
   o.tables = std::set<int>(tables.begin(), tables.end());
+  if (o.session_calibrations && o.score_model.empty())
+    throw cli::UsageError("--session-calibrations: only with --score MODEL");
+  if (o.session_calibrations && !o.calibration.empty())
+    throw cli::UsageError("--session-calibrations and --calibration: give one of them");
   if (o.speed_models.empty() && o.score_model.empty()) {
     if (o.data.empty())
       throw cli::UsageError("--input is required (or --score / --speed; see --help)");

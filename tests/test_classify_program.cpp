@@ -1,6 +1,7 @@
 // ss_classify end to end: a folder and a video of the same frames give the same lines, --truth
 // counts what the per-frame lines say, JSON/CSV stay valid for awkward paths, and every bad
-// argument is an error on stderr with exit status 2.
+// argument is an error on stderr with exit status 2. ss_eval_classify --score with per-session
+// calibrations against one calibration at a time.
 #include <shadowsense/backends/densenet/model_file.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/sense/calibration_file.hpp>
@@ -23,6 +24,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #ifdef SS_CLASSIFY_PROGRAM
@@ -303,6 +305,110 @@ TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignore
   CHECK(plain_cal.status == 0);
   CHECK(plain_cal.out == plain.out);
   CHECK(plain.out != with.out); // the encoding changes what the network sees
+}
+
+// The confusion matrix of one key ("daylight", "all", ...) in ss_eval_classify --score's JSON, as
+// its text ("[[1,0],[0,2]]"); empty when the key is missing.
+static std::string confusion_of(const std::string& json, const std::string& key) {
+  const std::size_t c = json.find("\"confusion\"");
+  if (c == std::string::npos) return {};
+  const std::size_t k = json.find("\"" + key + "\"", c);
+  if (k == std::string::npos) return {};
+  const std::size_t open = json.find('[', k);
+  int depth = 0;
+  std::string out;
+  for (std::size_t i = open; i < json.size(); ++i) {
+    const char ch = json[i];
+    if (ch == ' ' || ch == '\n') continue;
+    out += ch;
+    depth += ch == '[' ? 1 : ch == ']' ? -1 : 0;
+    if (depth == 0) break;
+  }
+  return out;
+}
+
+TEST_CASE("ss_eval_classify --score --session-calibrations: each session's own empty-skin model") {
+  namespace ss = shadowsense;
+  const fs::path dir = tests::fresh_dir("eval_session_calibrations");
+  const fs::path data = dir / "data";
+  // The committed tiny model recording skin_relative, two sessions (one per lighting, so the
+  // per-lighting confusions are per session) whose calibrations differ.
+  ss::ModelFile m = ss::ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  m.preprocess.input_encoding = ss::InputEncoding::skin_relative;
+  const std::string model = (dir / "skin.ssm").string();
+  m.save(model);
+  const ss::SegmenterCalibration base =
+      ss::load_calibration(SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib");
+  ss::SegmenterCalibration dark = base;
+  dark.empty_skin = base.empty_skin.clone();
+  for (int y = 0; y < dark.empty_skin.rows; ++y) // a different model, still skin everywhere
+    for (int x = 0; x < dark.empty_skin.cols; ++x)
+      dark.empty_skin.at<cv::Vec3f>(y, x) *= (x * 4 < dark.empty_skin.cols * 3) ? 0.6f : 1.4f;
+  fs::create_directories(data / "empty_skin");
+  ss::save_calibration(base, (data / "empty_skin" / "sa.calib").string());
+  ss::save_calibration(dark, (data / "empty_skin" / "sb.calib").string());
+  std::string csv = "file_name,class,user,lighting,lighting_level,session,frame_index,"
+                    "timestamp_ms,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,"
+                    "contact_w,contact_h,contact_cx,contact_cy,px_per_cm\n";
+  const std::size_t n_classes = m.class_names.size();
+  for (const auto& [session, lighting, level] :
+       {std::tuple{"sa", "daylight", "1"}, std::tuple{"sb", "dusk", "0.5"}})
+    for (int i = 0; i < 12; ++i) {
+      const std::string cls = m.class_names[static_cast<std::size_t>(i) % n_classes];
+      fs::create_directories(data / cls);
+      const std::string file = cls + "/" + session + "_" + std::to_string(i) + ".png";
+      REQUIRE(cv::imwrite((data / file).string(), frame(i % 7)));
+      csv += file + "," + cls + ",1," + lighting + "," + level + "," + session + "," +
+             std::to_string(i) + "," + std::to_string(100 * i) + ",,,,,,,,,,,7.6\n";
+    }
+  {
+    std::FILE* f = std::fopen((data / "metadata.csv").string().c_str(), "wb");
+    REQUIRE(f != nullptr);
+    REQUIRE(std::fwrite(csv.data(), 1, csv.size(), f) == csv.size());
+    std::fclose(f);
+  }
+  auto score = [&](const std::string& extra, const std::string& json) {
+    return tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,
+                              "--score " + shell_quote(model) + " --input " +
+                                  shell_quote(data.string()) + " --quiet --json " +
+                                  shell_quote((dir / json).string()) + " " + extra,
+                              dir / "run");
+  };
+  const auto per_session = score("--session-calibrations", "per_session.json");
+  REQUIRE(per_session.status == 0);
+  const auto with_a =
+      score("--calibration " + shell_quote((data / "empty_skin/sa.calib").string()), "a.json");
+  const auto with_b =
+      score("--calibration " + shell_quote((data / "empty_skin/sb.calib").string()), "b.json");
+  REQUIRE(with_a.status == 0);
+  REQUIRE(with_b.status == 0);
+  const std::string js = tests::read_file(dir / "per_session.json");
+  const std::string ja = tests::read_file(dir / "a.json");
+  const std::string jb = tests::read_file(dir / "b.json");
+  // The two calibrations change what the model says on the dusk session (else the comparison
+  // below could not tell them apart) ...
+  REQUIRE(!confusion_of(ja, "dusk").empty());
+  REQUIRE(confusion_of(ja, "dusk") != confusion_of(jb, "dusk"));
+  // ... and each session is scored with its own.
+  CHECK(confusion_of(js, "daylight") == confusion_of(ja, "daylight"));
+  CHECK(confusion_of(js, "dusk") == confusion_of(jb, "dusk"));
+
+  // A session without its file, both ways of calibrating at once, and the flag without --score.
+  fs::remove(data / "empty_skin" / "sb.calib");
+  const auto missing = score("--session-calibrations", "missing.json");
+  CHECK(missing.status == 2);
+  CHECK(missing.err.find((data / "empty_skin" / "sb.calib").string() + ": missing") !=
+        std::string::npos);
+  const auto both = score("--session-calibrations --calibration " +
+                              shell_quote((data / "empty_skin/sa.calib").string()),
+                          "both.json");
+  CHECK(both.status == 2);
+  CHECK(both.err.find("give one of them") != std::string::npos);
+  const auto no_score = tests::run_program(
+      SS_EVAL_CLASSIFY_PROGRAM, "--input " + shell_quote(data.string()) + " --session-calibrations",
+      dir / "run");
+  CHECK(no_score.status == 2);
+  CHECK(no_score.err.find("--session-calibrations: only with --score MODEL") != std::string::npos);
 }
 
 #else
