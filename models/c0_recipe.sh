@@ -4,13 +4,16 @@
 # 100-111 and 124-135 with domain randomisation and 112-123 without, 12 frames per gesture, merged
 # into one dataset folder (hard links, one metadata.csv), then the compact DenseNet trained on it.
 # DATA_FLAGS: more ss_gesture_data options for all three sessions (one word-split string, e.g.
-# "--scale-range 0.6,2"; empty for C0 itself).
-#   sh models/c0_recipe.sh BUILD_DIR WORK_DIR OUT [DATA_FLAGS]
+# "--scale-range 0.6,2"; empty for C0 itself). TRAIN_FLAGS: more tools/train.py options (e.g.
+# "--input-encoding skin_relative"; empty for C0-C2). The sessions' empty_skin/ folders
+# (ss_gesture_data --empty-skin) are merged too when they exist.
+#   sh models/c0_recipe.sh BUILD_DIR WORK_DIR OUT [DATA_FLAGS [TRAIN_FLAGS]]
 set -e
 BUILD=$1
 WORK=$2
 OUT=$3
 DATA_FLAGS=$4
+TRAIN_FLAGS=${5:-}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 "$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users 12 \
   --first-user 100 --frames 12 --seed 2 --randomise $DATA_FLAGS
@@ -25,6 +28,11 @@ for c in nothing hug palm point punch two_hands; do
   ln "$WORK/randomised/$c/"*.png "$WORK/randomised2/$c/"*.png "$WORK/plain/$c/"*.png \
     "$WORK/mixed/$c/"
 done
+if [ -d "$WORK/plain/empty_skin" ]; then
+  mkdir "$WORK/mixed/empty_skin"
+  ln "$WORK/randomised/empty_skin/"* "$WORK/randomised2/empty_skin/"* "$WORK/plain/empty_skin/"* \
+    "$WORK/mixed/empty_skin/"
+fi
 {
   cat "$WORK/randomised/metadata.csv"
   tail -n +2 "$WORK/randomised2/metadata.csv"
@@ -33,4 +41,4 @@ done
 /usr/bin/python3 "$SRC/tools/train.py" "$WORK/mixed" -o "$OUT" \
   --mode scratch --growth-rate 12 --block-config 4 4 4 --init-features 24 \
   --resize 160 88 --crop 0 0 --lighting-normalise --augment --augment-geometry --seed 0 \
-  --threads 1 --classes nothing,hug,palm,point,punch,two_hands
+  --threads 1 --classes nothing,hug,palm,point,punch,two_hands $TRAIN_FLAGS

@@ -1,6 +1,8 @@
 #!/usr/bin/python3
 """Scores gesture models on the generator hold-outs g and hold at every pre-registered scale
-(models/make_scaled_holdouts.sh) with ss_eval_classify --score --lighting-normalise, and prints
+(models/make_scaled_holdouts.sh) with ss_eval_classify --score --lighting-normalise
+--session-calibrations (each session's own empty-skin model for a calibrated input encoding; a
+colour model does not read them), and prints
 per set accuracy and per-class recall, and over all sets pooled the minimum and mean per-class
 recall: the selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
 handdata: the highest pooled minimum recall wins; ties within one frame go to the higher mean).
@@ -29,7 +31,7 @@ for arg in sys.argv[1:]:
         out = f"{CACHE}/{name}_{s}.json"
         if not os.path.exists(out):
             subprocess.run([BIN, "--score", model, "--data", data, "--lighting-normalise",
-                            "--quiet", "--json", out], check=True, stdout=subprocess.DEVNULL)
+                            "--session-calibrations", "--quiet", "--json", out], check=True, stdout=subprocess.DEVNULL)
         j = json.load(open(out))
         c = j["confusion"]["all"]
         rec = [c[i][i] / sum(c[i]) for i in range(6)]

@@ -20,7 +20,9 @@ Usage:
   --hands (alias --silhouettes): any folder of 1-bit silhouettes with a manifest.csv
   (tools/handsets writes them); --split keeps the rows of one split (e.g. heldout); --scale
   makes every body S times larger on the same rig (a robot whose camera sits closer).
-  WHAT: gestures, tracking or slides (default: all three).
+  WHAT: gestures, tracking or slides (default: all three), or empty_skin: three frames of each
+  gesture session's empty skin in gestures/empty_skin/ (for calibrated input encodings; the
+  gesture frames do not change).
 Exit 0 on success; 2 on bad arguments or unreadable silhouettes (message on stderr).
 This is a VALIDATION set: never train or tune on it.
 """
@@ -533,6 +535,32 @@ def render_gestures(out, seed, sils, users, per_user, workers=1):
     return len(lines) - 1
 
 
+def _empty_skin_session(task):
+    """Three frames of a gesture session's empty skin: the session's fabric (the same draw as
+    _gesture_session's), a light drawn per frame as the gesture frames' are, from a stream of
+    its own (the gesture frames are unchanged), no body."""
+    u, lighting = task
+    out, seed, rig = (_CTX[k] for k in ("out", "seed", "robot"))
+    session = f"u{u}_{lighting}"
+    alb, tint = fabric(rig, rng_for(seed, "session", u, lighting))
+    for k in range(3):
+        rng = rng_for(seed, "empty_skin", u, lighting, k)
+        light = light_preset(lighting, LEVEL[lighting], rng)
+        _, occ_vis, con = compose(rig, [], light, rng)
+        img = finish(rig, occ_vis, con, light, SKIN[0], rng, alb, tint)
+        write_png(os.path.join(out, "gestures", "empty_skin", f"{session}_{k}.png"), img)
+    return session
+
+
+def render_empty_skin(out, seed, users, workers=1):
+    """OUT/gestures/empty_skin/<session>_<k>.png (k = 0..2) for every session render_gestures
+    writes (the layout of ss_gesture_data --empty-skin, docs/dataset_format.md, without the
+    .calib files: tools/realhand/score.sh makes those with ss_calibrate --empty)."""
+    _CTX.update(out=out, seed=seed, robot=Rig(**ROBOT))
+    tasks = [(u, lg) for u in range(users) for lg in ("daylight", "dusk", "night")]
+    return len(_map(_empty_skin_session, tasks, workers))
+
+
 def track_parts(rig, user, cat, rng, centre=None, angle=None):
     ang = rng.uniform(-35, 35) if angle is None else angle
     a = math.radians(ang)
@@ -671,7 +699,9 @@ def main(argv):
     ap.add_argument("--hover-range", default="2.5,15", metavar="LO,HI",
                     help="height of hovering hands above the skin in tracking frames, cm "
                          "(default 2.5,15)")
-    ap.add_argument("--only", choices=["gestures", "tracking", "slides"])
+    ap.add_argument("--only", choices=["gestures", "tracking", "slides", "empty_skin"],
+                    help="render one part; empty_skin (never part of the default): three "
+                         "empty-skin frames per gesture session, gestures/empty_skin/")
     ap.add_argument("--workers", type=int, default=1,
                     help="worker processes; the files are identical for any value")
     ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
@@ -705,6 +735,9 @@ def main(argv):
             n = render_tracking(a.out, a.seed, sils, a.tracking_contact, a.tracking_empty,
                                 a.tracking_hover, workers=a.workers)
             print(f"tracking: {n} frames")
+        if a.only == "empty_skin":
+            n = render_empty_skin(a.out, a.seed, a.users, a.workers)
+            print(f"empty_skin: {n} sessions, 3 frames each")
         if a.only in (None, "slides"):
             q, n = render_slides(a.out, a.seed, sils, a.slides, a.workers)
             print(f"slides: {q} sequences, {n} frames")

@@ -54,12 +54,35 @@ if [ ! -f "$out/gestures/metadata.csv" ]; then
     --only gestures --workers 1 >/dev/null || die "rendering $source at scale $scale failed"
   mv "$out.tmp" "$out" || die "cannot move '$out.tmp' to '$out'"
 fi
+# Each gesture session's empty skin and its calibration (docs/validation_protocol.md, "Issue 21,
+# encodings"): what a calibrated input encoding (skin_relative) divides by, made as a user makes
+# it, with ss_calibrate --empty on the session's three empty-skin frames. A colour model does
+# not read them (ss_eval_classify --session-calibrations ignores them), so its scores are those
+# of the fixed recipe.
+skin="$out/gestures/empty_skin"
+if [ ! -f "$skin/complete" ]; then
+  [ -x "$bin/ss_calibrate" ] || die "'$bin/ss_calibrate' not found (build the target)"
+  rm -rf "$skin"
+  /usr/bin/python3 "$root/tools/realhand/render.py" --out "$out" --hands "$hands" \
+    ${split:+--split "$split"} --scale "$scale" --seed 21 --users 4 --only empty_skin \
+    --workers 1 >/dev/null || die "rendering the empty skin of $source at scale $scale failed"
+  for first in "$skin"/*_0.png; do
+    session=$(basename "$first" _0.png)
+    frames="$skin/$session.frames"
+    mkdir -p "$frames" && ln -f "$skin/${session}"_[0-2].png "$frames/" ||
+      die "cannot gather the empty-skin frames of session $session"
+    "$bin/ss_calibrate" --empty "$frames" --out "$skin/$session.calib" >/dev/null 2>"$frames.log" ||
+      die "ss_calibrate failed on session $session (see $frames.log)"
+    rm -rf "$frames" "$frames.log"
+  done
+  : >"$skin/complete" || die "cannot write '$skin/complete'"
+fi
 [ $render_only = 1 ] && { echo "rendered: $out"; exit 0; }
 [ -x "$bin/ss_eval_classify" ] || die "'$bin/ss_eval_classify' not found (build the target)"
 tmp=$(mktemp) || die "mktemp failed"
 trap 'rm -f "$tmp"' EXIT
 "$bin/ss_eval_classify" --score "$model" --data "$out/gestures" --lighting-normalise --quiet \
-  --json "$tmp" >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
+  --session-calibrations --json "$tmp" >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
 if [ -n "$json" ]; then
   { cp "$tmp" "$json.tmp" && mv "$json.tmp" "$json"; } || die "cannot write '$json'"
 fi
