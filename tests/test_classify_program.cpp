@@ -393,6 +393,22 @@ TEST_CASE("ss_eval_classify --score --session-calibrations: each session's own e
   CHECK(confusion_of(js, "daylight") == confusion_of(ja, "daylight"));
   CHECK(confusion_of(js, "dusk") == confusion_of(jb, "dusk"));
 
+  // --speed times a calibrated model with --calibration (its encoding included), and names the
+  // model and the option without one.
+  const auto speed =
+      tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,
+                         "--speed " + shell_quote(model) + " --calibration " +
+                             shell_quote((data / "empty_skin/sa.calib").string()) + " --quiet",
+                         dir / "run");
+  CHECK(speed.status == 0);
+  CHECK(speed.out.find("skin.ssm") != std::string::npos);
+  const auto speed_without =
+      tests::run_program(SS_EVAL_CLASSIFY_PROGRAM, "--speed " + shell_quote(model), dir / "run");
+  CHECK(speed_without.status == 2);
+  CHECK(
+      speed_without.err.find("model " + model + " was trained with input encoding skin_relative") !=
+      std::string::npos);
+
   // A session without its file, both ways of calibrating at once, and the flag without --score.
   fs::remove(data / "empty_skin" / "sb.calib");
   const auto missing = score("--session-calibrations", "missing.json");
