@@ -288,7 +288,93 @@ inline void winograd4_at(float x0, float x1, float x2, float x3, float x4, float
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, )
 #if SHADOWSENSE_X86_KERNELS
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx512_loops, __attribute__((target("avx512f"))))
-SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx2, __attribute__((target("avx2,fma"))))
+SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx2_loops, __attribute__((target("avx2,fma"))))
+
+// F(4x4)'s y = B^T x on six vectors of 8 tiles (winograd4_bt_avx512 at AVX2's width).
+__attribute__((target("avx2,fma"))) inline void winograd4_bt_avx2(const __m256 (&x)[6],
+                                                                  __m256 (&y)[6]) {
+  const __m256 four = _mm256_set1_ps(4.0f), five = _mm256_set1_ps(5.0f);
+  const __m256 a = _mm256_fnmadd_ps(four, x[2], x[4]); // x4 - 4 x2
+  const __m256 b = _mm256_fnmadd_ps(four, x[1], x[3]); // x3 - 4 x1
+  const __m256 c = _mm256_sub_ps(x[4], x[2]);
+  const __m256 e = _mm256_add_ps(_mm256_sub_ps(x[3], x[1]), _mm256_sub_ps(x[3], x[1]));
+  y[0] = _mm256_fmadd_ps(four, x[0], _mm256_fnmadd_ps(five, x[2], x[4]));
+  y[1] = _mm256_add_ps(a, b);
+  y[2] = _mm256_sub_ps(a, b);
+  y[3] = _mm256_add_ps(c, e);
+  y[4] = _mm256_sub_ps(c, e);
+  y[5] = _mm256_fmadd_ps(four, x[1], _mm256_fnmadd_ps(five, x[3], x[5]));
+}
+
+// One step of F(4x4)'s input transform on AVX2, up to 8 tiles, as winograd4_step_avx512: B^T
+// down the six patch rows on whole vectors of consecutive columns into t, then per transformed
+// row the columns 4j + k of the tiles by a transpose (each 128-bit lane holds one tile's four
+// columns: two lane permutes put tiles j and j + 4 in one register, then the 4 x 4 transpose
+// within lanes) and a one-tile shift for k = 4, 5, and B across them. Only the nv <= 5 column
+// vectors the step's tiles read are transformed; t (32-byte aligned) keeps the caller's values
+// beyond nv. Masked: only the lanes of `out` are stored.
+template <bool Masked>
+__attribute__((target("avx2,fma"))) inline void
+winograd4_step_avx2(const float* __restrict s, int pw, int nv, __m256i out, float* __restrict d,
+                    std::size_t xs, float (&t)[6][40]) {
+  for (int v = 0; v < nv; ++v) {
+    __m256 x[6], y[6];
+    for (int k = 0; k < 6; ++k)
+      x[k] = _mm256_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 8 * v);
+    winograd4_bt_avx2(x, y);
+    for (int p = 0; p < 6; ++p) _mm256_store_ps(t[p] + 8 * v, y[p]);
+  }
+  const __m256i next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0); // lane j <- lane j + 1
+  for (int p = 0; p < 6; ++p) {
+    const float* r = t[p];
+    const __m256 a = _mm256_load_ps(r), b = _mm256_load_ps(r + 8);       // tiles 0 | 1, 2 | 3
+    const __m256 c = _mm256_load_ps(r + 16), e = _mm256_load_ps(r + 24); // 4 | 5, 6 | 7
+    const __m256 v0 = _mm256_permute2f128_ps(a, c, 0x20), v1 = _mm256_permute2f128_ps(a, c, 0x31);
+    const __m256 v2 = _mm256_permute2f128_ps(b, e, 0x20), v3 = _mm256_permute2f128_ps(b, e, 0x31);
+    const __m256 t0 = _mm256_unpacklo_ps(v0, v1), t1 = _mm256_unpackhi_ps(v0, v1);
+    const __m256 t2 = _mm256_unpacklo_ps(v2, v3), t3 = _mm256_unpackhi_ps(v2, v3);
+    __m256 x[6], y[6];
+    x[0] = _mm256_shuffle_ps(t0, t2, 0x44); // column 4j of tiles 0-3 | 4-7
+    x[1] = _mm256_shuffle_ps(t0, t2, 0xEE);
+    x[2] = _mm256_shuffle_ps(t1, t3, 0x44);
+    x[3] = _mm256_shuffle_ps(t1, t3, 0xEE);
+    // x4, x5: x0, x1 one tile on, r[32] and r[33] entering at the top
+    x[4] = _mm256_blend_ps(_mm256_permutevar8x32_ps(x[0], next), _mm256_set1_ps(r[32]), 0x80);
+    x[5] = _mm256_blend_ps(_mm256_permutevar8x32_ps(x[1], next), _mm256_set1_ps(r[33]), 0x80);
+    winograd4_bt_avx2(x, y);
+    for (int q = 0; q < 6; ++q) {
+      float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
+      if constexpr (Masked)
+        _mm256_maskstore_ps(dst, out, y[q]);
+      else
+        _mm256_storeu_ps(dst, y[q]);
+    }
+  }
+}
+
+// F(4x4)'s input transform with AVX2 intrinsics, 8 tiles per step (winograd_input4_avx512 at
+// half the width; the compiler's version of the loops, winograd_input4_avx2_loops, was a
+// quarter of the shipped model's forward pass). A step of fewer tiles computes garbage lanes
+// from the floats beyond its patches (within winograd_read_slack) and stores whole vectors where
+// the row has room; only a step at the end of a row masks its stores.
+__attribute__((target("avx2,fma"))) inline void
+winograd_input4_avx2(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
+                     int room, float* __restrict d, std::size_t dc, std::size_t xs) {
+  alignas(32) float t[6][40] = {}; // beyond a step's vectors: zeros or an earlier step's values
+  for (int j = 0; j < run; j += 8) {
+    const int nv = (4 * std::min(8, run - j) + 2 + 7) / 8; // column vectors the tiles read
+    if (room - j >= 8)
+      for (int ch = 0; ch < channels; ++ch)
+        winograd4_step_avx2<false>(s + ch * plane + 4 * j, pw, nv, _mm256_setzero_si256(),
+                                   d + ch * dc + j, xs, t);
+    else {
+      const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+      const __m256i out = _mm256_cmpgt_epi32(_mm256_set1_epi32(run - j), lane);
+      for (int ch = 0; ch < channels; ++ch)
+        winograd4_step_avx2<true>(s + ch * plane + 4 * j, pw, nv, out, d + ch * dc + j, xs, t);
+    }
+  }
+}
 
 // 16 tiles of one patch row k: t[q] = (row k of the patches) B, q = 0..3, from the 34 floats
 // at r.
@@ -457,8 +543,9 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_output4_avx512_loops,
             &winograd_interleave4_avx512_loops};
   if (kind == GemmKernelKind::avx2)
-    return {&winograd_input_avx2,  &winograd_output_avx2,  &winograd_interleave_avx2,
-            &winograd_input4_avx2, &winograd_output4_avx2, &winograd_interleave4_avx2};
+    return {&winograd_input_avx2_loops,      &winograd_output_avx2_loops,
+            &winograd_interleave_avx2_loops, &winograd_input4_avx2,
+            &winograd_output4_avx2_loops,    &winograd_interleave4_avx2_loops};
 #endif
   (void)kind; // NEON is aarch64's baseline: the portable loops compile to it
   return {&winograd_input_portable,  &winograd_output_portable,  &winograd_interleave_portable,
