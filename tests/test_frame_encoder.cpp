@@ -108,35 +108,43 @@ TEST_CASE("bad frames and parameters are rejected with the field named") {
   CHECK_THROWS_WITH_AS(enc.run(f, t), doctest::Contains("expected 0..1"), InvalidArgument);
 }
 
-TEST_CASE("LightingNormaliser's integer sum: every v / 255 is a whole number of its units") {
-  // table() sums the channel values as integers of 2^-unit_exponent; exact only if each float
-  // v / 255 is such a multiple (below 1, so 2^unit_exponent units at most).
-  for (int v = 0; v < 256; ++v) {
-    CAPTURE(v);
-    const double units =
-        std::ldexp(double(static_cast<float>(v) / 255.0f), LightingNormaliser::unit_exponent);
-    CHECK(units == std::floor(units));
-    CHECK(units <= std::ldexp(1.0, LightingNormaliser::unit_exponent));
+TEST_CASE("LightingNormaliser::channel_sums: exact per-channel sums of 8-bit images") {
+  // Against cv::sum (integer sums for 8-bit images): odd widths (a tail after the 16-pixel
+  // steps), an ROI whose rows are not contiguous, rows of more than 256 steps of saturated
+  // values (a 16-bit lane would overflow without its flush), and a tiny image.
+  cv::Mat big(3, 5000, CV_8UC3, cv::Scalar(255, 254, 253));
+  cv::Mat noise(37, 101, CV_8UC3);
+  cv::theRNG().state = 11;
+  cv::randu(noise, cv::Scalar::all(0), cv::Scalar::all(256));
+  const cv::Mat roi = noise(cv::Rect(3, 2, 61, 30));
+  REQUIRE_FALSE(roi.isContinuous());
+  for (const cv::Mat& m : {big, noise, roi, cv::Mat(1, 1, CV_8UC3, cv::Scalar(1, 2, 3))}) {
+    const auto got = LightingNormaliser::channel_sums(m);
+    const cv::Scalar want = cv::sum(m);
+    for (std::size_t c = 0; c < 3; ++c) CHECK(double(got[c]) == want[int(c)]);
   }
+  CHECK(LightingNormaliser::channel_sums(big)[0] == 255ull * 3 * 5000);
 }
 
 TEST_CASE("8-bit frames: the table path (normalise while resizing) equals the float path bit for "
           "bit") {
-  // The float path, written out: ToTensor, per-channel means summed row by row in double,
-  // gain, clamp; then the Preprocessor's float-image path (resize, crop, contrast, Normalize).
+  // The float path, written out: ToTensor, per-channel means (the exact mean of v / 255: the
+  // integer sum over 255 n), gain, clamp; then the Preprocessor's float-image path (resize,
+  // crop, contrast, Normalize).
   auto reference_normalise = [](const cv::Mat& bgr, float target) {
     cv::Mat out(bgr.rows, bgr.cols, CV_32FC3);
-    double sum[3] = {0, 0, 0};
+    std::uint64_t sum[3] = {0, 0, 0};
     for (int y = 0; y < bgr.rows; ++y)
       for (int x = 0; x < bgr.cols; ++x)
         for (int c = 0; c < 3; ++c) {
-          const float v = static_cast<float>(bgr.ptr<unsigned char>(y)[3 * x + c]) / 255.0f;
-          out.ptr<float>(y)[3 * x + c] = v;
+          const unsigned char v = bgr.ptr<unsigned char>(y)[3 * x + c];
+          out.ptr<float>(y)[3 * x + c] = static_cast<float>(v) / 255.0f;
           sum[c] += v;
         }
     const double n = double(bgr.rows) * bgr.cols;
     for (int c = 0; c < 3; ++c) {
-      const float gain = target / std::max(static_cast<float>(sum[c] / n), 1e-3f);
+      const double mean = double(sum[c]) / (255.0 * n);
+      const float gain = target / std::max(static_cast<float>(mean), 1e-3f);
       for (int y = 0; y < bgr.rows; ++y)
         for (int x = 0; x < bgr.cols; ++x) {
           float& v = out.ptr<float>(y)[3 * x + c];

@@ -9,8 +9,10 @@
 //
 // run(image, out): image CV_8UC3 (0..255) or CV_32FC3 (0..1) -> out CV_32FC3 in [0, 1], same
 //   channel order; throws InvalidArgument on a bad image.
+// For a CV_8UC3 image the channel means are exact: the integer sums of the values over 255 n.
 // table(image, out): for a CV_8UC3 image (not checked), out[c][v] is the value run() writes
 //   for value v of channel c, bit for bit (FrameEncoder applies it while resizing).
+// channel_sums(image): the exact per-channel sums of a CV_8UC3 image (not checked).
 // No state beyond the config: const, callable from any thread.
 #pragma once
 
@@ -42,50 +44,45 @@ struct LightingNormaliser {
   }
   const Config& config() const { return config_; }
 
-  // Per-channel table of an 8-bit image's normalisation: table[c][v] is what run() writes for
-  // value v of channel c (the same float arithmetic, so the same bits). The channel means come
-  // from sums in integer units of 2^-unit_exponent: the sum of the float values x / 255 is
-  // exact in double for images up to 2^21 pixels in any order, so it equals run()'s row-by-row
-  // sum bit for bit (larger images are summed row by row, as run() does).
+  // Per-channel table of an 8-bit image: table[c][v] is what run() writes for value v of
+  // channel c. The channel means are the exact integer sums of the 8-bit values divided once by
+  // 255 n in double: the exact mean of the ToTensor values v / 255, rounded once. (PyTorch's float
+  // mean differs from it by float rounding, as did this function's earlier exact sum of the
+  // float values v / 255: by at most one float step of the mean.)
   // requires: image CV_8UC3 (checked by the callers: run() and FrameEncoder).
   using Table = std::array<std::array<float, 256>, 3>;
-  static constexpr int unit_exponent = 31; // v / 255 (float, v = 1..255) is a multiple of 2^-31
   void table(const cv::Mat& image, Table& out) const {
-    double sum[3] = {0, 0, 0};
-    if (double(image.rows) * image.cols <= double(1 << 21)) {
-      // Each float v / 255 is a multiple of 2^-31 below 1, so the sum is an integer count of
-      // 2^-31 units: summed per pixel from a table in 64 bits, exact (under 2^52), then
-      // converted exactly. (A histogram was slower: a flat region's repeated value makes each
-      // count wait on its own previous store.)
-      std::array<std::uint64_t, 256> units;
-      for (std::size_t v = 0; v < 256; ++v)
-        units[v] = static_cast<std::uint64_t>(
-            std::ldexp(double(static_cast<float>(v) / 255.0f), unit_exponent));
-      std::uint64_t total[3] = {0, 0, 0};
-      for (int y = 0; y < image.rows; ++y) {
-        const auto* s = image.ptr<unsigned char>(y);
-        for (int x = 0; x < image.cols; ++x, s += 3) {
-          total[0] += units[s[0]];
-          total[1] += units[s[1]];
-          total[2] += units[s[2]];
-        }
-      }
-      for (int c = 0; c < 3; ++c) sum[c] = std::ldexp(double(total[c]), -unit_exponent);
-    } else {
-      for (int y = 0; y < image.rows; ++y) {
-        const auto* s = image.ptr<unsigned char>(y);
-        for (int x = 0; x < image.cols; ++x)
-          for (int c = 0; c < 3; ++c) sum[c] += static_cast<float>(s[3 * x + c]) / 255.0f;
-      }
-    }
+    const std::array<std::uint64_t, 3> total = channel_sums(image);
     const double n = double(image.rows) * image.cols;
     for (int c = 0; c < 3; ++c) {
-      const float gain =
-          config_.target / std::max(static_cast<float>(sum[c] / n), config_.min_mean);
+      const double mean = double(total[static_cast<std::size_t>(c)]) / (255.0 * n);
+      const float gain = config_.target / std::max(static_cast<float>(mean), config_.min_mean);
       for (int v = 0; v < 256; ++v)
         out[static_cast<std::size_t>(c)][static_cast<std::size_t>(v)] =
             std::clamp((static_cast<float>(v) / 255.0f) * gain, 0.0f, 1.0f);
     }
+  }
+
+  // The sum of each channel's 8-bit values over a CV_8UC3 image (not checked), exact. Each row
+  // is summed on 48 16-bit lanes (16 pixels, 3 whole vectors a step; the compiler vectorises
+  // the lanes), flushed to 64 bits every 256 steps, before a lane can overflow (256 x 255 <
+  // 2^16). A table lookup per value, as before, was 5x slower.
+  static std::array<std::uint64_t, 3> channel_sums(const cv::Mat& image) {
+    constexpr int lanes = 48, steps = 256;
+    std::array<std::uint64_t, 3> total{0, 0, 0};
+    for (int y = 0; y < image.rows; ++y) {
+      const unsigned char* s = image.ptr<unsigned char>(y);
+      const int n = image.cols * 3;
+      int i = 0;
+      while (n - i >= lanes) {
+        std::uint16_t lane[lanes] = {};
+        for (int step = 0; step < steps && n - i >= lanes; ++step, i += lanes)
+          for (int k = 0; k < lanes; ++k) lane[k] = static_cast<std::uint16_t>(lane[k] + s[i + k]);
+        for (int k = 0; k < lanes; ++k) total[static_cast<std::size_t>(k % 3)] += lane[k];
+      }
+      for (; i < n; ++i) total[static_cast<std::size_t>(i % 3)] += s[i];
+    }
+    return total;
   }
 
   // bgr: CV_8UC3 (0..255). out: CV_32FC3 in [0, 1], same channel order, ready for
