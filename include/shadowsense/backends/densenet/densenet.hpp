@@ -112,6 +112,7 @@ public:
     }
     winograd_ops_ = detail::select_winograd_ops(kernel_.kind);
     fused_ = detail::has_fused_stores(kernel_);
+    in_place_avx2_ = detail::has_in_place_avx2(kernel_);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
@@ -882,6 +883,12 @@ private:
         ++y;
       }
     };
+#if SHADOWSENSE_X86_KERNELS
+    if (in_place_avx2_) { // B read in place: nothing packed (the phases hold 64 floats of slack)
+      detail::gemm_in_place_avx2(conv0_, h0_ * pitch, src, taps, store, *pool_, scratch_);
+      return;
+    }
+#endif
     detail::gemm(kernel_, conv0_, h0_ * pitch, pack, store, *pool_, scratch_);
   }
 
@@ -1152,8 +1159,9 @@ private:
   detail::MicroKernel kernel_{};
   detail::VectorOps ops_{};
   detail::WinogradOps winograd_ops_{};
-  bool fused_ = false; // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
-  bool int8_ = false;  // the quantised convolutions run in int8 (set after the self-test)
+  bool fused_ = false;         // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
+  bool in_place_avx2_ = false; // the AVX2 kernel reads conv0's taps in place (gemm_in_place_avx2)
+  bool int8_ = false;          // the quantised convolutions run in int8 (set after the self-test)
   detail::Int8Gemm int8_gemm_{};
   std::vector<std::uint8_t> xq_, q3_; // int8 path: im2col panel, 3x3 input codes
   std::vector<std::int32_t> acc_;     // int8 path: the int32 sums

@@ -30,6 +30,9 @@
 //   the kernel adds the bias, applies ReLU and writes each row from its registers, laid out by
 //   the caller's segments (image_row_segments: e.g. into a zero-padded grid, or dropping a
 //   padded grid's pad columns). Requires has_fused_stores(kernel) for the kernel in use.
+// gemm_in_place_avx2(a, n, base, offsets, store, pool, scratch): gemm() on the AVX2 kernel with
+//   B read in place at base + n0 + offsets[k] (24 readable floats each), nothing packed.
+//   Requires has_in_place_avx2(kernel) for the kernel in use.
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm_neon.hpp>
@@ -338,6 +341,33 @@ inline bool has_fused_stores(const MicroKernel& k) {
   return false;
 #endif
 }
+
+// Whether k is the library's AVX2 kernel, the one that can read B in place (gemm_in_place_avx2).
+inline bool has_in_place_avx2(const MicroKernel& k) {
+#if SHADOWSENSE_X86_KERNELS
+  return k.fn == &micro_kernel_avx2;
+#else
+  (void)k;
+  return false;
+#endif
+}
+
+#if SHADOWSENSE_X86_KERNELS
+// gemm() on the AVX2 kernel with B read in place at base + n0 + offsets[k] (the caller
+// guarantees 24 readable floats there, past n included): nothing packed. store as gemm()'s.
+// Same split over threads as the in-place tiles of gemm_over_panels.
+template <class Store>
+inline void gemm_in_place_avx2(const PackedMatrix& a, int n, const float* base, const int* offsets,
+                               Store&& store, ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+  const MicroKernel kernel{GemmKernelKind::avx2, 4, 24, &micro_kernel_avx2, "avx2+fma"};
+  gemm_over_panels(
+      kernel, a, n, [](GemmScratch&, int, int) {},
+      [&](int mp, GemmScratch& s, int n0) {
+        micro_kernel_avx2_in_place(a.k, a.panel(mp), base + n0, offsets, s.tile.data());
+      },
+      store, pool, scratch, /*free_prepare=*/true);
+}
+#endif
 
 #if SHADOWSENSE_X86_KERNELS
 // gemm() on the AVX-512 kernel with the store fused into the kernel. B is packed by pack or,

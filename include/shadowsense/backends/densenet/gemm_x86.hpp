@@ -8,6 +8,8 @@
 //   micro_kernel_reference<8, 32> and <4, 24> (gemm_reference.hpp), accumulated with FMA in k
 //   order; require the CPU to support the instruction set (undefined behaviour otherwise: call
 //   them only through gemm.hpp's selection).
+// micro_kernel_avx2_in_place(K, a, b, offsets, out): micro_kernel_avx2 with B row k read in
+//   place at b + offsets[k] (24 readable floats each) instead of from a packed panel.
 // micro_kernel_avx512_half(K, a, b, out): as micro_kernel_avx512 for the first 16 columns
 //   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
 //   panel of at most 16 columns: half the multiply-adds.
@@ -58,13 +60,16 @@ struct TileDest {
 };
 
 #if SHADOWSENSE_X86_KERNELS
-// Rows of a packed K x 32 panel, and rows read in place at b + offsets[k] (the fused kernel on
-// the zero-padded grid of a 3x3 convolution: offsets[c * 9 + ky * 3 + kx] = c * plane + ky * pw
+// Rows of a packed K x 32 (or K x Stride) panel, and rows read in place at b + offsets[k] (the
+// fused kernel on the zero-padded grid of a 3x3 convolution: offsets[c * 9 + ky * 3 + kx] = c *
+// plane + ky * pw
 // + kx, so no B panel is packed).
-struct PackedRows {
+template <int Stride>
+struct PackedRowsOf {
   const float* b;
-  const float* operator()(int k) const { return b + static_cast<std::ptrdiff_t>(k) * 32; }
+  const float* operator()(int k) const { return b + static_cast<std::ptrdiff_t>(k) * Stride; }
 };
+using PackedRows = PackedRowsOf<32>;
 struct OffsetRows {
   const float* b;
   const int* offsets;
@@ -137,12 +142,16 @@ micro_kernel_avx512_half(int K, const float* a, const float* b, float* out) {
   micro_kernel_avx512_tile<1>(K, a, b, out);
 }
 
-__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
-                                                                  const float* b, float* out) {
+// The AVX2 kernel over B rows row_b(k) (24 floats each): a packed panel (micro_kernel_avx2) or
+// rows read in place (micro_kernel_avx2_in_place: conv0's taps, nothing packed).
+template <class RowB>
+__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2_rows(int K, const float* a,
+                                                                       RowB row_b, float* out) {
   constexpr int MR = 4;
   __m256 c00 = _mm256_setzero_ps(), c01 = c00, c02 = c00, c10 = c00, c11 = c00, c12 = c00,
          c20 = c00, c21 = c00, c22 = c00, c30 = c00, c31 = c00, c32 = c00;
-  for (int k = 0; k < K; ++k, a += MR, b += 24) {
+  for (int k = 0; k < K; ++k, a += MR) {
+    const float* b = row_b(k);
     const __m256 b0 = _mm256_loadu_ps(b);
     const __m256 b1 = _mm256_loadu_ps(b + 8);
     const __m256 b2 = _mm256_loadu_ps(b + 16);
@@ -175,6 +184,14 @@ __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const f
   _mm256_storeu_ps(out + 72, c30);
   _mm256_storeu_ps(out + 80, c31);
   _mm256_storeu_ps(out + 88, c32);
+}
+__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
+                                                                  const float* b, float* out) {
+  micro_kernel_avx2_rows(K, a, PackedRowsOf<24>{b}, out);
+}
+__attribute__((target("avx2,fma"))) inline void
+micro_kernel_avx2_in_place(int K, const float* a, const float* b, const int* offsets, float* out) {
+  micro_kernel_avx2_rows(K, a, OffsetRows{b, offsets}, out);
 }
 #endif
 
