@@ -17,14 +17,12 @@ Usage:
   /usr/bin/python3 tools/realhand/cost_timeline.py --cost CoST.csv --out DIR [--fps 30]
 """
 import argparse
-import csv
 import os
 import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from atomic_write import write_atomic  # noqa: E402  (tools/atomic_write.py)
+from timeline_io import TIMELINE_HEADER, grid_contacts, sample_tracks, write_outputs  # noqa: E402
 
 COST_GESTURES = ["grab", "hit", "massage", "pat", "pinch", "poke", "press", "rub", "scratch",
                  "slap", "squeeze", "stroke", "tap", "tickle"]
@@ -36,8 +34,6 @@ COST_HZ = 135.0
 CELL_CM = 2.0               # grid pitch
 PRESSED = 50.0              # value - baseline for a pressed cell
 BASELINE_PERCENTILE = 10.0  # per subject and channel
-PX_PER_CM = 7.6
-CENTRE_PX = (320.0, 240.0)
 GAP_MS = 1000.0             # no track between captures
 
 
@@ -75,35 +71,15 @@ def baselines(captures):
             for s, fs in by_subject.items()}
 
 
-_rows, _cols = np.divmod(np.arange(64), 8)
-CELL_X_CM = (_cols + 0.5) * CELL_CM
-CELL_Y_CM = (_rows + 0.5) * CELL_CM
-
-
 def contacts(frames, base):
     """-> per CoST frame: None or (x_px, y_px, area_px)."""
-    out = []
-    for f in frames:
-        w = f - base
-        pressed = w >= PRESSED
-        if not pressed.any():
-            out.append(None)
-            continue
-        ww = np.where(pressed, w, 0.0)
-        x_cm = float((ww * CELL_X_CM).sum() / ww.sum())
-        y_cm = float((ww * CELL_Y_CM).sum() / ww.sum())
-        grid_half = 4 * CELL_CM
-        x = CENTRE_PX[0] + (x_cm - grid_half) * PX_PER_CM
-        y = CENTRE_PX[1] + (y_cm - grid_half) * PX_PER_CM
-        area = float(pressed.sum()) * CELL_CM * CELL_CM * PX_PER_CM * PX_PER_CM
-        out.append((x, y, area))
-    return out
+    return grid_contacts(frames, base, 8, 8, CELL_CM, PRESSED)
 
 
 def build(captures, fps):
     base = baselines(captures)
     step = 1000.0 / fps
-    timeline = ["sequence,time_ms,track,contact,x_px,y_px,area_px"]
+    timeline = [TIMELINE_HEADER]
     truth = ["sequence,track,gesture,start_ms,end_ms,cost_gesture,subject,variant,capture"]
     counts = {"read": len(captures), "mapped": 0, "not_mapped": 0, "no_contact": 0}
     # one sequence per (subject, variant), captures in file order
@@ -138,26 +114,16 @@ def build(captures, fps):
             t = end_ms + step + GAP_MS
         if not placed:
             continue
-        n_frames = int(t // step) + 1
-        for k in range(n_frames):
-            tk = k * step
-            rows = []
-            for tr, origin, cs, first, last, _, _ in placed:
-                # the track lives from one output frame before its first contact to one after
-                # its lift
-                appear = origin + first * 1000.0 / COST_HZ - step
-                leave = origin + (last + 1) * 1000.0 / COST_HZ + step
-                if tk < appear - 1e-6 or tk > leave + 1e-6:
-                    continue
+        tracks = []
+        for tr, origin, cs, first, last, _, _ in placed:
+            # the track lives from one output frame before its first contact to one after its
+            # lift
+            def contact_at(tk, origin=origin, cs=cs, first=first, last=last):
                 i = int(round((tk - origin) * COST_HZ / 1000.0))
-                c = cs[i] if first <= i <= last else None
-                if c is None:
-                    rows.append("%d,%.3f,%d,0,,," % (seq_id, tk, tr))
-                else:
-                    rows.append("%d,%.3f,%d,1,%.2f,%.2f,%.1f" % (seq_id, tk, tr, c[0], c[1], c[2]))
-            if not rows:
-                rows.append("%d,%.3f,0,0,,," % (seq_id, tk))
-            timeline.extend(rows)
+                return cs[i] if first <= i <= last else None
+            tracks.append((tr, origin + first * 1000.0 / COST_HZ - step,
+                           origin + (last + 1) * 1000.0 / COST_HZ + step, contact_at))
+        timeline.extend(sample_tracks(seq_id, int(t // step) + 1, step, tracks))
     return timeline, truth, counts
 
 
@@ -176,13 +142,8 @@ def main():
     if not captures:
         fail("%s: no captures" % a.cost)
     timeline, truth, counts = build(captures, a.fps)
-    os.makedirs(a.out, exist_ok=True)
-    write_atomic(os.path.join(a.out, "timeline.csv"), "\n".join(timeline) + "\n")
-    write_atomic(os.path.join(a.out, "truth.csv"), "\n".join(truth) + "\n")
     summary = "".join("%s %d\n" % kv for kv in counts.items()) + "fps %g\n" % a.fps
-    write_atomic(os.path.join(a.out, "summary.txt"), summary)
-    sys.stdout.write(summary)
-
+    write_outputs(a.out, timeline, truth, summary)
 
 if __name__ == "__main__":
     main()

@@ -28,8 +28,7 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from atomic_write import write_atomic  # noqa: E402  (tools/atomic_write.py)
+from timeline_io import TIMELINE_HEADER, grid_contacts, sample_tracks, write_outputs  # noqa: E402
 
 ROWS, COLS = 19, 24
 MAPPING = {
@@ -44,8 +43,6 @@ MAPPING = {
 }
 TOUCHED = 13.0              # value - baseline for a touched cell (5% of 8 bits)
 BASELINE_PERCENTILE = 10.0  # per participant and cell
-PX_PER_CM = 7.6
-CENTRE_PX = (320.0, 240.0)
 GAP_MS = 1000.0             # no track between repetitions
 
 
@@ -95,22 +92,7 @@ def read_file(path):
 
 def contacts(frames, base, pitch):
     """-> per record frame: None or (x_px, y_px, area_px)."""
-    rows, cols = np.divmod(np.arange(ROWS * COLS), COLS)
-    cx, cy = (cols + 0.5) * pitch, (rows + 0.5) * pitch
-    out = []
-    for f in frames:
-        w = f - base
-        on = w >= TOUCHED
-        if not on.any():
-            out.append(None)
-            continue
-        ww = np.where(on, w, 0.0)
-        x_cm = float((ww * cx).sum() / ww.sum())
-        y_cm = float((ww * cy).sum() / ww.sum())
-        x = CENTRE_PX[0] + (x_cm - COLS * pitch / 2) * PX_PER_CM
-        y = CENTRE_PX[1] + (y_cm - ROWS * pitch / 2) * PX_PER_CM
-        out.append((x, y, float(on.sum()) * pitch * pitch * PX_PER_CM * PX_PER_CM))
-    return out
+    return grid_contacts(frames, base, ROWS, COLS, pitch, TOUCHED)
 
 
 def build(files, names, fps, pitch):
@@ -122,7 +104,7 @@ def build(files, names, fps, pitch):
     base = {p: np.percentile(np.concatenate(fs), BASELINE_PERCENTILE, axis=0)
             for p, fs in by_participant.items()}
     step = 1000.0 / fps
-    timeline = ["sequence,time_ms,track,contact,x_px,y_px,area_px"]
+    timeline = [TIMELINE_HEADER]
     truth = ["sequence,track,gesture,start_ms,end_ms,source_gesture,participant,repetition"]
     counts = {"read": 0, "mapped": 0, "not_mapped": 0, "no_contact": 0}
     seq_id = 0
@@ -160,26 +142,17 @@ def build(files, names, fps, pitch):
             t = origin + lift + step + GAP_MS
         if not placed:
             continue
-        for k in range(int(t // step) + 1):
-            tk = k * step
-            rows = []
-            for tr, origin, times, cs, first, last, lift in placed:
-                appear = origin + times[first] - step
-                leave = origin + lift + step
-                if tk < appear - 1e-6 or tk > leave + 1e-6:
-                    continue
+        tracks = []
+        for tr, origin, times, cs, first, last, lift in placed:
+            def contact_at(tk, origin=origin, times=times, cs=cs, first=first, last=last,
+                           lift=lift):
                 rel = tk - origin  # on the repetition's own clock
-                c = None
-                if times[first] - 1e-6 <= rel < lift - 1e-6:  # hover before and after
-                    i = int(np.argmin(np.abs(times - rel)))  # the nearest record frame
-                    c = cs[i] if first <= i <= last else None
-                if c is None:
-                    rows.append("%d,%.3f,%d,0,,," % (seq_id, tk, tr))
-                else:
-                    rows.append("%d,%.3f,%d,1,%.2f,%.2f,%.1f" % (seq_id, tk, tr, c[0], c[1], c[2]))
-            if not rows:
-                rows.append("%d,%.3f,0,0,,," % (seq_id, tk))
-            timeline.extend(rows)
+                if not times[first] - 1e-6 <= rel < lift - 1e-6:  # hover before and after
+                    return None
+                i = int(np.argmin(np.abs(times - rel)))  # the nearest record frame
+                return cs[i] if first <= i <= last else None
+            tracks.append((tr, origin + times[first] - step, origin + lift + step, contact_at))
+        timeline.extend(sample_tracks(seq_id, int(t // step) + 1, step, tracks))
     return timeline, truth, counts
 
 
@@ -192,6 +165,7 @@ def main():
     ap.add_argument("--pitch-cm", type=float, default=1.0,
                     help="the grid's cell pitch in cm (not published; the recipe's headline is "
                          "1, with 0.75 and 1.5 beside it)")
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     import ss_version  # tools/ss_version.py
     ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     a = ap.parse_args()
@@ -205,14 +179,9 @@ def main():
         fail("%s: no touch_p*_g*.csv files" % a.data)
     files = [(os.path.basename(p), read_file(p)) for p in paths]
     timeline, truth, counts = build(files, names, a.fps, a.pitch_cm)
-    os.makedirs(a.out, exist_ok=True)
-    write_atomic(os.path.join(a.out, "timeline.csv"), "\n".join(timeline) + "\n")
-    write_atomic(os.path.join(a.out, "truth.csv"), "\n".join(truth) + "\n")
     summary = "".join("%s %d\n" % kv for kv in counts.items()) + "fps %g\npitch_cm %g\n" % (
         a.fps, a.pitch_cm)
-    write_atomic(os.path.join(a.out, "summary.txt"), summary)
-    sys.stdout.write(summary)
-
+    write_outputs(a.out, timeline, truth, summary)
 
 if __name__ == "__main__":
     main()

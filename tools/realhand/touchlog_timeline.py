@@ -34,7 +34,7 @@ import sys
 import zipfile
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from atomic_write import write_atomic  # noqa: E402  (tools/atomic_write.py)
+from timeline_io import TIMELINE_HEADER, timeline_row, write_outputs  # noqa: E402
 
 PX_PER_CM = 7.6            # the recogniser's default image scale
 CENTRE_PX = (320.0, 240.0)  # the screen centre goes here
@@ -212,7 +212,7 @@ def place(touches):
 def build(streams, fps):
     step = 1000.0 / fps
     area_px = FINGER_CM2 * PX_PER_CM * PX_PER_CM
-    timeline = ["sequence,time_ms,track,contact,x_px,y_px,area_px"]
+    timeline = [TIMELINE_HEADER]
     truth = ["sequence,track,gesture,start_ms,end_ms,touches,path_cm,source_key"]
     counts = {"sequences": 0, "touches": 0, "truth_tap": 0, "truth_stroke": 0,
               "taps_merged_into_multi_tap_truths": 0, "truths_without_contact_frame": 0}
@@ -297,12 +297,9 @@ def build(streams, fps):
                     _, down, up, times, pts = by_track[tr][i]
                     if down <= t < up:
                         contact = pts[bisect.bisect_right(times, t) - 1]
-                if contact is None:
-                    rows.append("%d,%.3f,%d,0,,," % (seq, t, tr + 1))
-                else:
-                    rows.append("%d,%.3f,%d,1,%.2f,%.2f,%.1f" % (seq, t, tr + 1, contact[0],
-                                                                 contact[1], area_px))
-            timeline.extend(rows or ["%d,%.3f,0,0,,," % (seq, t)])
+                rows.append(timeline_row(seq, t, tr + 1,
+                                         None if contact is None else (*contact, area_px)))
+            timeline.extend(rows or [timeline_row(seq, t, 0, None)])
     # track ids in truth are 1-based like the timeline's
     truth = [truth[0]] + [_shift_track(r) for r in truth[1:]]
     return timeline, truth, counts, paths
@@ -330,17 +327,13 @@ def main():
     if not streams:
         fail("no touches read")
     timeline, truth, counts, paths = build(streams, a.fps)
-    os.makedirs(a.out, exist_ok=True)
-    write_atomic(os.path.join(a.out, "timeline.csv"), "\n".join(timeline) + "\n")
-    write_atomic(os.path.join(a.out, "truth.csv"), "\n".join(truth) + "\n")
     summary = "".join("%s %d\n" % kv for kv in counts.items()) + "fps %g\n" % a.fps
     if paths:
         p = sorted(paths)
         q = [p[min(len(p) - 1, int(f * len(p)))] for f in (0.05, 0.25, 0.5, 0.75, 0.95)]
         summary += ("stroke path cm p5/p25/p50/p75/p95 %s; < 3 cm: %d of %d\n"
                     % ("/".join("%.2f" % v for v in q), sum(1 for v in p if v < 3.0), len(p)))
-    write_atomic(os.path.join(a.out, "summary.txt"), summary)
-    sys.stdout.write(summary)
+    write_outputs(a.out, timeline, truth, summary)
 
 
 if __name__ == "__main__":
