@@ -331,8 +331,9 @@ int run_score(const Options& o) {
   if (o.data.empty()) throw cli::UsageError("--score: needs --input DIR");
   const auto model = ss::ModelFile::load(o.score_model);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
-  // Per session (--session-calibrations on a calibrated model): one encoder per session, made
-  // when its first frame comes; otherwise one encoder for every frame.
+  // Per session (--session-calibrations on a calibrated model): one encoder, given each
+  // session's empty-skin model when the frames move to another session (memory stays one
+  // encoder's however many sessions there are); otherwise one empty-skin model for every frame.
   const bool per_session =
       o.session_calibrations && ss::needs_calibration(model.preprocess.input_encoding);
   auto session_skin = [&](const ss::GestureSample& f) {
@@ -348,27 +349,26 @@ int run_score(const Options& o) {
                              f.session + "' (ss_gesture_data --empty-skin writes it)");
     return cli::empty_skin_for(model, o.score_model, cal.string());
   };
-  std::map<std::string, ss::FrameEncoder> encoders;
-  auto encoder_for = [&](const ss::GestureSample& f) -> ss::FrameEncoder& {
-    const std::string key = per_session ? f.session : std::string();
-    auto it = encoders.find(key);
-    if (it != encoders.end()) return it->second;
-    const cv::Mat skin =
-        per_session ? session_skin(f) : cli::empty_skin_for(model, o.score_model, o.calibration);
-    return encoders.try_emplace(key, model.preprocess, o.normalise, skin).first->second;
-  };
-  // The classifier runs on the encoders' tensors; its own encoder (which needs an empty-skin
+  const ss::GestureSample& first = set.frames.front();
+  ss::FrameEncoder encoder(model.preprocess, o.normalise,
+                           per_session ? session_skin(first)
+                                       : cli::empty_skin_for(model, o.score_model, o.calibration));
+  std::string session = first.session; // whose empty-skin model the encoder holds
+  // The classifier runs on the encoder's tensors; its own encoder (which needs an empty-skin
   // model to exist) gets the first frame's.
-  ss::FrameEncoder& first = encoder_for(set.frames.front());
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,
-                                          first.config().empty_skin);
+                                          encoder.config().empty_skin);
   const std::size_t k = set.class_names.size();
   std::map<std::string, Confusion> conf;
   ss::Tensor t;
   for (const auto& f : set.frames) {
     ss::Classification c;
     try {
-      encoder_for(f).run(ss::read_colour_image(f.path), ss::is_dark(f), t);
+      if (per_session && f.session != session) {
+        encoder.set_empty_skin(session_skin(f));
+        session = f.session;
+      }
+      encoder.run(ss::read_colour_image(f.path), ss::is_dark(f), t);
       c = clf.classify(t);
     } catch (const ss::IoError&) {
       throw;
