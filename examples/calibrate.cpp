@@ -1,7 +1,7 @@
 // ss_calibrate: a calibration file (thresholds + empty-skin model) from a robot's own frames.
 //
 //   ss_calibrate --empty DIR|VIDEO [--touch DIR|VIDEO|DATASET [--labels CSV]] --out FILE
-//                [--preview PNG]
+//                [--preview PNG] [--px-per-cm X]
 //
 // --empty: frames of the untouched skin: a folder of images or a video (one or several light
 // levels). --touch: frames with a hand, as users have them:
@@ -23,6 +23,10 @@
 // warnings, where the calibration was written. Writes are atomic. Memory: --max-memory-mb plans
 // how many frames are held from the frame size (common/calibrate_budget.hpp); fewer than asked
 // for at large sizes, evenly spaced, with a warning (docs/calibration.md "Memory").
+// --px-per-cm X: the camera's scale (px per cm of skin at the image centre, measured once, e.g.
+// a ruler laid on the skin across the middle of a frame), recorded in the calibration (format
+// version 3): the gesture classifier brings frames to its network's scale with it
+// (docs/input_encodings.md). Not fitted from the frames.
 // Exit status: 0 written (maybe with warnings), 2 bad command line, input or a refused fit.
 #include <shadowsense/io/dataset.hpp>
 #include <shadowsense/io/image_folder.hpp>
@@ -61,13 +65,14 @@ struct Options {
   long long max_empty = 60; // frames taken from an empty-skin video (evenly spaced)
   long long max_touch = 60; // unlabelled frames taken from a touch video (evenly spaced)
   double light_group_ratio = 1.25;
+  double px_per_cm = 0; // --px-per-cm: the camera's scale, recorded as measured (0 = none)
   int max_side = 8192;
   long long max_memory_mb = calib_budget::kDefaultMiB; // frames held: see calibrate_budget.hpp
 };
 
 const char* kHelp =
     "usage: ss_calibrate --empty DIR|VIDEO [--touch DIR|VIDEO|DATASET [--labels CSV]]\n"
-    "                    --out FILE [--preview PNG]\n"
+    "                    --out FILE [--preview PNG] [--px-per-cm X]\n"
     "Fits a segmenter calibration (thresholds and the empty-skin model) from your own frames.\n"
     "Options take \"--opt value\" or \"--opt=value\". Folders are searched recursively\n"
     "(.png .jpg .jpeg .bmp .tif .tiff .webp .ppm .pgm; sorted by path).\n"
@@ -84,6 +89,9 @@ const char* kHelp =
     "                            contact; frames not listed are fitted unlabelled\n"
     "  --out FILE                the calibration file to write (atomically)\n"
     "  --preview PNG             the fitted segmentation on up to 8 frames, as a montage\n"
+    "  --px-per-cm X             the camera's scale, px per cm of skin at the image centre\n"
+    "                            (measured with a ruler on the skin), in [0.05, 10000]:\n"
+    "                            recorded for the gesture classifier (default: none)\n"
     "  --max-empty N             empty-skin frames used, evenly spaced (default 60)\n"
     "  --max-touch N             unlabelled frames taken from a touch video (default 60)\n"
     "  --light-group-ratio R     luminance step that starts a new light level (default 1.25)\n"
@@ -105,6 +113,8 @@ Options parse(int argc, char** argv) {
   p.option("--labels", "CSV", "boxes for the touch frames", o.labels);
   p.option("--out", "FILE", "the calibration file to write", o.out);
   p.option("--preview", "PNG", "the fitted segmentation as a montage", o.preview);
+  p.option("--px-per-cm", "X", "the camera's scale (px per cm of skin)", o.px_per_cm)
+      .range(0.05, 10000.0);
   p.option("--max-empty", "N", "empty-skin frames used, evenly spaced", o.max_empty)
       .range(1, 100000);
   p.option("--max-touch", "N", "unlabelled frames taken from a touch video", o.max_touch)
@@ -492,7 +502,8 @@ int run(const Options& o) {
   CalibrationOptions co;
   co.light_group_ratio = static_cast<float>(o.light_group_ratio);
   co.base.max_image_side = o.max_side;
-  const CalibrationResult r = calibrate_from_frames(empty, touch, co);
+  CalibrationResult r = calibrate_from_frames(empty, touch, co);
+  r.calibration.px_per_cm = static_cast<float>(o.px_per_cm);
   for (const CalibrationWarning& w : r.warnings)
     std::cerr << kProgram << ": warning: " << to_string(w.issue) << ": " << w.message << "\n";
   std::cerr.flush();

@@ -19,6 +19,10 @@
 // --session-calibrations (with --score): instead, each frame's own session's calibration,
 // INPUT/empty_skin/<session>.calib (ss_gesture_data --empty-skin, tools/realhand/score.sh), as
 // tools/train.py reads them; a session without its file is an error naming the file.
+// --camera-px-per-cm X: the camera's scale (px per cm of skin at the image centre), overriding
+// the --calibration's px_per_cm: frames are brought to the network's scale (FrameEncoder stage
+// 2b, docs/input_encodings.md); --scale-fill black|replicate|black_frame_contrast: the fill
+// around a shrunk frame.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
 // (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
@@ -56,6 +60,8 @@ struct Options {
   std::string data, backbone, backbone_dir, json, confusion_dir;
   std::string calibration;           // --calibration: the empty-skin model of calibrated encodings
   bool session_calibrations = false; // --session-calibrations: INPUT/empty_skin/<session>.calib
+  double camera_px_per_cm = 0;       // --camera-px-per-cm: overrides the calibration's scale
+  ss::ScaleFill scale_fill = ss::default_scale_fill; // --scale-fill
   std::set<int> tables{1, 2, 3, 4};
   bool normalise = false;
   int threads = 1;
@@ -74,6 +80,17 @@ struct Features {
   Eigen::MatrixXd x;
 };
 
+// The camera's scale for a model's encoder: --camera-px-per-cm, else the --calibration's.
+double camera_scale(const Options& o, const cli::EncoderCalibration& c) {
+  return o.camera_px_per_cm > 0 ? o.camera_px_per_cm : c.camera_px_per_cm;
+}
+ss::FrameEncoder make_encoder(const ss::ModelFile& model, const std::string& path,
+                              const Options& o) {
+  const cli::EncoderCalibration c = cli::encoder_calibration_for(model, path, o.calibration);
+  return ss::FrameEncoder(model.preprocess, o.normalise, c.empty_skin, camera_scale(o, c),
+                          o.scale_fill);
+}
+
 Features features_for(const std::string& path, const ss::GestureSamples& set, const Options& o,
                       const Indices& all) {
   const auto model = ss::ModelFile::load(path);
@@ -81,8 +98,7 @@ Features features_for(const std::string& path, const ss::GestureSamples& set, co
     throw ss::ModelFileError(path + ": classes differ from the Table-1 backbone's; every "
                                     "backbone must use the same class order");
   ss::FeatureExtractor fx(model, {.threads = o.threads});
-  ss::FrameEncoder enc(model.preprocess, o.normalise,
-                       cli::empty_skin_for(model, path, o.calibration));
+  ss::FrameEncoder enc = make_encoder(model, path, o);
   if (!o.quiet) std::cerr << "features: " << path << "\n";
   Features f{path, Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(set.frames.size()), fx.dim())};
   const Eigen::MatrixXd part = ss::extract_features(fx, enc, set, all);
@@ -254,9 +270,11 @@ int run_speed(const Options& o) {
     const int in_h =
         model.preprocess.crop_width ? model.preprocess.crop_height : model.preprocess.resize_height;
     // The timed classify(frame) includes the model's whole input encoding (a calibrated one too).
-    auto clf = ss::make_densenet_classifier(model, {.threads = o.threads, .run_self_test = !size},
-                                            ss::ChannelOrder::bgr,
-                                            cli::empty_skin_for(model, path, o.calibration));
+    const cli::EncoderCalibration cal = cli::encoder_calibration_for(model, path, o.calibration);
+    auto clf = ss::Classifier<ss::DenseNet>(
+        ss::DenseNet(model, {.threads = o.threads, .run_self_test = !size}),
+        {model.preprocess, ss::ChannelOrder::bgr, cal.empty_skin, camera_scale(o, cal),
+         o.scale_fill});
     cv::Mat frame(350, 635, CV_8UC3);
     cv::randu(frame, 0, 255);
     for (int i = 0; i < 2; ++i) clf.classify(frame); // warm-up
@@ -290,8 +308,7 @@ int run_speed(const Options& o) {
         throw ss::ModelFileError(path + ": class order differs from the first --speed model's");
       // Save the resized model so FeatureExtractor sees the same geometry.
       ss::FeatureExtractor fx(model, {.threads = o.threads, .run_self_test = false});
-      ss::FrameEncoder enc(model.preprocess, o.normalise,
-                           cli::empty_skin_for(model, path, o.calibration));
+      ss::FrameEncoder enc = make_encoder(model, path, o);
       Features f{path,
                  Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(set->frames.size()), fx.dim())};
       const Eigen::MatrixXd part = ss::extract_features(fx, enc, *set, all);
@@ -350,9 +367,12 @@ int run_score(const Options& o) {
     return cli::empty_skin_for(model, o.score_model, cal.string());
   };
   const ss::GestureSample& first = set.frames.front();
-  ss::FrameEncoder encoder(model.preprocess, o.normalise,
-                           per_session ? session_skin(first)
-                                       : cli::empty_skin_for(model, o.score_model, o.calibration));
+  // (Per session, only the empty-skin models are read; the scale is --camera-px-per-cm's.)
+  const cli::EncoderCalibration cal =
+      per_session ? cli::EncoderCalibration{session_skin(first), 0}
+                  : cli::encoder_calibration_for(model, o.score_model, o.calibration);
+  ss::FrameEncoder encoder(model.preprocess, o.normalise, cal.empty_skin, camera_scale(o, cal),
+                           o.scale_fill);
   std::string session = first.session; // whose empty-skin model the encoder holds
   // The classifier runs on the encoder's tensors; its own encoder (which needs an empty-skin
   // model to exist) gets the first frame's.
@@ -441,6 +461,15 @@ Options parse_options(int argc, char** argv) {
          "with --score: each frame's session's own calibration, INPUT/empty_skin/<session>.calib "
          "(ss_gesture_data --empty-skin), instead of one --calibration",
          o.session_calibrations);
+  p.option("--camera-px-per-cm", "X",
+           "the camera's scale, px per cm of skin (overrides the calibration's px_per_cm; 0: "
+           "none): frames are brought to the network's scale",
+           o.camera_px_per_cm)
+      .range(0.0, 10000.0);
+  std::string fill = ss::to_string(o.scale_fill);
+  p.option("--scale-fill", "black|replicate|black_frame_contrast",
+           "what fills the frame around a frame shrunk to the network's scale", fill)
+      .choices({"black", "replicate", "black_frame_contrast"});
   p.option("--json", "OUT.json", "write the results as JSON", o.json);
   p.option("--confusion-dir", "DIR", "write confusion matrices as PNG images", o.confusion_dir);
   p.option("--threads", "N", "worker threads", o.threads).range(1, 256);
@@ -461,6 +490,9 @@ Options parse_options(int argc, char** argv) {
   p.flag("--head-balanced", "heads: class-balanced batches", o.head.balanced_batches);
   p.parse(argc, argv);
   o.tables = std::set<int>(tables.begin(), tables.end());
+  o.scale_fill = *ss::parse_scale_fill(fill);
+  if (o.camera_px_per_cm > 0 && o.camera_px_per_cm < 0.05)
+    throw cli::UsageError("--camera-px-per-cm: expected 0 or a scale in [0.05, 10000]");
   if (o.session_calibrations && o.score_model.empty())
     throw cli::UsageError("--session-calibrations: only with --score MODEL");
   if (o.session_calibrations && !o.calibration.empty())

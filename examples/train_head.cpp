@@ -98,7 +98,8 @@ int main(int argc, char** argv) {
       std::cerr << "ss_train_head: model " << model_path << " (" << what << ")\n";
     }
     const auto model = ss::ModelFile::load(model_path);
-    const cv::Mat empty_skin = cli::empty_skin_for(model, model_path, calibration);
+    const cli::EncoderCalibration cal =
+        cli::encoder_calibration_for(model, model_path, calibration);
     // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
     auto set = [&] {
       try {
@@ -130,7 +131,7 @@ int main(int argc, char** argv) {
     std::cout << "\n";
 
     ss::FeatureExtractor fx(model, {.threads = threads});
-    ss::FrameEncoder enc(model.preprocess, normalise, empty_skin);
+    ss::FrameEncoder enc(model.preprocess, normalise, cal.empty_skin, cal.camera_px_per_cm);
     auto progress = [](std::size_t d, std::size_t n) {
       std::cout << "  features " << d << "/" << n << "\n" << std::flush;
     };

@@ -6,12 +6,18 @@ colour model does not read them), and prints
 per set accuracy and per-class recall, and over all sets pooled the minimum and mean per-class
 recall: the selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
 handdata: the highest pooled minimum recall wins; ties within one frame go to the higher mean).
-usage: models/score_scaled_holdouts.py NAME=MODEL.ssm ...
-environment: SS_EVAL_CLASSIFY (default build/examples/ss_eval_classify), HOLDOUTS (default
+usage: models/score_scaled_holdouts.py NAME=MODEL.ssm[:FILL] ...
+  :FILL  bring every frame of a set at scale S to the network's scale: the camera's scale is
+         S x 7.578125 px per cm (ss_eval_classify --camera-px-per-cm, --scale-fill FILL with
+         FILL black, replicate or black_frame_contrast; docs/input_encodings.md)
+environment: SCALES (comma-separated subset of 0.6,0.7,1,1.5,2 to score and pool; default all),
+SS_EVAL_CLASSIFY (default build/examples/ss_eval_classify), HOLDOUTS (default
 /work/hands-sets), SCORE_CACHE (json per model and set, default /work/hands-logs/gen; a cached
 file is reused, so give every model its own NAME)."""
 import json, os, subprocess, sys
-SETS = [f"{s}_s{z}" for z in ("0.6", "0.7", "1", "1.5", "2") for s in ("g", "hold")]
+SCALES = os.environ.get("SCALES", "0.6,0.7,1,1.5,2").split(",")
+SETS = [f"{s}_s{z}" for z in SCALES for s in ("g", "hold")]
+NETWORK_PX_PER_CM = 242.5 / 32.0  # FrameEncoder's network_scale (sim::Rig::robot())
 BIN = os.environ.get("SS_EVAL_CLASSIFY", "build/examples/ss_eval_classify")
 SETS_DIR = os.environ.get("HOLDOUTS", "/work/hands-sets")
 CACHE = os.environ.get("SCORE_CACHE", "/work/hands-logs/gen")
@@ -19,6 +25,7 @@ CLASSES = ["nothing", "hug", "palm", "point", "punch", "two_hands"]
 os.makedirs(CACHE, exist_ok=True)
 for arg in sys.argv[1:]:
     name, model = arg.split("=", 1)
+    model, _, fill = model.partition(":")
     pooled = [[0] * 6 for _ in range(6)]
     missing = 0
     print(f"== {name} ({model})")
@@ -30,8 +37,13 @@ for arg in sys.argv[1:]:
             continue
         out = f"{CACHE}/{name}_{s}.json"
         if not os.path.exists(out):
+            scale = []
+            if fill:
+                px = float(s.split("_s")[1]) * NETWORK_PX_PER_CM
+                scale = ["--camera-px-per-cm", repr(px), "--scale-fill", fill]
             subprocess.run([BIN, "--score", model, "--data", data, "--lighting-normalise",
-                            "--session-calibrations", "--quiet", "--json", out], check=True, stdout=subprocess.DEVNULL)
+                            "--session-calibrations", "--quiet", "--json", out] + scale,
+                           check=True, stdout=subprocess.DEVNULL)
         j = json.load(open(out))
         c = j["confusion"]["all"]
         rec = [c[i][i] / sum(c[i]) for i in range(6)]

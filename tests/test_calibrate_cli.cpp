@@ -127,6 +127,33 @@ TEST_CASE("ss_calibrate writes the calibration calibrate_from_frames makes from 
   CHECK_FALSE(fs::exists(out + ".tmp"));
 }
 
+TEST_CASE("ss_calibrate --px-per-cm records the camera's scale (version 3), as measured") {
+  write_frames();
+  const std::string out = (kCalibrateDir / "scaled.calib").string();
+  const std::string empty = " --empty '" + (kCalibrateDir / "empty").string() + "'";
+  fs::remove(out);
+  const Run r = run_calibrate(empty + " --px-per-cm 10.99 --out '" + out + "'");
+  INFO(r.err);
+  REQUIRE(r.status == 0);
+  const SegmenterCalibration c = load_calibration(out);
+  CHECK(c.px_per_cm == 10.99f);
+  CHECK(read_file(out).find("shadowsense_segmenter_calibration 3\n") != std::string::npos);
+  // Everything else is the fit without the option.
+  const Run plain = run_calibrate(empty + " --out '" + out + ".plain'");
+  REQUIRE(plain.status == 0);
+  SegmenterCalibration p = load_calibration(out + ".plain");
+  CHECK(p.px_per_cm == 0);
+  p.px_per_cm = c.px_per_cm;
+  CHECK(p == c);
+  for (const char* bad : {"0", "-2", "0.01", "abc", "20000"}) {
+    CAPTURE(bad);
+    const Run b = run_calibrate(empty + " --px-per-cm " + bad + " --out '" + out + ".bad'");
+    CHECK(b.status == 2);
+    CHECK(b.err.find("--px-per-cm") != std::string::npos);
+    CHECK_FALSE(fs::exists(out + ".bad"));
+  }
+}
+
 // --max-memory-mb 104 on these 200x205 frames (41,000 px): 4 MiB over the program's 100 MiB,
 // less the fit's 80 bytes a pixel (3.28 MB), leaves room for 7 frames of 123 kB held at once
 // (examples/common/calibrate_budget.hpp). The touch folder's frames are read from their files

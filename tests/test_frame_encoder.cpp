@@ -369,3 +369,169 @@ TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encodin
   CHECK(worst_stage0 == 0.0);
   CHECK(worst_tensor <= 1e-5);
 }
+
+namespace {
+// The bounding box of the pixels above 128 in channel 0 (the test's white rectangle).
+cv::Rect bright_box(const cv::Mat& img) {
+  cv::Mat ch;
+  cv::extractChannel(img, ch, 0);
+  return cv::boundingRect(ch > 128);
+}
+// A black 635 x 350 frame (the network's frame size) with a white w x h rectangle at its centre.
+cv::Mat rectangle_frame(int w, int h, cv::Size size = {635, 350}) {
+  cv::Mat f(size, CV_8UC3, cv::Scalar::all(0));
+  f(cv::Rect((size.width - w) / 2, (size.height - h) / 2, w, h)).setTo(cv::Scalar::all(255));
+  return f;
+}
+} // namespace
+
+TEST_CASE("the camera's scale: frames brought to the network's scale about the centre") {
+  const double net = network_scale.px_per_cm;
+  CHECK(net == 7.578125); // sim::Rig::robot(): 242.5 px per rad at 32 cm
+  PreprocessParams p;
+  auto encoder = [&](double camera, ScaleFill fill = ScaleFill::black) {
+    FrameEncoder::Config c{p, ChannelOrder::bgr};
+    c.camera_px_per_cm = camera;
+    c.scale_fill = fill;
+    return FrameEncoder(c);
+  };
+  const cv::Mat f = rectangle_frame(100, 60);
+  cv::Mat out;
+  SUBCASE("hands twice the network's size: the frame shrinks by 2, centred, black around") {
+    FrameEncoder enc = encoder(2 * net);
+    CHECK(enc.scale_factors(f.size()) == std::pair{2.0, 2.0});
+    const cv::Mat& r = enc.rescale(f, out);
+    REQUIRE(r.size() == f.size());
+    const cv::Rect b = bright_box(r);
+    CHECK(std::abs(b.width - 50) <= 1);
+    CHECK(std::abs(b.height - 30) <= 1);
+    CHECK(std::abs((b.x + b.width / 2.0) - 317.5) <= 1.0);
+    CHECK(std::abs((b.y + b.height / 2.0) - 175.0) <= 1.0);
+    // The shrunk frame is round(635 / 2) x 175 at offset (158, 87); outside it, black.
+    cv::Mat g = f.clone();
+    g.setTo(cv::Scalar::all(90));
+    const cv::Mat& rg = enc.rescale(g, out);
+    CHECK(rg.at<cv::Vec3b>(175, 157) == cv::Vec3b(0, 0, 0));
+    CHECK(rg.at<cv::Vec3b>(175, 158) == cv::Vec3b(90, 90, 90));
+    CHECK(rg.at<cv::Vec3b>(175, 158 + 318 - 1) == cv::Vec3b(90, 90, 90));
+    CHECK(rg.at<cv::Vec3b>(175, 158 + 318) == cv::Vec3b(0, 0, 0));
+    CHECK(rg.at<cv::Vec3b>(86, 317) == cv::Vec3b(0, 0, 0));
+    CHECK(rg.at<cv::Vec3b>(87, 317) == cv::Vec3b(90, 90, 90));
+  }
+  SUBCASE("replicate fill repeats the shrunk frame's border") {
+    cv::Mat g(350, 635, CV_8UC3, cv::Scalar::all(90));
+    g.col(0).setTo(cv::Scalar(10, 20, 30));
+    g.col(1).setTo(cv::Scalar(10, 20, 30));
+    FrameEncoder enc = encoder(2 * net, ScaleFill::replicate);
+    const cv::Mat& r = enc.rescale(g, out);
+    CHECK(r.at<cv::Vec3b>(175, 0) == cv::Vec3b(10, 20, 30));
+    CHECK(r.at<cv::Vec3b>(175, 157) == cv::Vec3b(10, 20, 30));
+    CHECK(r.at<cv::Vec3b>(0, 317) == cv::Vec3b(90, 90, 90));
+  }
+  SUBCASE("hands half the network's size: the centre is enlarged by 2") {
+    FrameEncoder enc = encoder(0.5 * net);
+    const cv::Rect b = bright_box(enc.rescale(f, out));
+    CHECK(std::abs(b.width - 200) <= 2);
+    CHECK(std::abs(b.height - 120) <= 2);
+    CHECK(std::abs((b.x + b.width / 2.0) - 317.5) <= 1.0);
+    CHECK(std::abs((b.y + b.height / 2.0) - 175.0) <= 1.0);
+  }
+  SUBCASE("the scale is per frame width and height: a frame twice the rig's size at twice its "
+          "px per cm is left alone; another aspect is scaled per axis") {
+    FrameEncoder enc = encoder(2 * net);
+    const cv::Mat big = rectangle_frame(200, 120, {1270, 700});
+    CHECK(enc.scale_factors(big.size()) == std::pair{1.0, 1.0});
+    CHECK(enc.rescale(big, out).data == big.data); // untouched, not copied
+    FrameEncoder tall = encoder(net);
+    const auto [sx, sy] = tall.scale_factors({635, 700});
+    CHECK(sx == 1.0);
+    CHECK(sy == doctest::Approx(0.5));
+    const cv::Rect b = bright_box(tall.rescale(rectangle_frame(100, 60, {635, 700}), out));
+    CHECK(b.width == 100);
+    CHECK(std::abs(b.height - 120) <= 2);
+  }
+  SUBCASE("within 1% of the network's scale, or not known: nothing changes, bit for bit") {
+    FrameEncoder close = encoder(1.009 * net), unknown = encoder(0), far = encoder(1.02 * net);
+    CHECK(close.scale_factors(f.size()) == std::pair{1.0, 1.0});
+    CHECK(unknown.scale_factors(f.size()) == std::pair{1.0, 1.0});
+    CHECK(far.scale_factors(f.size()).first == doctest::Approx(1.02));
+    cv::Mat noise(350, 635, CV_8UC3);
+    cv::randu(noise, cv::Scalar::all(0), cv::Scalar::all(256));
+    CHECK(same(encode(close, noise), encode(unknown, noise)));
+    CHECK_FALSE(same(encode(far, noise), encode(unknown, noise)));
+  }
+  SUBCASE("a bad scale is refused naming it") {
+    for (double v : {-1.0, 0.01, 20000.0, std::nan(""), double(INFINITY)}) {
+      CAPTURE(v);
+      CHECK_THROWS_WITH_AS(encoder(v), doctest::Contains("camera_px_per_cm"), InvalidArgument);
+      FrameEncoder enc = encoder(0);
+      CHECK_THROWS_AS(enc.set_camera_px_per_cm(v), InvalidArgument);
+      CHECK(enc.config().camera_px_per_cm == 0);
+    }
+    FrameEncoder::Config c{p, ChannelOrder::bgr};
+    c.scale_fill = static_cast<ScaleFill>(7);
+    CHECK_THROWS_WITH_AS(FrameEncoder{c}, doctest::Contains("scale_fill"), InvalidArgument);
+  }
+}
+
+TEST_CASE("the camera's scale: the light's gains and the dark rule come from the frame as it is") {
+  // A uniform frame keeps its value at the centre whatever the framing, as long as the
+  // lighting gains, the dark rule and the contrast's mean read the frame's own pixels. Read
+  // from the rescaled frame (three quarters black at scale 2), the gains would quadruple, the
+  // rule would call it dark and the contrast's mean would drop.
+  cv::Mat grey(350, 635, CV_8UC3, cv::Scalar(70, 80, 90));
+  cv::Mat grey_f;
+  grey.convertTo(grey_f, CV_32FC3, 1.0 / 255.0);
+  auto centre = [](const Tensor& t) {
+    return std::array<float, 3>{t(0, 0, t.h() / 2, t.w() / 2), t(0, 1, t.h() / 2, t.w() / 2),
+                                t(0, 2, t.h() / 2, t.w() / 2)};
+  };
+  for (const bool normalise : {true, false})
+    for (const float contrast : {1.0f, 3.0f})
+      for (const ScaleFill fill :
+           {ScaleFill::black, ScaleFill::replicate, ScaleFill::black_frame_contrast}) {
+        CAPTURE(normalise);
+        CAPTURE(contrast);
+        CAPTURE(to_string(fill));
+        PreprocessParams p;
+        p.lighting_normalise = normalise;
+        p.contrast_factor = contrast;
+        p.dark_luminance_threshold = 0.2f; // grey: luminance 0.31, not dark; padded: 0.08
+        FrameEncoder plain({p, ChannelOrder::bgr});
+        FrameEncoder::Config c{p, ChannelOrder::bgr};
+        c.camera_px_per_cm = 2 * network_scale.px_per_cm;
+        c.scale_fill = fill;
+        FrameEncoder scaled(c);
+        const auto a = centre(encode(plain, grey)), b = centre(encode(scaled, grey)),
+                   bf = centre(encode(scaled, grey_f)); // float frames take the same stages
+        // With contrast, a black fill moves the mean (what black_frame_contrast is for).
+        const bool moved = contrast != 1.0f && fill == ScaleFill::black;
+        for (int k = 0; k < 3; ++k) {
+          CHECK((b[k] == doctest::Approx(a[k]).epsilon(1e-5)) != moved);
+          CHECK((bf[k] == doctest::Approx(a[k]).epsilon(1e-5)) != moved);
+        }
+      }
+}
+
+TEST_CASE("Preprocessor contrast region: the mean reads only the pixels mapped from it") {
+  PreprocessParams p; // resize 318 x 235, crop 220 x 150, contrast 3
+  cv::Mat img(350, 635, CV_8UC3, cv::Scalar::all(0));
+  const cv::Rect own(158, 87, 318, 175);
+  img(own).setTo(cv::Scalar::all(100));
+  Preprocessor whole({p, ChannelOrder::bgr}), part({p, ChannelOrder::bgr});
+  part.set_contrast_region(own);
+  CHECK(part.contrast_region() == own);
+  const Tensor tw = whole(img, false), tp = part(img, false);
+  // Inside the own part the value is 100/255 blended with the mean: the own part's mean is the
+  // grey value of 100/255 itself (the weights sum to 0.9999); over the whole image it moves.
+  const float v = 100.0f / 255.0f, gray = (0.2989f + 0.587f + 0.114f) * v;
+  const float expect = (3.0f * v - 2.0f * gray - p.mean[0]) / p.std[0];
+  CHECK(tp(0, 0, 75, 110) == doctest::Approx(expect).epsilon(1e-5));
+  CHECK(tw(0, 0, 75, 110) != doctest::Approx(expect).epsilon(1e-3));
+  // A region that maps to no pixel of the crop falls back to the whole image.
+  part.set_contrast_region(cv::Rect(0, 0, 2, 2));
+  const Tensor tf = part(img, false);
+  CHECK(same(tf, tw));
+  part.set_contrast_region({});
+  CHECK(same(part(img, false), tw));
+}

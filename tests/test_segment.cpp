@@ -297,8 +297,8 @@ TEST_CASE("calibration text round-trips exactly and malformed files are rejected
   };
   CHECK_THROWS_WITH_AS(calibration_from_string(""), doctest::Contains("empty"),
                        CalibrationFileError);
-  CHECK_THROWS_WITH_AS(calibration_from_string(replace("calibration 1", "calibration 3")),
-                       doctest::Contains("version 3"), CalibrationFileError);
+  CHECK_THROWS_WITH_AS(calibration_from_string(replace("calibration 1", "calibration 4")),
+                       doctest::Contains("version 4"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("mode fixed_ranges", "mode magic")),
                        doctest::Contains("calibration:3: mode 'magic'"), CalibrationFileError);
   CHECK_THROWS_WITH_AS(calibration_from_string(replace("100 110 120", "100 110 320")),

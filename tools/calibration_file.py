@@ -1,12 +1,15 @@
 #!/usr/bin/python3
 """The segmenter's calibration file (include/shadowsense/sense/calibration_file.hpp,
-docs/calibration.md) as far as the classifier's training needs it: the empty-skin model.
+docs/calibration.md) as far as the classifier's training needs it: the empty-skin model and
+the camera's scale.
 
   read_empty_skin(path)  -> numpy float32 H x W x 3 (B, G, R: the file's order exactly), or None
-                            when the file holds no empty-skin model (version 1, or a version-2
+                            when the file holds no empty-skin model (version 1, or a version-2/3
                             file without one). Raises CalibrationFileError naming the path for
                             anything malformed: wrong header, a cut or changed file (the CRC-32
                             of the end line), a model block that does not fit.
+  read_px_per_cm(path)   -> the camera's scale (px_per_cm, version 3), 0.0 when not recorded;
+                            the same errors.
   write_calibration(path, empty_skin)
                          -> writes a version-2 file with the library's default thresholds and
                             the given model (float32 H x W x 3, BGR), atomically; the C++
@@ -33,6 +36,14 @@ class CalibrationFileError(ValueError):
 
 
 def read_empty_skin(path):
+    return _read(path)[0]
+
+
+def read_px_per_cm(path):
+    return _read(path)[1]
+
+
+def _read(path):
     try:
         size = os.path.getsize(path)
         if size > MAX_BYTES:
@@ -41,7 +52,7 @@ def read_empty_skin(path):
             data = f.read()
     except OSError as e:
         raise CalibrationFileError(f"{path}: cannot read the calibration file ({e})") from None
-    pos, version, model, line_no = 0, None, None, 0
+    pos, version, model, line_no, px_per_cm = 0, None, None, 0, 0.0
     while pos < len(data):
         nl = data.find(b"\n", pos)
         if nl < 0:
@@ -56,18 +67,26 @@ def read_empty_skin(path):
             pos = nl + 1
             continue
         if version is None:
-            if len(words) != 2 or words[0] != MAGIC or words[1] not in ("1", "2"):
-                raise CalibrationFileError(f"{path}: line {line_no}: expected '{MAGIC} 1|2', "
+            if len(words) != 2 or words[0] != MAGIC or words[1] not in ("1", "2", "3"):
+                raise CalibrationFileError(f"{path}: line {line_no}: expected '{MAGIC} 1|2|3', "
                                            f"got '{text}' (not a calibration file)")
             version = int(words[1])
-        elif words[0] == "end" and version == 2:
+        elif words[0] == "end" and version >= 2:
             if len(words) != 2 or int(words[1], 16) != zlib.crc32(data[:pos]):
                 raise CalibrationFileError(f"{path}: checksum mismatch in the end line "
                                            f"(the file was cut or changed)")
             if nl + 1 != len(data):
                 raise CalibrationFileError(f"{path}: bytes after the end line")
-            return model
-        elif words[0] == "empty_skin" and version == 2:
+            return model, px_per_cm
+        elif words[0] == "px_per_cm" and version == 3:
+            try:
+                px_per_cm = float(words[1]) if len(words) == 2 else -1.0
+            except ValueError:
+                px_per_cm = -1.0
+            if not (0.05 <= px_per_cm <= 10000):
+                raise CalibrationFileError(f"{path}: line {line_no}: px_per_cm must be one "
+                                           f"number in [0.05, 10000], got '{text}'")
+        elif words[0] == "empty_skin" and version >= 2:
             if model is not None or len(words) != 4 or words[3] != "f32":
                 raise CalibrationFileError(f"{path}: line {line_no}: expected one "
                                            f"'empty_skin W H f32', got '{text}'")
@@ -85,7 +104,7 @@ def read_empty_skin(path):
             continue
         pos = nl + 1
     if version == 1:
-        return None
+        return None, 0.0
     raise CalibrationFileError(f"{path}: no end line (the file was cut)")
 
 

@@ -182,6 +182,36 @@ class SkinRelativeEncoding(unittest.TestCase):
         finally:
             shutil.rmtree(work)
 
+    def test_calibration_file_version_3_carries_the_camera_scale(self):
+        import zlib
+        import numpy as np
+        import calibration_file as cf
+        work = tempfile.mkdtemp()
+        try:
+            path = os.path.join(work, "c.calib")
+            m = np.full((3, 4, 3), 0.8, np.float32)
+            cf.write_calibration(path, m)
+            self.assertEqual(cf.read_px_per_cm(path), 0.0)
+            body = read_bytes(path)
+            body = body[:body.rfind(b"end ")]
+
+            def v3(line):  # the C++ writer's layout: header 3, px_per_cm before empty_skin
+                t = body.replace(b"calibration 2\n", b"calibration 3\n")
+                t = t.replace(b"empty_skin ", line + b"empty_skin ", 1)
+                return t + b"end %08x\n" % zlib.crc32(t)
+            with open(path, "wb") as f:
+                f.write(v3(b"px_per_cm 10.9921875\n"))
+            self.assertEqual(cf.read_px_per_cm(path), 10.9921875)
+            self.assertTrue(np.array_equal(cf.read_empty_skin(path), m))
+            for bad in (b"px_per_cm -1\n", b"px_per_cm x\n", b"px_per_cm 1 2\n"):
+                with open(path, "wb") as f:
+                    f.write(v3(bad))
+                with self.assertRaises(cf.CalibrationFileError) as ctx:
+                    cf.read_px_per_cm(path)
+                self.assertIn("px_per_cm", str(ctx.exception))
+        finally:
+            shutil.rmtree(work)
+
     def test_train_writes_version_4_and_needs_the_empty_skin(self):
         import numpy as np
         from PIL import Image

@@ -313,8 +313,13 @@ class EmptySkins:
     def read(path):
         try:
             m = calibration_file.read_empty_skin(path)
+            scale = calibration_file.read_px_per_cm(path)
         except calibration_file.CalibrationFileError as e:
             raise SystemExit(f"train.py: {e}")
+        if scale > 0:  # the C++ encoder would rescale these frames; training here does not
+            raise SystemExit(f"train.py: {path} records the camera's scale (px_per_cm {scale}); "
+                             f"training does not rescale frames to the network's scale, so it "
+                             f"would not match inference: use a calibration without px_per_cm")
         if m is None:
             raise SystemExit(f"train.py: {path}: the calibration holds no empty-skin model, "
                              f"which --input-encoding skin_relative needs (ss_calibrate --empty)")

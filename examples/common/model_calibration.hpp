@@ -4,12 +4,16 @@
 //
 // empty_skin_for(model, model_path, calibration_path)
 //   ensures: the calibration's empty-skin model when the model's input encoding needs one;
-//            an empty Mat for a colour model (a --calibration given to it is not used).
+//            an empty Mat for a colour model.
 //   throws:  cli::UsageError (exit 2) naming the model when it needs a calibration and
 //            calibration_path is empty; the calibration file's own errors (IoError,
 //            CalibrationFileError naming the file); shadowsense::Error naming both files when
 //            the calibration holds no empty-skin model.
-// Plain function; no state.
+// encoder_calibration_for(model, model_path, calibration_path) -> EncoderCalibration
+//   ensures: empty_skin as empty_skin_for; camera_px_per_cm the calibration's px_per_cm (the
+//            camera's scale, any input encoding; 0 when no calibration is given or it records
+//            none): what the frame encoder needs of the calibration. Same errors.
+// Plain functions; no state.
 #pragma once
 
 #include <shadowsense/backends/densenet/model_file.hpp>
@@ -39,6 +43,19 @@ inline cv::Mat empty_skin_for(const shadowsense::ModelFile& model, const std::st
                     model_path + " (input encoding " + ss::to_string(e) +
                     ") needs; calibrate with ss_calibrate --empty to store one");
   return cal.empty_skin;
+}
+
+struct EncoderCalibration {
+  cv::Mat empty_skin;
+  double camera_px_per_cm = 0;
+};
+
+inline EncoderCalibration encoder_calibration_for(const shadowsense::ModelFile& model,
+                                                  const std::string& model_path,
+                                                  const std::string& calibration_path) {
+  if (calibration_path.empty()) return {empty_skin_for(model, model_path, calibration_path), 0};
+  return {empty_skin_for(model, model_path, calibration_path),
+          shadowsense::load_calibration(calibration_path).px_per_cm};
 }
 
 } // namespace cli

@@ -395,12 +395,15 @@ void bind_calibration(py::module_& m) {
             if (c.empty_skin.empty()) return py::none();
             return py::make_tuple(c.empty_skin.cols, c.empty_skin.rows);
           },
-          "(width, height) of the empty-skin model, or None");
+          "(width, height) of the empty-skin model, or None")
+      .def_readwrite("px_per_cm", &ss::SegmenterCalibration::px_per_cm,
+                     "the camera's scale, px per cm of skin at the image centre (0: not "
+                     "measured); save_calibration checks it (0 or 0.05..10000)");
 
   m.def(
       "load_calibration", [](const std::string& path) { return ss::load_calibration(path); },
       py::arg("path"),
-      "Load a calibration file (version 1 or 2; sense/calibration_file.hpp).\n\n"
+      "Load a calibration file (version 1, 2 or 3; sense/calibration_file.hpp).\n\n"
       "Raises CalibrationFileError naming the file (and line) for anything malformed, cut or "
       "changed;\n"
       "IoError when the path cannot be read, is not a regular file or is over 512 MiB.");
@@ -410,8 +413,9 @@ void bind_calibration(py::module_& m) {
         ss::save_calibration(c, path);
       },
       py::arg("calibration"), py::arg("path"),
-      "Write a calibration file (format version 2) atomically: the old file stays intact on "
-      "failure.\n\nRaises InvalidArgument for a bad calibration, IoError naming the path.");
+      "Write a calibration file (format version 2, 3 with px_per_cm) atomically: the old file "
+      "stays intact on failure.\n\nRaises InvalidArgument for a bad calibration, IoError naming "
+      "the path.");
 
   py::class_<ss::CalibrationWarning>(m, "CalibrationWarning",
                                      "A degenerate part of a calibration (sense/calibration.hpp).")
@@ -574,20 +578,28 @@ void bind_pipeline(py::module_& m) {
       m, "Classifier",
       "The gesture classifier with the reference DenseNet backend\n"
       "(backends/densenet/classifier.hpp, classify/classifier.hpp).\n\n"
-      "Classifier(model_path, threads=1): loads the model file (its preprocessing, lighting\n"
-      "normalisation and dark-frame rule come from it) and runs its embedded self-test.\n"
+      "Classifier(model_path, threads=1, calibration=None): loads the model file (its\n"
+      "preprocessing, lighting normalisation and dark-frame rule come from it) and runs its\n"
+      "embedded self-test. calibration: the robot's Calibration: its empty-skin model (needed by\n"
+      "a model with a calibrated input encoding) and its camera scale (px_per_cm: frames are then\n"
+      "brought to the network's scale; docs/input_encodings.md).\n"
       "Raises ModelFileError for a malformed file, IoError when it cannot be read.\n"
       "classify(frame) -> Classification: label, index and one probability per class.\n"
       "Threading: one instance per thread (ConcurrentUseError otherwise); the GIL is released\n"
       "while a frame is classified. Moved into a Runtime, the instance is empty.")
-      .def(py::init([](const std::string& path, int threads) {
+      .def(py::init([](const std::string& path, int threads,
+                       const std::optional<ss::SegmenterCalibration>& calibration) {
              ss::DenseNet::Config config;
              config.threads = threads;
              auto c = std::make_unique<PyClassifier>();
-             c->classifier.emplace(ss::make_densenet_classifier(ss::ModelFile::load(path), config));
+             c->classifier.emplace(ss::make_densenet_classifier(
+                 ss::ModelFile::load(path), config, ss::ChannelOrder::bgr,
+                 calibration ? calibration->empty_skin : cv::Mat(),
+                 calibration ? calibration->px_per_cm : 0.0));
              return c;
            }),
-           py::arg("model_path"), py::kw_only(), py::arg("threads") = 1)
+           py::arg("model_path"), py::kw_only(), py::arg("threads") = 1,
+           py::arg("calibration") = py::none())
       .def_property_readonly("class_names",
                              [](PyClassifier& self) {
                                const auto names = self.get().class_names();

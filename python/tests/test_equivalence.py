@@ -2,6 +2,7 @@
 the same tracks, events, temporal gestures and probabilities (within 1e-6), and the same event
 files."""
 import numpy as np
+import pytest
 
 import shadowsense as ss
 from results import differences, format_frame
@@ -108,3 +109,27 @@ def test_calibrate_from_frames(sequence):
     assert shadow_box[0] - 8 <= x and x + w <= shadow_box[0] + shadow_box[2] + 8
     assert shadow_box[1] - 8 <= y and y + h <= shadow_box[1] + shadow_box[3] + 8
     assert segmenter.segment(sequence.images[0]).shadows == []
+
+
+def test_the_camera_scale_is_recorded_and_used(sequence, model_path, tmp_path):
+    calibration = ss.load_calibration(sequence.calibration_path)
+    assert calibration.px_per_cm == 0
+    calibration.px_per_cm = 2 * 242.5 / 32  # hands twice the network's size
+    path = tmp_path / "scaled.calib"
+    ss.save_calibration(calibration, str(path))
+    assert b"shadowsense_segmenter_calibration 3\n" in path.read_bytes()
+    assert ss.load_calibration(str(path)).px_per_cm == calibration.px_per_cm
+    plain = ss.Classifier(model_path)
+    same = ss.load_calibration(sequence.calibration_path)
+    same.px_per_cm = 242.5 / 32  # the network's own scale: frames untouched
+    at_network = ss.Classifier(model_path, calibration=same)
+    scaled = ss.Classifier(model_path, calibration=calibration)
+    changed = 0
+    for frame in sequence.images[::8]:
+        p = plain.classify(frame).probabilities
+        np.testing.assert_array_equal(at_network.classify(frame).probabilities, p)
+        changed += int(np.abs(scaled.classify(frame).probabilities - p).max() > 1e-4)
+    assert changed > 0
+    calibration.px_per_cm = -1
+    with pytest.raises(ss.InvalidArgument, match="px_per_cm"):
+        ss.save_calibration(calibration, str(tmp_path / "bad.calib"))

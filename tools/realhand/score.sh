@@ -6,20 +6,24 @@
 #
 # usage: tools/realhand/score.sh --model M.ssm --source NAME --scale S [--valsets DIR]
 #                                [--bin DIR] [--json OUT.json] [--render-only]
+#                                [--camera-scale FILL]
 #   NAME: realhand | epsrc | rps_heldout | cnngest      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
 #   name is <source>_s<S>; any number in [0.25, 4] works)
 #   --valsets DIR  rendered folders (default /work/valsets, or $VALSETS)
 #   --bin DIR      folder of ss_eval_classify (default build/examples, or $TRACK_EVAL_BIN_DIR)
+#   --camera-scale FILL  bring frames to the network's scale: the camera's scale is S x 7.578125
+#                  px per cm (ss_eval_classify --camera-px-per-cm, --scale-fill FILL: black,
+#                  replicate or black_frame_contrast; docs/input_encodings.md)
 # Exit 0 on success, 2 on bad arguments or a failing step (message on stderr).
 set -eu
 root=$(cd "$(dirname "$0")/../.." && pwd)
-model="" source="" scale="" json="" render_only=0
+model="" source="" scale="" json="" render_only=0 fill=
 valsets=${VALSETS:-/work/valsets}
 bin=${TRACK_EVAL_BIN_DIR:-$root/build/examples}
 die() { echo "score.sh: $*" >&2; exit 2; }
 while [ $# -gt 0 ]; do
   case $1 in
-    -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0;;
+    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0;;
     --version) echo "score.sh 1"; exit 0;;
     --model) [ $# -ge 2 ] || die "--model needs a value"; model=$2; shift 2;;
     --source) [ $# -ge 2 ] || die "--source needs a value"; source=$2; shift 2;;
@@ -28,6 +32,7 @@ while [ $# -gt 0 ]; do
     --bin) [ $# -ge 2 ] || die "--bin needs a value"; bin=$2; shift 2;;
     --json) [ $# -ge 2 ] || die "--json needs a value"; json=$2; shift 2;;
     --render-only) render_only=1; shift;;
+    --camera-scale) [ $# -ge 2 ] || die "--camera-scale needs a value"; fill=$2; shift 2;;
     *) die "unknown argument '$1' (see --help)";;
   esac
 done
@@ -36,6 +41,8 @@ done
 [ $render_only = 1 ] || [ -n "$model" ] || die "--model is required"
 [ $render_only = 1 ] || [ -f "$model" ] || die "model '$model' not found"
 case $scale in ''|*[!0-9.]*|*.*.*) die "--scale '$scale' is not a number";; esac
+case $fill in ''|black|replicate|black_frame_contrast) ;;
+  *) die "--camera-scale '$fill' is not black, replicate or black_frame_contrast";; esac
 # The pre-registered sources (docs/validation_protocol.md): hands, split, render parameters.
 case $source in
   realhand) hands="$root/data/realhand"; split="";;
@@ -81,12 +88,15 @@ fi
 [ -x "$bin/ss_eval_classify" ] || die "'$bin/ss_eval_classify' not found (build the target)"
 tmp=$(mktemp) || die "mktemp failed"
 trap 'rm -f "$tmp"' EXIT
+camera=""
+[ -z "$fill" ] || camera=$(/usr/bin/python3 -c "print(repr($scale * 242.5 / 32))")
 "$bin/ss_eval_classify" --score "$model" --data "$out/gestures" --lighting-normalise --quiet \
-  --session-calibrations --json "$tmp" >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
+  --session-calibrations --json "$tmp" ${fill:+--camera-px-per-cm "$camera" --scale-fill "$fill"} \
+  >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
 if [ -n "$json" ]; then
   { cp "$tmp" "$json.tmp" && mv "$json.tmp" "$json"; } || die "cannot write '$json'"
 fi
-/usr/bin/python3 - "$tmp" "$source" "$scale" "$model" <<'PY'
+/usr/bin/python3 - "$tmp" "$source" "$scale" "$model" "${fill:+ (camera scale, $fill fill)}" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
 names = ["nothing", "hug", "palm", "point", "punch", "two_hands"]
@@ -99,5 +109,5 @@ cells = []
 for i, nm in enumerate(names):
     t = sum(m[i])
     cells.append(f"{nm} {100.0 * m[i][i] / t:.1f}% ({m[i][i]}/{t})" if t else f"{nm} -")
-print(f"{sys.argv[2]} x{sys.argv[3]}: all {100.0 * ok / n:.2f}% ({ok}/{n}); " + "; ".join(cells))
+print(f"{sys.argv[2]} x{sys.argv[3]}{sys.argv[5]}: all {100.0 * ok / n:.2f}% ({ok}/{n}); " + "; ".join(cells))
 PY

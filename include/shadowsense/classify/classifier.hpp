@@ -10,7 +10,9 @@
 //   ensures: probabilities = softmax(logits), summing to 1 up to rounding; else InvalidArgument.
 // Classifier(backend, config)
 //   requires: the backend has at least one class; config.preprocess valid; config.empty_skin
-//             set when config.preprocess.input_encoding needs a calibration (InvalidArgument).
+//             set when config.preprocess.input_encoding needs a calibration (InvalidArgument);
+//             config.camera_px_per_cm 0 (not known) or the calibration's px_per_cm: frames are
+//             then brought to the network's scale (FrameEncoder stage 2b).
 // classify(frame)        encodes frame (the dark-frame rule decides the brightness factor),
 //                        infers, returns label, index and one probability per class.
 // classify(frame, dark)  the same with the caller's dark flag (evaluation protocols).
@@ -86,12 +88,17 @@ public:
     // The calibration's empty-skin model, for an input encoding that needs one
     // (FrameEncoder::Config::empty_skin; the encoder throws InvalidArgument without it).
     cv::Mat empty_skin{};
+    // The camera's scale (SegmenterCalibration::px_per_cm; 0 = not known) and the fill around a
+    // shrunk frame (FrameEncoder::Config).
+    double camera_px_per_cm = 0;
+    ScaleFill scale_fill = default_scale_fill;
   };
 
   explicit Classifier(Backend backend, Config config = {})
       : backend_(std::move(backend)),
         encoder_(FrameEncoder::Config{config.preprocess, config.input_order,
-                                      std::move(config.empty_skin)}) {
+                                      std::move(config.empty_skin), config.camera_px_per_cm,
+                                      config.scale_fill}) {
     detail::require(!class_names().empty(),
                     "Classifier: the backend has no classes, expected at least one");
   }

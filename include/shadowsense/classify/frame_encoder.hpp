@@ -17,12 +17,26 @@
 //      params.lighting_normalise is set; the brightness factor is then never applied;
 //   2. otherwise the dark-frame rule decides whether the brightness factor applies:
 //      dark <=> mean luminance(frame) < params.dark_luminance_threshold (is_dark below);
+//   2b. the camera's scale (config.camera_px_per_cm > 0, a calibration's px_per_cm): the frame
+//      is brought to the scale the network was trained at, network_scale (the generator rig:
+//      7.578125 px per cm of skin in a 635 x 350 frame), per axis about the frame's centre:
+//        s_x = camera_px_per_cm / network_scale.px_per_cm * network_scale.width / W
+//        s_y = camera_px_per_cm / network_scale.px_per_cm * network_scale.height / H
+//      |s - 1| < 0.01: the axis is left as it is. s > 1 (hands look larger than in training):
+//      the frame shrinks to n = round(N / s) (N = W or H) at offset floor((N - n) / 2) and the
+//      rest is filled (config.scale_fill: black, or the shrunk frame's border repeated). s < 1:
+//      the centre n = round(N s) at offset floor((N - n) / 2) is enlarged to N. cv::resize,
+//      INTER_AREA when both axes shrink, else INTER_LINEAR. The dark-frame rule and the
+//      lighting normalisation's gains are taken from the frame as it is (the light does not
+//      change with the framing); the gains then apply to the rescaled frame. Without a scale
+//      the frame is not touched (bit for bit the encoder before the stage existed);
 //   3. the Preprocessor (resize, crop, contrast, brightness, Normalize).
 //
 // FrameEncoder(Config)
 //   requires: config.params.validate() passes; input order rgb or bgr (else InvalidArgument);
 //             config.empty_skin empty, or CV_32FC3 (B, G, R: the calibration's order whatever
 //             the input order) with finite values in [0, 8] (else InvalidArgument).
+//             config.camera_px_per_cm 0 or finite in [0.05, 10000] (else InvalidArgument).
 //   throws:   InvalidArgument naming the input encoding when it needs a calibration
 //             (needs_calibration) and config.empty_skin is empty: a model trained on
 //             skin-relative frames never runs on raw colour.
@@ -30,8 +44,15 @@
 //   needs a calibration (callers check before costly work).
 // set_empty_skin(model): replaces the empty-skin model (same requirements; an empty model is
 //   refused when the encoding needs one, and ignored by the colour encoding).
-// FrameEncoder(params, force_lighting_normalise, empty_skin = {})
-//   the BGR encoder of params (with that empty-skin model), with lighting normalisation switched on
+// set_camera_px_per_cm(v): replaces the camera's scale (same requirement; 0 = not known).
+// scale_factors(frame_size) -> (s_x, s_y) of stage 2b (1 on an axis left as it is).
+// rescale(frame, out) -> out: stage 2b alone (frame itself when both factors are 1); any
+//   type cv::resize takes; the tests and tools use it to see what the network sees. Also sets
+//   the Preprocessor's contrast region for the next run (black_frame_contrast).
+// FrameEncoder(params, force_lighting_normalise, empty_skin = {}, camera_px_per_cm = 0,
+//              scale_fill = default_scale_fill)
+//   the BGR encoder of params (with that empty-skin model and camera scale), with lighting
+//   normalisation switched on
 //   when force_lighting_normalise is true (programs' --lighting-normalise for version-1 model files
 //   that do not record it); false keeps params.lighting_normalise as it is.
 // mean_luminance(frame) const -> double
@@ -61,10 +82,42 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 
 SHADOWSENSE_NAMESPACE_BEGIN
+
+// The scale the network sees hands at (stage 2b): the generator rig every model of this project
+// is trained on (sim::Rig::robot(): 242.5 px per rad at 32 cm on the optical axis, 635 x 350).
+struct NetworkScale {
+  double px_per_cm;
+  int width, height;
+};
+inline constexpr NetworkScale network_scale{242.5 / 32.0, 635, 350};
+
+// What fills the frame around a frame that stage 2b shrinks.
+//   black                 0 in every channel (the robot's interior around the skin);
+//   replicate             the shrunk frame's border pixels repeated;
+//   black_frame_contrast  black, and the Preprocessor's contrast mean read from the frame's own
+//                         pixels only (Preprocessor::set_contrast_region), so the fill does not
+//                         move it.
+enum class ScaleFill : std::uint32_t { black = 0, replicate = 1, black_frame_contrast = 2 };
+inline constexpr const char* to_string(ScaleFill f) {
+  return f == ScaleFill::black                  ? "black"
+         : f == ScaleFill::replicate            ? "replicate"
+         : f == ScaleFill::black_frame_contrast ? "black_frame_contrast"
+                                                : "unknown";
+}
+inline std::optional<ScaleFill> parse_scale_fill(std::string_view name) {
+  for (ScaleFill f : {ScaleFill::black, ScaleFill::replicate, ScaleFill::black_frame_contrast})
+    if (name == to_string(f)) return f;
+  return std::nullopt;
+}
+inline constexpr ScaleFill default_scale_fill = ScaleFill::black;
 
 class FrameEncoder {
 public:
@@ -74,6 +127,10 @@ public:
     // The calibration's empty-skin model (SegmenterCalibration::empty_skin, BGR); needed by
     // the skin_relative encoding, ignored by colour.
     cv::Mat empty_skin{};
+    // The camera's scale (SegmenterCalibration::px_per_cm; 0 = not known: no rescaling) and
+    // what fills the frame around it when it shrinks (stage 2b).
+    double camera_px_per_cm = 0;
+    ScaleFill scale_fill = default_scale_fill;
   };
 
   // The skin test and the division floor of the skin_relative encoding (header comment).
@@ -87,11 +144,15 @@ public:
     cv::Mat model = std::move(config_.empty_skin);
     config_.empty_skin.release();
     set_empty_skin(model);
+    set_camera_px_per_cm(config_.camera_px_per_cm);
+    detail::require(parse_scale_fill(to_string(config_.scale_fill)).has_value(),
+                    "FrameEncoder: scale_fill must be black, replicate or black_frame_contrast");
   }
   FrameEncoder(const PreprocessParams& params, bool force_lighting_normalise,
-               cv::Mat empty_skin = {})
+               cv::Mat empty_skin = {}, double camera_px_per_cm = 0,
+               ScaleFill scale_fill = default_scale_fill)
       : FrameEncoder(Config{forced(params, force_lighting_normalise), ChannelOrder::bgr,
-                            std::move(empty_skin)}) {}
+                            std::move(empty_skin), camera_px_per_cm, scale_fill}) {}
 
   const Config& config() const { return config_; }
   bool lighting_normalise() const { return config_.params.lighting_normalise; }
@@ -126,6 +187,54 @@ public:
           "expected brightness relative to the reference (about 1 on the skin)"));
     config_.empty_skin = model.clone();
     model_.release(); // resized (and reordered) for the first frame's size
+  }
+
+  void set_camera_px_per_cm(double v) {
+    if (!(v == 0 || (std::isfinite(v) && v >= 0.05 && v <= 10000)))
+      SHADOWSENSE_THROW(InvalidArgument("FrameEncoder: camera_px_per_cm is " + std::to_string(v) +
+                                        ", expected 0 (not known) or a scale in [0.05, 10000] "
+                                        "px per cm (the calibration's px_per_cm)"));
+    config_.camera_px_per_cm = v;
+  }
+
+  std::pair<double, double> scale_factors(cv::Size frame) const {
+    if (config_.camera_px_per_cm == 0 || frame.width < 1 || frame.height < 1) return {1.0, 1.0};
+    const double r = config_.camera_px_per_cm / network_scale.px_per_cm;
+    auto axis = [](double s) { return std::abs(s - 1.0) < 0.01 ? 1.0 : s; };
+    return {axis(r * network_scale.width / frame.width),
+            axis(r * network_scale.height / frame.height)};
+  }
+
+  const cv::Mat& rescale(const cv::Mat& frame, cv::Mat& out) {
+    pre_.set_contrast_region({});
+    const auto [sx, sy] = scale_factors(frame.size());
+    if (sx == 1.0 && sy == 1.0) return frame;
+    // Per axis: the source span [a, a + n) and where it lands in the output, [o, o + m).
+    struct Span {
+      int a, n, o, m;
+    };
+    auto span = [](int N, double s) {
+      if (s > 1) {
+        const int m = std::max(1, static_cast<int>(std::lround(N / s)));
+        return Span{0, N, (N - m) / 2, m};
+      }
+      const int n = std::max(1, static_cast<int>(std::lround(N * s)));
+      return Span{(N - n) / 2, n, 0, N};
+    };
+    const Span x = span(frame.cols, sx), y = span(frame.rows, sy);
+    const int interpolation = sx > 1 && sy > 1 ? cv::INTER_AREA : cv::INTER_LINEAR;
+    const cv::Mat source = frame(cv::Rect(x.a, y.a, x.n, y.n));
+    if (x.m == frame.cols && y.m == frame.rows) {
+      cv::resize(source, out, frame.size(), 0, 0, interpolation);
+      return out;
+    }
+    cv::resize(source, shrunk_, cv::Size(x.m, y.m), 0, 0, interpolation);
+    const bool black = config_.scale_fill != ScaleFill::replicate;
+    if (config_.scale_fill == ScaleFill::black_frame_contrast)
+      pre_.set_contrast_region(cv::Rect(x.o, y.o, x.m, y.m));
+    cv::copyMakeBorder(shrunk_, out, y.o, frame.rows - y.m - y.o, x.o, frame.cols - x.m - x.o,
+                       black ? cv::BORDER_CONSTANT : cv::BORDER_REPLICATE, cv::Scalar::all(0));
+    return out;
   }
 
   // Stage 0 of the skin_relative encoding: out CV_32FC3 in 0..1, in the input order.
@@ -172,20 +281,21 @@ private:
       skin_relative(frame, encoded_);
       if (lighting_normalise()) {
         norm_.run(encoded_, float_);
-        pre_.run(float_, false, out);
+        pre_.run(rescale(float_, scaled_), false, out);
       } else {
-        pre_.run(encoded_, dark, out);
+        pre_.run(rescale(encoded_, scaled_), dark, out);
       }
     } else if (lighting_normalise() && frame.type() == CV_8UC3) {
       // The normalisation as a value table applied while resizing: the same values as
-      // norm_.run then pre_.run, without a full-size float image.
+      // norm_.run then pre_.run, without a full-size float image. The table's gains come from
+      // the frame as it is, the pixels from the rescaled frame (stage 2b).
       norm_.table(frame, table_);
-      pre_.run_mapped(frame, table_, false, out);
+      pre_.run_mapped(rescale(frame, scaled_), table_, false, out);
     } else if (lighting_normalise()) {
       norm_.run(frame, float_);
-      pre_.run(float_, false, out);
+      pre_.run(rescale(float_, scaled_), false, out);
     } else {
-      pre_.run(frame, dark, out);
+      pre_.run(rescale(frame, scaled_), dark, out);
     }
   }
 
@@ -250,7 +360,8 @@ private:
   Config config_;
   Preprocessor pre_;
   LightingNormaliser norm_;
-  cv::Mat float_, encoded_, model_;
+  cv::Mat float_, encoded_, model_, scaled_;
+  cv::Mat shrunk_; // rescale()'s shrunk frame before its border is filled
   LightingNormaliser::Table table_{};
 };
 

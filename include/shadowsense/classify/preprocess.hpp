@@ -23,6 +23,11 @@
 //             c; not checked). ensures: run() on the image mapped through table, computed
 //             without a full-size float image (8-bit images in run() go this way with
 //             table = v / 255). Throws InvalidArgument on a bad image or crop.
+// set_contrast_region(r): adjust_contrast's mean reads only the pixels of the (resized, cropped)
+//   image whose centres map into r, a rectangle of the input image (input pixels; a resized
+//   pixel j maps to (j + 0.5) * in / out - 0.5); an empty r (the default) or one that leaves no
+//   pixel = the whole image, as torchvision. FrameEncoder sets it to the frame's own part of a
+//   padded frame (ScaleFill::black_frame_contrast), so the fill does not move the mean.
 // Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
@@ -84,6 +89,9 @@ public:
     return t;
   }
 
+  void set_contrast_region(cv::Rect r) { region_ = r; }
+  cv::Rect contrast_region() const { return region_; }
+
   void run(const cv::Mat& image, bool dark, Tensor& out) {
     detail::require(!image.empty(), "Preprocessor: image is empty, expected CV_8UC3 or CV_32FC3");
     if (!(image.dims == 2 && (image.type() == CV_8UC3 || image.type() == CV_32FC3)))
@@ -139,6 +147,7 @@ private:
 
   void run_mapped_unchecked(const cv::Mat& image, const Table& table, bool dark, Tensor& out) {
     const auto& p = config_.params;
+    input_size_ = image.size();
     if (p.resize_width > 0 && (p.resize_width != image.cols || p.resize_height != image.rows)) {
       resize_bilinear_mapped(image, table, p.resize_width, p.resize_height);
       crop_normalise(resized_, dark, out);
@@ -161,6 +170,7 @@ private:
     // source positions and weights (cv::resize differs by up to 5e-4 after normalisation on
     // noisy images because it rounds positions differently).
     const cv::Mat* cur = &image;
+    input_size_ = image.size();
     if (p.resize_width > 0 && (p.resize_width != cur->cols || p.resize_height != cur->rows)) {
       resize_bilinear(*cur, p.resize_width, p.resize_height);
       cur = &resized_;
@@ -168,11 +178,29 @@ private:
     crop_normalise(*cur, dark, out);
   }
 
+  // The pixels of view (a crop of the resized image `image`) that adjust_contrast's mean reads.
+  // offset: the crop's top-left corner in the resized image.
+  cv::Rect mean_rect(const cv::Mat& image, const cv::Mat& view, cv::Point offset) const {
+    const cv::Rect all(0, 0, view.cols, view.rows);
+    if (region_.empty() || input_size_.empty()) return all;
+    auto span = [](int lo, int len, int in, int out, int shift) {
+      const double k = double(out) / in; // output pixels per input pixel
+      const int a = static_cast<int>(std::ceil((lo + 0.5) * k - 0.5));
+      const int b = static_cast<int>(std::floor((lo + len - 0.5) * k - 0.5));
+      return std::pair{a - shift, b - shift};
+    };
+    const auto [x0, x1] = span(region_.x, region_.width, input_size_.width, image.cols, offset.x);
+    const auto [y0, y1] = span(region_.y, region_.height, input_size_.height, image.rows, offset.y);
+    const cv::Rect r = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1) & all;
+    return r.empty() ? all : r;
+  }
+
   // Centre crop, contrast, brightness, Normalize of a float image in 0..1.
   void crop_normalise(const cv::Mat& image, bool dark, Tensor& out) {
     const auto& p = config_.params;
     const cv::Mat* cur = &image;
     cv::Mat view = *cur;
+    cv::Point offset(0, 0);
     if (p.crop_width > 0) {
       if (!(p.crop_width <= cur->cols && p.crop_height <= cur->rows))
         SHADOWSENSE_THROW(
@@ -183,19 +211,22 @@ private:
       const int top = round_half_even((cur->rows - p.crop_height) / 2.0);
       const int left = round_half_even((cur->cols - p.crop_width) / 2.0);
       view = (*cur)(cv::Rect(left, top, p.crop_width, p.crop_height));
+      offset = {left, top};
     }
     const int h = view.rows, w = view.cols;
     out.resize(1, 3, h, w);
     // Channel planes in RGB order (R, G, B pointers into the interleaved image).
     const int ri = config_.input_order == ChannelOrder::bgr ? 2 : 0, bi = 2 - ri;
-    // adjust_contrast: mean of the float grayscale over the whole (cropped) image.
+    // adjust_contrast: mean of the float grayscale over the whole (cropped) image, or over the
+    // part of it that comes from the contrast region.
+    const cv::Rect m = mean_rect(*cur, view, offset);
     double gray_sum = 0;
-    for (int y = 0; y < h; ++y) {
+    for (int y = m.y; y < m.y + m.height; ++y) {
       const float* s = view.ptr<float>(y);
-      for (int x = 0; x < w; ++x)
+      for (int x = m.x; x < m.x + m.width; ++x)
         gray_sum += 0.2989f * s[3 * x + ri] + 0.587f * s[3 * x + 1] + 0.114f * s[3 * x + bi];
     }
-    const float mean_gray = static_cast<float>(gray_sum / (double(h) * w));
+    const float mean_gray = static_cast<float>(gray_sum / (double(m.height) * m.width));
     const float cf = p.contrast_factor;
     const bool brighten = dark;
     const float bf = p.dark_brightness_factor;
@@ -299,6 +330,8 @@ private:
 
   Config config_;
   cv::Mat float_, resized_;
+  cv::Rect region_{};     // set_contrast_region; empty = the whole image
+  cv::Size input_size_{}; // the image passed to the current run, before the resize
   Taps xt_, yt_;
 };
 

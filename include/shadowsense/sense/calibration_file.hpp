@@ -1,30 +1,34 @@
 // The calibration file: everything a Segmenter needs, the empty-skin model included.
 //
-// Format version 2 (written by save_calibration; docs/calibration.md):
+// Format versions 2 and 3 (written by save_calibration; docs/calibration.md):
 //   UTF-8 text lines "key value...", '#' starts a comment; first non-comment line
-//   "shadowsense_segmenter_calibration 2"; keys (each once unless noted):
+//   "shadowsense_segmenter_calibration V"; keys (each once unless noted):
 //     mode fixed_ranges|relative
 //     shadow_range  B_lo G_lo R_lo B_hi G_hi R_hi      (integers 0..255)
 //     contact_range B_lo G_lo R_lo B_hi G_hi R_hi
 //     shadow_darkness F  contact_darkness F  contact_warmth F  reference_percentile F
 //     light_thresholds LUMINANCE SHADOW_DARKNESS CONTACT_DARKNESS CONTACT_WARMTH  (0 or more,
 //                                                           increasing luminance)
+//     px_per_cm F       (version 3 only; the camera's scale, in [0.05, 10000]; absent = 0)
 //     empty_skin W H f32  (optional) followed, right after its newline, by W*H*3 little-endian
 //                       IEEE-754 float32 values (row-major, B G R per pixel: the model exactly,
 //                       so a loaded calibration segments exactly like the one saved) and one
 //                       newline
 //   last line: "end XXXXXXXX" - the CRC-32 (IEEE, as zlib.crc32) in 8 lower-case hex digits of
 //   every byte before that line. A file cut anywhere, or changed, is rejected.
-// Version 1 (no empty_skin, no end line) still loads; a cut version 1 file cannot always be
-// detected, so save again to upgrade it.
+// A calibration is written as version 2 unless it records px_per_cm (then version 3), so files
+// without a scale stay byte for byte what earlier releases wrote and read. Version 1 (no
+// empty_skin, no end line) still loads; a cut version 1 file cannot always be detected, so save
+// again to upgrade it.
 //
 // calibration_to_string(c) / save_calibration(c, path)
 //   requires: validate_calibration(c) passes.
-//   ensures:  version 2 bytes; save writes them atomically: a temporary file in the same folder,
+//   ensures:  version 2 bytes (3 when c.px_per_cm > 0); save writes them atomically: a temporary
+//   file in the same folder,
 //             checked writes, flush, rename over `path` (the old file stays intact on failure).
 //   throws:   InvalidArgument (bad calibration), IoError naming the path.
 // calibration_from_string(bytes, source) / load_calibration(path)
-//   ensures:  the calibration (version 1 or 2).
+//   ensures:  the calibration (version 1, 2 or 3).
 //   throws:   CalibrationFileError (a ModelFileError) naming the source (and line, in the text
 //             part) for anything malformed, cut or changed; IoError when the path cannot be read,
 //             is not a regular file (a FIFO or device is refused before reading) or is larger than
@@ -80,7 +84,7 @@ inline std::string calibration_to_string(const SegmenterCalibration& c) {
       << int(r.upper[0]) << ' ' << int(r.upper[1]) << ' ' << int(r.upper[2]) << '\n';
   };
   o << "# shadowsense segmenter calibration (see docs/calibration.md)\n";
-  o << "shadowsense_segmenter_calibration 2\n";
+  o << "shadowsense_segmenter_calibration " << (c.px_per_cm > 0 ? 3 : 2) << '\n';
   o << "mode " << (c.mode == SegmentMode::relative ? "relative" : "fixed_ranges") << '\n';
   o << "shadow_range ";
   range(c.shadow_range);
@@ -93,6 +97,7 @@ inline std::string calibration_to_string(const SegmenterCalibration& c) {
   for (const LightThresholds& t : c.by_light)
     o << "light_thresholds " << t.luminance << ' ' << t.shadow_darkness << ' ' << t.contact_darkness
       << ' ' << t.contact_warmth << '\n';
+  if (c.px_per_cm > 0) o << "px_per_cm " << c.px_per_cm << '\n';
   std::string out = o.str();
   if (!c.empty_skin.empty()) {
     const cv::Mat& m = c.empty_skin;
@@ -115,8 +120,8 @@ inline std::string calibration_to_string(const SegmenterCalibration& c) {
 
 namespace detail {
 
-// Parses the text part of a version 1 or 2 file (`text`: up to, not including, the end line).
-// Version 2 may hold one "empty_skin W H" line followed by its raw block.
+// Parses the text part of a version 1, 2 or 3 file (`text`: up to, not including, the end line).
+// Versions 2 and 3 may hold one "empty_skin W H" line followed by its raw block.
 inline SegmenterCalibration parse_calibration(const std::string& text, const std::string& source,
                                               int expect_version) {
   SegmenterCalibration c;
@@ -138,9 +143,9 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
     if (!header) {
       int version = 0;
       if (key != "shadowsense_segmenter_calibration" || !(ls >> version))
-        fail("expected the header 'shadowsense_segmenter_calibration 2' (or 1)");
+        fail("expected the header 'shadowsense_segmenter_calibration 3' (or 2 or 1)");
       if (version != expect_version)
-        fail("format version " + std::to_string(version) + " is not supported; expected 1 or 2");
+        fail("format version " + std::to_string(version) + " is not supported; expected 1, 2 or 3");
       header = true;
       continue;
     }
@@ -216,7 +221,11 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
       read_float(c.contact_warmth);
     else if (key == "reference_percentile")
       read_float(c.reference_percentile);
-    else if (key == "light_thresholds") {
+    else if (key == "px_per_cm") {
+      if (expect_version < 3) fail("key 'px_per_cm' needs format version 3");
+      read_float(c.px_per_cm);
+      if (!(c.px_per_cm > 0)) fail("px_per_cm must be > 0 when present (absent = not measured)");
+    } else if (key == "light_thresholds") {
       LightThresholds t;
       read_float(t.luminance);
       read_float(t.shadow_darkness);
@@ -242,7 +251,7 @@ inline SegmenterCalibration parse_calibration(const std::string& text, const std
 
 } // namespace detail
 
-// Parses a version 1 or 2 calibration (see above); throws CalibrationFileError naming `source`.
+// Parses a version 1, 2 or 3 calibration (see above); throws CalibrationFileError naming `source`.
 inline SegmenterCalibration calibration_from_string(const std::string& text,
                                                     const std::string& source = "calibration") {
   // The version decides whether the end line is required.
@@ -258,8 +267,9 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
     break;
   }
   if (version == 1) return detail::parse_calibration(text, source, 1);
-  if (version != 2) return detail::parse_calibration(text, source, 2); // names the problem
-  // Version 2: the last line is "end <crc32 of everything before it>".
+  if (version != 2 && version != 3)
+    return detail::parse_calibration(text, source, 3); // names the problem
+  // Versions 2 and 3: the last line is "end <crc32 of everything before it>".
   const std::size_t n = text.size();
   const std::size_t start = n >= 2 ? text.rfind('\n', n - 2) : std::string::npos;
   const std::string last = n > 0 && text[n - 1] == '\n' && start != std::string::npos
@@ -274,10 +284,10 @@ inline SegmenterCalibration calibration_from_string(const std::string& text,
     SHADOWSENSE_THROW(CalibrationFileError(
         source + ": checksum mismatch (file says " + last.substr(4) + ", contents give " +
         detail::crc_hex(actual) + "): the file is damaged or was edited"));
-  return detail::parse_calibration(text.substr(0, start + 1), source, 2);
+  return detail::parse_calibration(text.substr(0, start + 1), source, version);
 }
 
-// Writes `c` (version 2) atomically; see above.
+// Writes `c` (version 2, or 3 with px_per_cm) atomically; see above.
 inline void save_calibration(const SegmenterCalibration& c, const std::string& path) {
   write_file_atomically(path, calibration_to_string(c));
 }

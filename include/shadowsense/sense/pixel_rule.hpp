@@ -38,9 +38,11 @@
 // Rules are immutable during classify (const), so one rule may be shared by threads; the scratch
 // lives in the output.
 //
-// SegmenterCalibration holds the parameters of both rules, the reference percentile, and the
-// empty-skin model (empty_skin, may be empty) so that one calibration file carries everything the
-// segmenter needs. validate_calibration throws InvalidArgument naming the bad field.
+// SegmenterCalibration holds the parameters of both rules, the reference percentile, the
+// empty-skin model (empty_skin, may be empty) and the camera's scale (px_per_cm, 0 = not measured;
+// read by the classifier's frame encoder, not by the segmenter) so that one calibration file
+// carries everything a robot's camera needs. validate_calibration throws InvalidArgument naming
+// the bad field.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
@@ -99,6 +101,11 @@ struct SegmenterCalibration {
   // frame's reference, unsmoothed; see Segmenter::set_empty_skin and empty_skin_model()), or
   // empty. A Segmenter built with a calibration that holds one starts with it set.
   cv::Mat empty_skin{};
+  // The camera's scale: px per cm of skin at the image centre, measured once by the user (a
+  // ruler on the skin, ss_calibrate --px-per-cm), or 0 = not measured. The segmenter does not
+  // read it; the classifier's frame encoder brings frames to the scale its network was trained
+  // at (classify/frame_encoder.hpp, docs/input_encodings.md).
+  float px_per_cm = 0;
 
   LightThresholds thresholds_at(float luminance) const {
     return thresholds_at(by_light, {luminance, shadow_darkness, contact_darkness, contact_warmth});
@@ -124,7 +131,7 @@ struct SegmenterCalibration {
     if (!(mode == o.mode && shadow_range == o.shadow_range && contact_range == o.contact_range &&
           shadow_darkness == o.shadow_darkness && contact_darkness == o.contact_darkness &&
           contact_warmth == o.contact_warmth && reference_percentile == o.reference_percentile &&
-          by_light == o.by_light))
+          by_light == o.by_light && px_per_cm == o.px_per_cm))
       return false;
     if (empty_skin.empty() || o.empty_skin.empty())
       return empty_skin.empty() && o.empty_skin.empty();
@@ -170,6 +177,9 @@ inline void validate_calibration(const SegmenterCalibration& c, const std::strin
   require(std::isfinite(c.reference_percentile) && c.reference_percentile > 0.f &&
               c.reference_percentile <= 1.f,
           where + ": reference_percentile must be in (0, 1]");
+  require(c.px_per_cm == 0.f ||
+              (std::isfinite(c.px_per_cm) && c.px_per_cm >= 0.05f && c.px_per_cm <= 10000.f),
+          where + ": px_per_cm must be 0 (not measured) or in [0.05, 10000]");
   for (std::size_t i = 0; i < c.by_light.size(); ++i) {
     const LightThresholds& t = c.by_light[i];
     const std::string row = where + ": by_light[" + std::to_string(i) + "]";
