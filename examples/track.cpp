@@ -63,7 +63,7 @@ struct Options {
   long long max_frames = -1;
   int max_side = 8192, threads = 1, classify_every = 1;
   bool show = false, quiet = false, realtime = false, no_realtime = false, no_temporal = false;
-  double px_per_cm = TemporalGestureConfig{}.px_per_cm;
+  double px_per_cm = 0; // --px-per-cm; 0 = the calibration's, else the generated rigs' 7.6
   const char* argv0 = "ss_track"; // finds the installed model beside the program
 };
 
@@ -89,7 +89,8 @@ const char* kHelp =
     "                       and the touch gestures as /shadowsense/touch_gesture after it\n"
     "  --no-temporal        no touch gestures over time (touch events and hand shape only)\n"
     "  --px-per-cm F        image scale at the skin for the touch gestures' distances\n"
-    "                       (default 7.6, the generated rigs' scale at the centre)\n"
+    "                       (default: the calibration's px_per_cm (ss_calibrate --px-per-cm),\n"
+    "                       else 7.6, the generated rigs' scale at the centre)\n"
     "  --realtime           pace a folder or video to its timestamps (the default with --tuio)\n"
     "  --no-realtime        as fast as possible, also with --tuio\n"
     "  --annotate DIR       write an annotated PNG per frame into DIR\n"
@@ -136,7 +137,9 @@ Options parse(int argc, char** argv) {
   p.option("--max-frames", "N", "stop after N frames", o.max_frames).range(1, 1'000'000'000);
   p.option("--max-side", "N", "largest frame side", o.max_side).range(16, 65536);
   p.flag("--no-temporal", "no touch gestures over time", o.no_temporal);
-  p.option("--px-per-cm", "F", "image scale at the skin", o.px_per_cm).range(0.01, 10000.0);
+  p.option("--px-per-cm", "F", "image scale at the skin", o.px_per_cm)
+      .range(0.01, 10000.0)
+      .default_text("the calibration's, else 7.6");
   p.flag("--realtime", "pace a file to its timestamps", o.realtime);
   p.flag("--no-realtime", "as fast as possible", o.no_realtime);
   p.flag("--show", "show the annotated frames in a window", o.show);
@@ -218,13 +221,23 @@ int run(const Options& o) {
   fs::path model_path;
   if (o.model != "none") {
     model_path = o.model.empty() ? runner::find_default_model(o.argv0) : fs::path(o.model);
-    classifier.emplace(
-        make_densenet_classifier(ModelFile::load(model_path), {.threads = o.threads}));
+    // The calibration's empty-skin model (a calibrated input encoding needs it) and its camera
+    // scale (frames brought to the network's scale) go to the classifier too.
+    const ModelFile model = ModelFile::load(model_path);
+    if (needs_calibration(model.preprocess.input_encoding) && cal.empty_skin.empty())
+      throw Error("model " + model_path.string() + " (input encoding " +
+                  to_string(model.preprocess.input_encoding) +
+                  ") needs an empty-skin model, and '" + o.calibration +
+                  "' holds none; calibrate with ss_calibrate --empty");
+    classifier.emplace(make_densenet_classifier(model, {.threads = o.threads}, ChannelOrder::bgr,
+                                                cal.empty_skin, cal.px_per_cm));
   }
   RuntimeConfig rc;
   rc.classify_every = o.classify_every;
   rc.temporal_gestures = !o.no_temporal;
-  rc.temporal.px_per_cm = o.px_per_cm;
+  rc.temporal.px_per_cm = o.px_per_cm > 0     ? o.px_per_cm
+                          : cal.px_per_cm > 0 ? cal.px_per_cm
+                                              : TemporalGestureConfig{}.px_per_cm;
   Runtime sense(TouchPipeline{Segmenter(sc)}, std::move(classifier), rc);
   frames::FrameSource src = frames::FrameSource::open(o.input, o.max_side);
   std::optional<std::map<std::string, double>> stamps;

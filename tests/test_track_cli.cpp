@@ -98,10 +98,16 @@ const std::string kModel = std::string(SHADOWSENSE_SOURCE_DIR) + "/models/defaul
 std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
                          const std::string& calibration_file, const std::string& source,
                          const std::string& model = "") {
-  TouchPipeline p{Segmenter({.calibration = load_calibration(calibration_file)})};
+  const SegmenterCalibration cal = load_calibration(calibration_file);
+  TouchPipeline p{Segmenter({.calibration = cal})};
   std::optional<Classifier<DenseNet>> clf;
-  if (!model.empty()) clf.emplace(make_densenet_classifier(ModelFile::load(model)));
-  TemporalGestureRecogniser temporal;
+  // The calibration's camera scale reaches the classifier and the touch gestures' distances.
+  if (!model.empty())
+    clf.emplace(make_densenet_classifier(ModelFile::load(model), {}, ChannelOrder::bgr,
+                                         cal.empty_skin, cal.px_per_cm));
+  TemporalGestureConfig tc;
+  if (cal.px_per_cm > 0) tc.px_per_cm = cal.px_per_cm;
+  TemporalGestureRecogniser temporal(tc);
   std::string o = "schema,kind,source,frame,timestamp_ms,track_id,from,to,direction,x,y,gesture,"
                   "confidence,gesture_frame,touch_gesture,phase,start_ms,end_ms,length_px,"
                   "speed_px_s,repetitions,hand_shape,gesture_confidence\n";
@@ -238,6 +244,29 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
     if (line.rfind("4,gesture,", 0) != 0) touch_only += line + "\n";
   CHECK(touch_only != t.out); // the slide's stroke was there
   CHECK(n.out == touch_only);
+}
+
+TEST_CASE("ss_track: a calibration's camera scale reaches the classifier and the touch gestures") {
+  const std::vector<cv::Mat> frames = render_sequence();
+  const fs::path folder = kDir / "frames_scaled";
+  write_pngs(frames, folder);
+  SegmenterCalibration cal = load_calibration(calibration_path());
+  REQUIRE(cal.px_per_cm == 0);
+  cal.px_per_cm = 2 * 7.578125f; // a camera that sees hands twice the network's size
+  const std::string scaled = (kDir / "scaled.calib").string();
+  save_calibration(cal, scaled);
+  const std::string expected = expected_csv(frames, 13.0, scaled, "cam0", kModel);
+  CHECK(expected != expected_csv(frames, 13.0, calibration_path(), "cam0", kModel));
+  const Run r = run("--input '" + folder.string() + "' --calibration '" + scaled +
+                    "' --fps 13 --quiet --source cam0 --model '" + kModel + "'");
+  INFO(r.err);
+  CHECK(r.status == 0);
+  CHECK(r.out == expected);
+  // --px-per-cm overrides the calibration's for the touch gestures (not for the classifier).
+  const Run o = run("--input '" + folder.string() + "' --calibration '" + scaled +
+                    "' --fps 13 --quiet --source cam0 --model none --px-per-cm 7.6");
+  CHECK(o.status == 0);
+  CHECK(o.out == expected_csv(frames, 13.0, calibration_path(), "cam0"));
 }
 
 TEST_CASE("ss_track --format json: the same events as JSON lines, one valid object per line") {
