@@ -26,9 +26,10 @@
 //   not record it (version-2 files apply what they record).
 // --calibration FILE: the robot's calibration (ss_calibrate); its empty-skin model is what a
 //   model with a calibrated input encoding (docs/input_encodings.md) divides frames by. Such a
-//   model refuses to run without it (exit 2); a colour model does not use it. Its camera scale
-//   (px_per_cm, ss_calibrate --px-per-cm), when recorded, brings every frame to the network's
-//   scale (any model; docs/input_encodings.md).
+//   model refuses to run without it (exit 2); a colour model does not use it.
+// --scale-to-network: bring every frame to the network's scale with the calibration's camera
+//   scale (px_per_cm, ss_calibrate --px-per-cm; any model). Off by default: on the shipped model
+//   it lowers accuracy (docs/input_encodings.md, "The camera's scale").
 // stderr: "ss_classify: frame i of n" at most once a second and "ss_classify: n frames" at the
 //   end, when the input is a video of unknown length or has more than 100 frames (--quiet: none).
 // Exit status: 0 on success; 2 on any error (message on stderr); --help (stdout) and
@@ -85,9 +86,10 @@ constexpr const char* usage =
     "                        record it (version-2 files apply what they record)\n"
     "  --calibration FILE    the robot's calibration (ss_calibrate): its empty-skin model,\n"
     "                        needed by a model with a calibrated input encoding (such a model\n"
-    "                        refuses to run without it), and its camera scale (px_per_cm,\n"
-    "                        ss_calibrate --px-per-cm): frames are then brought to the\n"
-    "                        network's scale (docs/input_encodings.md)\n"
+    "                        refuses to run without it); a colour model does not use it\n"
+    "  --scale-to-network    bring frames to the network's scale with the calibration's\n"
+    "                        camera scale (ss_calibrate --px-per-cm); off by default: it\n"
+    "                        lowers the shipped model's accuracy (docs/input_encodings.md)\n"
     "  --quiet               no progress line on stderr (shown once a second for inputs\n"
     "                        over 100 frames or of unknown length)\n"
     "  --help                this text;  --version  the library version\n"
@@ -100,6 +102,7 @@ struct Options {
   std::string input;
   std::string calibration;
   bool json = false, truth = false, force_normalise = false, quiet = false;
+  bool scale_to_network = false;
   int threads = 1;
 };
 
@@ -122,8 +125,9 @@ Options parse(int argc, char** argv) {
   p.flag("--truth", "the true class is the first folder below INPUT", o.truth);
   p.option("--threads", "N", "inference threads", o.threads).range(1, 256);
   p.flag("--lighting-normalise", "normalise lighting for version-1 model files", o.force_normalise);
-  p.option("--calibration", "FILE", "calibration file (empty-skin model, camera scale)",
-           o.calibration);
+  p.option("--calibration", "FILE", "calibration file (empty-skin model)", o.calibration);
+  p.flag("--scale-to-network", "bring frames to the network's scale (calibration's px_per_cm)",
+         o.scale_to_network);
   p.flag("--quiet", "no progress line on stderr", o.quiet);
   // INPUT as the last word stays accepted (the command line ss_classify documented first).
   p.positional("INPUT", "a folder of images or a video file", [&o](std::string_view arg) {
@@ -320,7 +324,8 @@ int run(const Options& o) {
                  "  /usr/bin/python3 tools/densenet_to_model.py --upgrade "
               << o.model << " -o NEW.ssm [--lighting-normalise] [--dark-threshold X]\n";
   if (o.force_normalise) model.preprocess.lighting_normalise = true;
-  const cli::EncoderCalibration cal = cli::encoder_calibration_for(model, o.model, o.calibration);
+  const cli::EncoderCalibration cal =
+      cli::encoder_calibration_for(model, o.model, o.calibration, o.scale_to_network);
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,
                                           cal.empty_skin, cal.camera_px_per_cm);
   const auto& classes = model.class_names;

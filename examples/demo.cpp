@@ -254,8 +254,7 @@ int main(int argc, char** argv) {
     ss::save_calibration(calibration, (out / "skin.calib").string());
     ss::Runtime sense(ss::TouchPipeline{ss::Segmenter({.calibration = calibration})},
                       ss::make_densenet_classifier(model, {.threads = threads},
-                                                   ss::ChannelOrder::bgr, calibration.empty_skin,
-                                                   calibration.px_per_cm));
+                                                   ss::ChannelOrder::bgr, calibration.empty_skin));
     if (save_frames) fs::create_directories(out / "frames");
 
     sim::Rng urng(2024);

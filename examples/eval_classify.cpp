@@ -19,10 +19,10 @@
 // --session-calibrations (with --score): instead, each frame's own session's calibration,
 // INPUT/empty_skin/<session>.calib (ss_gesture_data --empty-skin, tools/realhand/score.sh), as
 // tools/train.py reads them; a session without its file is an error naming the file.
-// --camera-px-per-cm X: the camera's scale (px per cm of skin at the image centre), overriding
-// the --calibration's px_per_cm: frames are brought to the network's scale (FrameEncoder stage
-// 2b, docs/input_encodings.md); --scale-fill black|replicate|black_frame_contrast: the fill
-// around a shrunk frame.
+// --camera-px-per-cm X: the camera's scale (px per cm of skin at the image centre): frames are
+// brought to the network's scale (FrameEncoder stage 2b, docs/input_encodings.md; a
+// calibration's px_per_cm is not used here); --scale-fill black|replicate|black_frame_contrast: the
+// fill around a shrunk frame.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
 // (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
 #include <shadowsense/eval.hpp>
@@ -80,13 +80,13 @@ struct Features {
   Eigen::MatrixXd x;
 };
 
-// The camera's scale for a model's encoder: --camera-px-per-cm, else the --calibration's.
-double camera_scale(const Options& o, const cli::EncoderCalibration& c) {
-  return o.camera_px_per_cm > 0 ? o.camera_px_per_cm : c.camera_px_per_cm;
+// The camera's scale for a model's encoder: --camera-px-per-cm (0: frames as they are).
+double camera_scale(const Options& o, const cli::EncoderCalibration&) {
+  return o.camera_px_per_cm;
 }
 ss::FrameEncoder make_encoder(const ss::ModelFile& model, const std::string& path,
                               const Options& o) {
-  const cli::EncoderCalibration c = cli::encoder_calibration_for(model, path, o.calibration);
+  const cli::EncoderCalibration c = cli::encoder_calibration_for(model, path, o.calibration, false);
   return ss::FrameEncoder(model.preprocess, o.normalise, c.empty_skin, camera_scale(o, c),
                           o.scale_fill);
 }
@@ -270,7 +270,8 @@ int run_speed(const Options& o) {
     const int in_h =
         model.preprocess.crop_width ? model.preprocess.crop_height : model.preprocess.resize_height;
     // The timed classify(frame) includes the model's whole input encoding (a calibrated one too).
-    const cli::EncoderCalibration cal = cli::encoder_calibration_for(model, path, o.calibration);
+    const cli::EncoderCalibration cal =
+        cli::encoder_calibration_for(model, path, o.calibration, false);
     auto clf = ss::Classifier<ss::DenseNet>(
         ss::DenseNet(model, {.threads = o.threads, .run_self_test = !size}),
         {model.preprocess, ss::ChannelOrder::bgr, cal.empty_skin, camera_scale(o, cal),
@@ -370,7 +371,7 @@ int run_score(const Options& o) {
   // (Per session, only the empty-skin models are read; the scale is --camera-px-per-cm's.)
   const cli::EncoderCalibration cal =
       per_session ? cli::EncoderCalibration{session_skin(first), 0}
-                  : cli::encoder_calibration_for(model, o.score_model, o.calibration);
+                  : cli::encoder_calibration_for(model, o.score_model, o.calibration, false);
   ss::FrameEncoder encoder(model.preprocess, o.normalise, cal.empty_skin, camera_scale(o, cal),
                            o.scale_fill);
   std::string session = first.session; // whose empty-skin model the encoder holds
@@ -462,8 +463,8 @@ Options parse_options(int argc, char** argv) {
          "(ss_gesture_data --empty-skin), instead of one --calibration",
          o.session_calibrations);
   p.option("--camera-px-per-cm", "X",
-           "the camera's scale, px per cm of skin (overrides the calibration's px_per_cm; 0: "
-           "none): frames are brought to the network's scale",
+           "the camera's scale, px per cm of skin (0: none): frames are brought to the "
+           "network's scale",
            o.camera_px_per_cm)
       .range(0.0, 10000.0);
   std::string fill = ss::to_string(o.scale_fill);

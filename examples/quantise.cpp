@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     auto model = ss::ModelFile::load(model_path);
     model.int8.reset(); // calibrate the float model, not an earlier quantisation
     const cli::EncoderCalibration skin =
-        cli::encoder_calibration_for(model, model_path, calibration);
+        cli::encoder_calibration_for(model, model_path, calibration, false);
     const auto set = ss::load_gesture_folder(data, model.class_names);
     if (set.frames.empty()) throw ss::DatasetError(data + ": no frames, expected at least one");
     const std::size_t total = set.frames.size();

@@ -63,7 +63,8 @@ struct Options {
   long long max_frames = -1;
   int max_side = 8192, threads = 1, classify_every = 1;
   bool show = false, quiet = false, realtime = false, no_realtime = false, no_temporal = false;
-  double px_per_cm = 0; // --px-per-cm; 0 = the calibration's, else the generated rigs' 7.6
+  double px_per_cm = 0;          // --px-per-cm; 0 = the calibration's, else the generated rigs' 7.6
+  bool scale_to_network = false; // --scale-to-network: the classifier gets the camera scale
   const char* argv0 = "ss_track"; // finds the installed model beside the program
 };
 
@@ -91,6 +92,9 @@ const char* kHelp =
     "  --px-per-cm F        image scale at the skin for the touch gestures' distances\n"
     "                       (default: the calibration's px_per_cm (ss_calibrate --px-per-cm),\n"
     "                       else 7.6, the generated rigs' scale at the centre)\n"
+    "  --scale-to-network   bring frames to the classifier network's scale with the\n"
+    "                       calibration's px_per_cm (off by default: it lowers the shipped\n"
+    "                       model's accuracy; docs/input_encodings.md)\n"
     "  --realtime           pace a folder or video to its timestamps (the default with --tuio)\n"
     "  --no-realtime        as fast as possible, also with --tuio\n"
     "  --annotate DIR       write an annotated PNG per frame into DIR\n"
@@ -137,6 +141,8 @@ Options parse(int argc, char** argv) {
   p.option("--max-frames", "N", "stop after N frames", o.max_frames).range(1, 1'000'000'000);
   p.option("--max-side", "N", "largest frame side", o.max_side).range(16, 65536);
   p.flag("--no-temporal", "no touch gestures over time", o.no_temporal);
+  p.flag("--scale-to-network", "bring frames to the classifier network's scale",
+         o.scale_to_network);
   p.option("--px-per-cm", "F", "image scale at the skin", o.px_per_cm)
       .range(0.01, 10000.0)
       .default_text("the calibration's, else 7.6");
@@ -216,13 +222,17 @@ int run(const Options& o) {
                   "segmenter reports phantom shadows - make a new calibration with ss_calibrate");
   SegmenterConfig sc;
   sc.calibration = cal;
+  if (o.scale_to_network && !(cal.px_per_cm > 0))
+    throw cli::UsageError("--scale-to-network: calibration " + o.calibration +
+                          " records no camera scale; make it with ss_calibrate --px-per-cm X");
   sc.max_image_side = o.max_side;
   std::optional<Classifier<DenseNet>> classifier;
   fs::path model_path;
   if (o.model != "none") {
     model_path = o.model.empty() ? runner::find_default_model(o.argv0) : fs::path(o.model);
-    // The calibration's empty-skin model (a calibrated input encoding needs it) and its camera
-    // scale (frames brought to the network's scale) go to the classifier too.
+    // The calibration's empty-skin model (a calibrated input encoding needs it) and, with
+    // --scale-to-network, its camera scale (frames brought to the network's scale) go to the
+    // classifier too.
     const ModelFile model = ModelFile::load(model_path);
     if (needs_calibration(model.preprocess.input_encoding) && cal.empty_skin.empty())
       throw Error("model " + model_path.string() + " (input encoding " +
@@ -230,7 +240,8 @@ int run(const Options& o) {
                   ") needs an empty-skin model, and '" + o.calibration +
                   "' holds none; calibrate with ss_calibrate --empty");
     classifier.emplace(make_densenet_classifier(model, {.threads = o.threads}, ChannelOrder::bgr,
-                                                cal.empty_skin, cal.px_per_cm));
+                                                cal.empty_skin,
+                                                o.scale_to_network ? cal.px_per_cm : 0.0f));
   }
   RuntimeConfig rc;
   rc.classify_every = o.classify_every;

@@ -22,7 +22,9 @@
 // (FrameAugmenter, through the real preprocessing and backbone).
 // --calibration FILE: the empty-skin model a base model with a calibrated input encoding
 // (docs/input_encodings.md) divides every frame by; such a model refuses to run without it, and
-// the new model keeps the encoding.
+// the new model keeps the encoding. --scale-to-network: train on frames brought to the network's
+// scale with the calibration's camera scale (ss_calibrate --px-per-cm); classify with the same
+// option (docs/input_encodings.md).
 // --model defaults to the shipped model, found by common/model_path.hpp (installed,
 // $SHADOWSENSE_MODEL, or the source tree's when run from the build folder).
 #include <shadowsense/eval.hpp>
@@ -49,6 +51,7 @@ int main(int argc, char** argv) {
     ss::HeadTrainer::Config tc;
     int threads = 1;
     std::string calibration;
+    bool scale_to_network = false;
     cli::Parser p("ss_train_head",
                   "Trains a new linear classifier on the frozen DenseNet features of a model "
                   "(Adam 1e-3, batch 16, best epoch by validation accuracy) and writes a new model "
@@ -72,6 +75,9 @@ int main(int argc, char** argv) {
              "calibration file: its empty-skin model, for a model with a calibrated input "
              "encoding",
              calibration);
+    p.flag("--scale-to-network",
+           "frames brought to the network's scale with the calibration's px_per_cm",
+           scale_to_network);
     p.flag("--lighting-normalise", "normalise lighting before the network", normalise);
     p.flag("--fine-tune", "start from the model's own classifier (same classes required)",
            fine_tune);
@@ -99,7 +105,7 @@ int main(int argc, char** argv) {
     }
     const auto model = ss::ModelFile::load(model_path);
     const cli::EncoderCalibration cal =
-        cli::encoder_calibration_for(model, model_path, calibration);
+        cli::encoder_calibration_for(model, model_path, calibration, scale_to_network);
     // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
     auto set = [&] {
       try {

@@ -97,14 +97,15 @@ const std::string kModel = std::string(SHADOWSENSE_SOURCE_DIR) + "/models/defaul
 // from the pipeline's frame and the hand shape.
 std::string expected_csv(const std::vector<cv::Mat>& frames, double fps,
                          const std::string& calibration_file, const std::string& source,
-                         const std::string& model = "") {
+                         const std::string& model = "", bool scale_to_network = false) {
   const SegmenterCalibration cal = load_calibration(calibration_file);
   TouchPipeline p{Segmenter({.calibration = cal})};
   std::optional<Classifier<DenseNet>> clf;
-  // The calibration's camera scale reaches the classifier and the touch gestures' distances.
+  // The calibration's camera scale is the touch gestures' distance scale, and with
+  // --scale-to-network the classifier's too.
   if (!model.empty())
     clf.emplace(make_densenet_classifier(ModelFile::load(model), {}, ChannelOrder::bgr,
-                                         cal.empty_skin, cal.px_per_cm));
+                                         cal.empty_skin, scale_to_network ? cal.px_per_cm : 0));
   TemporalGestureConfig tc;
   if (cal.px_per_cm > 0) tc.px_per_cm = cal.px_per_cm;
   TemporalGestureRecogniser temporal(tc);
@@ -246,7 +247,8 @@ TEST_CASE("ss_track on a folder of PNGs: the events of TouchPipeline on the same
   CHECK(n.out == touch_only);
 }
 
-TEST_CASE("ss_track: a calibration's camera scale reaches the classifier and the touch gestures") {
+TEST_CASE("ss_track: a calibration's camera scale is the touch gestures' and, with "
+          "--scale-to-network, the classifier's") {
   const std::vector<cv::Mat> frames = render_sequence();
   const fs::path folder = kDir / "frames_scaled";
   write_pngs(frames, folder);
@@ -255,13 +257,22 @@ TEST_CASE("ss_track: a calibration's camera scale reaches the classifier and the
   cal.px_per_cm = 2 * 7.578125f; // a camera that sees hands twice the network's size
   const std::string scaled = (kDir / "scaled.calib").string();
   save_calibration(cal, scaled);
-  const std::string expected = expected_csv(frames, 13.0, scaled, "cam0", kModel);
-  CHECK(expected != expected_csv(frames, 13.0, calibration_path(), "cam0", kModel));
-  const Run r = run("--input '" + folder.string() + "' --calibration '" + scaled +
-                    "' --fps 13 --quiet --source cam0 --model '" + kModel + "'");
+  const std::string expected = expected_csv(frames, 13.0, scaled, "cam0", kModel, true);
+  CHECK(expected != expected_csv(frames, 13.0, scaled, "cam0", kModel));
+  const std::string args = "--input '" + folder.string() + "' --calibration '" + scaled +
+                           "' --fps 13 --quiet --source cam0 --model '" + kModel + "'";
+  const Run r = run(args + " --scale-to-network");
   INFO(r.err);
   CHECK(r.status == 0);
   CHECK(r.out == expected);
+  const Run d = run(args); // the default: the classifier sees the frames as they are
+  CHECK(d.status == 0);
+  CHECK(d.out == expected_csv(frames, 13.0, scaled, "cam0", kModel));
+  // Without a scale in the calibration the option is refused, naming it.
+  const Run no = run("--input '" + folder.string() + "' --calibration '" + calibration_path() +
+                     "' --fps 13 --quiet --scale-to-network");
+  CHECK(no.status == 2);
+  CHECK(no.err.find("--scale-to-network") != std::string::npos);
   // --px-per-cm overrides the calibration's for the touch gestures (not for the classifier).
   const Run o = run("--input '" + folder.string() + "' --calibration '" + scaled +
                     "' --fps 13 --quiet --source cam0 --model none --px-per-cm 7.6");

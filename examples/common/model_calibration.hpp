@@ -9,10 +9,14 @@
 //            calibration_path is empty; the calibration file's own errors (IoError,
 //            CalibrationFileError naming the file); shadowsense::Error naming both files when
 //            the calibration holds no empty-skin model.
-// encoder_calibration_for(model, model_path, calibration_path) -> EncoderCalibration
+// encoder_calibration_for(model, model_path, calibration_path, scale_to_network)
+//   -> EncoderCalibration
 //   ensures: empty_skin as empty_skin_for; camera_px_per_cm the calibration's px_per_cm (the
-//            camera's scale, any input encoding; 0 when no calibration is given or it records
-//            none): what the frame encoder needs of the calibration. Same errors.
+//            camera's scale, any input encoding) when scale_to_network (a program's
+//            --scale-to-network: off by default, docs/input_encodings.md), else 0: what the
+//            frame encoder needs of the calibration.
+//   throws:  as empty_skin_for; UsageError when scale_to_network and no calibration is given
+//            or it records no px_per_cm (ss_calibrate --px-per-cm).
 // Plain functions; no state.
 #pragma once
 
@@ -52,10 +56,18 @@ struct EncoderCalibration {
 
 inline EncoderCalibration encoder_calibration_for(const shadowsense::ModelFile& model,
                                                   const std::string& model_path,
-                                                  const std::string& calibration_path) {
-  if (calibration_path.empty()) return {empty_skin_for(model, model_path, calibration_path), 0};
-  return {empty_skin_for(model, model_path, calibration_path),
-          shadowsense::load_calibration(calibration_path).px_per_cm};
+                                                  const std::string& calibration_path,
+                                                  bool scale_to_network) {
+  EncoderCalibration c{empty_skin_for(model, model_path, calibration_path), 0};
+  if (!scale_to_network) return c;
+  if (calibration_path.empty())
+    throw UsageError("--scale-to-network needs --calibration FILE recording the camera's scale "
+                     "(ss_calibrate --px-per-cm)");
+  c.camera_px_per_cm = shadowsense::load_calibration(calibration_path).px_per_cm;
+  if (c.camera_px_per_cm <= 0)
+    throw UsageError("--scale-to-network: calibration " + calibration_path +
+                     " records no camera scale; make it with ss_calibrate --px-per-cm X");
+  return c;
 }
 
 } // namespace cli

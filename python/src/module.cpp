@@ -578,28 +578,33 @@ void bind_pipeline(py::module_& m) {
       m, "Classifier",
       "The gesture classifier with the reference DenseNet backend\n"
       "(backends/densenet/classifier.hpp, classify/classifier.hpp).\n\n"
-      "Classifier(model_path, threads=1, calibration=None): loads the model file (its\n"
-      "preprocessing, lighting normalisation and dark-frame rule come from it) and runs its\n"
-      "embedded self-test. calibration: the robot's Calibration: its empty-skin model (needed by\n"
-      "a model with a calibrated input encoding) and its camera scale (px_per_cm: frames are then\n"
-      "brought to the network's scale; docs/input_encodings.md).\n"
+      "Classifier(model_path, threads=1, calibration=None, scale_to_network=False): loads the\n"
+      "model file (its preprocessing, lighting normalisation and dark-frame rule come from it)\n"
+      "and runs its embedded self-test. calibration: the robot's Calibration, whose empty-skin\n"
+      "model a model with a calibrated input encoding needs; scale_to_network: bring frames to\n"
+      "the network's scale with its px_per_cm (off by default: it lowers the shipped model's\n"
+      "accuracy; docs/input_encodings.md).\n"
       "Raises ModelFileError for a malformed file, IoError when it cannot be read.\n"
       "classify(frame) -> Classification: label, index and one probability per class.\n"
       "Threading: one instance per thread (ConcurrentUseError otherwise); the GIL is released\n"
       "while a frame is classified. Moved into a Runtime, the instance is empty.")
       .def(py::init([](const std::string& path, int threads,
-                       const std::optional<ss::SegmenterCalibration>& calibration) {
+                       const std::optional<ss::SegmenterCalibration>& calibration,
+                       bool scale_to_network) {
+             if (scale_to_network && !(calibration && calibration->px_per_cm > 0))
+               throw ss::InvalidArgument("Classifier: scale_to_network needs a calibration "
+                                         "whose px_per_cm is set (the camera's scale)");
              ss::DenseNet::Config config;
              config.threads = threads;
              auto c = std::make_unique<PyClassifier>();
              c->classifier.emplace(ss::make_densenet_classifier(
                  ss::ModelFile::load(path), config, ss::ChannelOrder::bgr,
                  calibration ? calibration->empty_skin : cv::Mat(),
-                 calibration ? calibration->px_per_cm : 0.0));
+                 scale_to_network ? calibration->px_per_cm : 0.0));
              return c;
            }),
            py::arg("model_path"), py::kw_only(), py::arg("threads") = 1,
-           py::arg("calibration") = py::none())
+           py::arg("calibration") = py::none(), py::arg("scale_to_network") = false)
       .def_property_readonly("class_names",
                              [](PyClassifier& self) {
                                const auto names = self.get().class_names();

@@ -122,14 +122,19 @@ def test_the_camera_scale_is_recorded_and_used(sequence, model_path, tmp_path):
     plain = ss.Classifier(model_path)
     same = ss.load_calibration(sequence.calibration_path)
     same.px_per_cm = 242.5 / 32  # the network's own scale: frames untouched
-    at_network = ss.Classifier(model_path, calibration=same)
-    scaled = ss.Classifier(model_path, calibration=calibration)
+    at_network = ss.Classifier(model_path, calibration=same, scale_to_network=True)
+    scaled = ss.Classifier(model_path, calibration=calibration, scale_to_network=True)
+    unscaled = ss.Classifier(model_path, calibration=calibration)  # off by default
     changed = 0
     for frame in sequence.images[::8]:
         p = plain.classify(frame).probabilities
         np.testing.assert_array_equal(at_network.classify(frame).probabilities, p)
+        np.testing.assert_array_equal(unscaled.classify(frame).probabilities, p)
         changed += int(np.abs(scaled.classify(frame).probabilities - p).max() > 1e-4)
     assert changed > 0
+    with pytest.raises(ss.InvalidArgument, match="px_per_cm"):
+        ss.Classifier(model_path, calibration=ss.load_calibration(sequence.calibration_path),
+                      scale_to_network=True)
     calibration.px_per_cm = -1
     with pytest.raises(ss.InvalidArgument, match="px_per_cm"):
         ss.save_calibration(calibration, str(tmp_path / "bad.calib"))

@@ -117,7 +117,9 @@ inline std::optional<ScaleFill> parse_scale_fill(std::string_view name) {
     if (name == to_string(f)) return f;
   return std::nullopt;
 }
-inline constexpr ScaleFill default_scale_fill = ScaleFill::black;
+// The fill the pre-registered comparison selected (docs/validation_protocol.md, "Issue 21, scale
+// from the calibration", rule 1).
+inline constexpr ScaleFill default_scale_fill = ScaleFill::black_frame_contrast;
 
 class FrameEncoder {
 public:
