@@ -60,7 +60,7 @@ struct Options {
   std::string data, backbone, backbone_dir, json, confusion_dir;
   std::string calibration;           // --calibration: the empty-skin model of calibrated encodings
   bool session_calibrations = false; // --session-calibrations: INPUT/empty_skin/<session>.calib
-  double camera_px_per_cm = 0;       // --camera-px-per-cm: overrides the calibration's scale
+  double camera_px_per_cm = 0;       // --camera-px-per-cm: 0 = frames as they are
   ss::ScaleFill scale_fill = ss::default_scale_fill; // --scale-fill
   std::set<int> tables{1, 2, 3, 4};
   bool normalise = false;
@@ -80,14 +80,11 @@ struct Features {
   Eigen::MatrixXd x;
 };
 
-// The camera's scale for a model's encoder: --camera-px-per-cm (0: frames as they are).
-double camera_scale(const Options& o, const cli::EncoderCalibration&) {
-  return o.camera_px_per_cm;
-}
+// A model's encoder: the --calibration's empty-skin model, the --camera-px-per-cm scale.
 ss::FrameEncoder make_encoder(const ss::ModelFile& model, const std::string& path,
                               const Options& o) {
-  const cli::EncoderCalibration c = cli::encoder_calibration_for(model, path, o.calibration, false);
-  return ss::FrameEncoder(model.preprocess, o.normalise, c.empty_skin, camera_scale(o, c),
+  return ss::FrameEncoder(model.preprocess, o.normalise,
+                          cli::empty_skin_for(model, path, o.calibration), o.camera_px_per_cm,
                           o.scale_fill);
 }
 
@@ -270,12 +267,10 @@ int run_speed(const Options& o) {
     const int in_h =
         model.preprocess.crop_width ? model.preprocess.crop_height : model.preprocess.resize_height;
     // The timed classify(frame) includes the model's whole input encoding (a calibrated one too).
-    const cli::EncoderCalibration cal =
-        cli::encoder_calibration_for(model, path, o.calibration, false);
     auto clf = ss::Classifier<ss::DenseNet>(
         ss::DenseNet(model, {.threads = o.threads, .run_self_test = !size}),
-        {model.preprocess, ss::ChannelOrder::bgr, cal.empty_skin, camera_scale(o, cal),
-         o.scale_fill});
+        {model.preprocess, ss::ChannelOrder::bgr, cli::empty_skin_for(model, path, o.calibration),
+         o.camera_px_per_cm, o.scale_fill});
     cv::Mat frame(350, 635, CV_8UC3);
     cv::randu(frame, 0, 255);
     for (int i = 0; i < 2; ++i) clf.classify(frame); // warm-up
@@ -369,11 +364,10 @@ int run_score(const Options& o) {
   };
   const ss::GestureSample& first = set.frames.front();
   // (Per session, only the empty-skin models are read; the scale is --camera-px-per-cm's.)
-  const cli::EncoderCalibration cal =
-      per_session ? cli::EncoderCalibration{session_skin(first), 0}
-                  : cli::encoder_calibration_for(model, o.score_model, o.calibration, false);
-  ss::FrameEncoder encoder(model.preprocess, o.normalise, cal.empty_skin, camera_scale(o, cal),
-                           o.scale_fill);
+  ss::FrameEncoder encoder(model.preprocess, o.normalise,
+                           per_session ? session_skin(first)
+                                       : cli::empty_skin_for(model, o.score_model, o.calibration),
+                           o.camera_px_per_cm, o.scale_fill);
   std::string session = first.session; // whose empty-skin model the encoder holds
   // The classifier runs on the encoder's tensors; its own encoder (which needs an empty-skin
   // model to exist) gets the first frame's.

@@ -59,14 +59,13 @@ int main(int argc, char** argv) {
     }
     auto model = ss::ModelFile::load(model_path);
     model.int8.reset(); // calibrate the float model, not an earlier quantisation
-    const cli::EncoderCalibration skin =
-        cli::encoder_calibration_for(model, model_path, calibration, false);
+    const cv::Mat empty_skin = cli::empty_skin_for(model, model_path, calibration);
     const auto set = ss::load_gesture_folder(data, model.class_names);
     if (set.frames.empty()) throw ss::DatasetError(data + ": no frames, expected at least one");
     const std::size_t total = set.frames.size();
     const std::size_t use =
         max_frames > 0 ? std::min(total, static_cast<std::size_t>(max_frames)) : total;
-    ss::FrameEncoder enc(model.preprocess, normalise, skin.empty_skin, skin.camera_px_per_cm);
+    ss::FrameEncoder enc(model.preprocess, normalise, empty_skin);
     ss::Int8Calibration cal(model, percentile);
     ss::Tensor t;
     for (std::size_t i = 0; i < use; ++i) {
