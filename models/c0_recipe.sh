@@ -6,7 +6,9 @@
 # DATA_FLAGS: more ss_gesture_data options for all three sessions (one word-split string, e.g.
 # "--scale-range 0.6,2"; empty for C0 itself). TRAIN_FLAGS: more tools/train.py options (e.g.
 # "--input-encoding skin_relative"; empty for C0-C2). The sessions' empty_skin/ folders
-# (ss_gesture_data --empty-skin) are merged too when they exist.
+# (ss_gesture_data --empty-skin) are merged too when they exist. USERS (environment, default 12):
+# users per session; the sessions then hold users 100.., 100+2*USERS.. (randomised) and
+# 100+USERS.. (plain), which for 12 are the users above.
 #   sh models/c0_recipe.sh BUILD_DIR WORK_DIR OUT [DATA_FLAGS [TRAIN_FLAGS]]
 set -e
 BUILD=$1
@@ -14,13 +16,14 @@ WORK=$2
 OUT=$3
 DATA_FLAGS=$4
 TRAIN_FLAGS=${5:-}
+USERS=${USERS:-12}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
-"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users 12 \
+"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users "$USERS" \
   --first-user 100 --frames 12 --seed 2 --randomise $DATA_FLAGS
-"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised2" --overwrite --users 12 \
-  --first-user 124 --frames 12 --seed 2 --randomise $DATA_FLAGS
-"$BUILD/examples/ss_gesture_data" --out "$WORK/plain" --overwrite --users 12 --first-user 112 \
-  --frames 12 --seed 2 $DATA_FLAGS
+"$BUILD/examples/ss_gesture_data" --out "$WORK/randomised2" --overwrite --users "$USERS" \
+  --first-user $((100 + 2 * USERS)) --frames 12 --seed 2 --randomise $DATA_FLAGS
+"$BUILD/examples/ss_gesture_data" --out "$WORK/plain" --overwrite --users "$USERS" \
+  --first-user $((100 + USERS)) --frames 12 --seed 2 $DATA_FLAGS
 rm -rf "$WORK/mixed"
 mkdir -p "$WORK/mixed" "$(dirname "$OUT")"
 for c in nothing hug palm point punch two_hands; do
