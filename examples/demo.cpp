@@ -24,6 +24,7 @@
 
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
+#include "common/model_calibration.hpp"
 #include "common/runner.hpp"
 
 #include <opencv2/imgcodecs.hpp>
@@ -245,16 +246,13 @@ int main(int argc, char** argv) {
     const ss::SegmenterCalibration calibration = calibration_path.empty()
                                                      ? generated_calibration(renderer)
                                                      : ss::load_calibration(calibration_path);
-    if (ss::needs_calibration(model.preprocess.input_encoding) && calibration.empty_skin.empty())
-      throw ss::Error("model " + model_path.string() + " (input encoding " +
-                      ss::to_string(model.preprocess.input_encoding) +
-                      ") needs an empty-skin model, and calibration " + calibration_path.string() +
-                      " holds none; calibrate with ss_calibrate --empty to store one");
+    const cli::EncoderCalibration ec = cli::encoder_calibration_from(
+        model, model_path.string(), calibration, calibration_path.string(), false);
     fs::create_directories(out);
     ss::save_calibration(calibration, (out / "skin.calib").string());
     ss::Runtime sense(ss::TouchPipeline{ss::Segmenter({.calibration = calibration})},
                       ss::make_densenet_classifier(model, {.threads = threads},
-                                                   ss::ChannelOrder::bgr, calibration.empty_skin));
+                                                   ss::ChannelOrder::bgr, ec.empty_skin));
     if (save_frames) fs::create_directories(out / "frames");
 
     sim::Rng urng(2024);

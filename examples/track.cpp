@@ -26,6 +26,7 @@
 
 #include "common/cli.hpp"
 #include "common/frame_source.hpp"
+#include "common/model_calibration.hpp"
 #include "common/runner.hpp"
 
 #include <opencv2/imgproc.hpp>
@@ -222,9 +223,6 @@ int run(const Options& o) {
                   "segmenter reports phantom shadows - make a new calibration with ss_calibrate");
   SegmenterConfig sc;
   sc.calibration = cal;
-  if (o.scale_to_network && !(cal.px_per_cm > 0))
-    throw cli::UsageError("--scale-to-network: calibration " + o.calibration +
-                          " records no camera scale; make it with ss_calibrate --px-per-cm X");
   sc.max_image_side = o.max_side;
   std::optional<Classifier<DenseNet>> classifier;
   fs::path model_path;
@@ -234,14 +232,11 @@ int run(const Options& o) {
     // --scale-to-network, its camera scale (frames brought to the network's scale) go to the
     // classifier too.
     const ModelFile model = ModelFile::load(model_path);
-    if (needs_calibration(model.preprocess.input_encoding) && cal.empty_skin.empty())
-      throw Error("model " + model_path.string() + " (input encoding " +
-                  to_string(model.preprocess.input_encoding) +
-                  ") needs an empty-skin model, and '" + o.calibration +
-                  "' holds none; calibrate with ss_calibrate --empty");
+    const cli::EncoderCalibration ec = cli::encoder_calibration_from(
+        model, model_path.string(), cal, o.calibration, o.scale_to_network);
     classifier.emplace(make_densenet_classifier(model, {.threads = o.threads}, ChannelOrder::bgr,
-                                                cal.empty_skin,
-                                                o.scale_to_network ? cal.px_per_cm : 0.0f));
+                                                ec.empty_skin,
+                                                static_cast<float>(ec.camera_px_per_cm)));
   }
   RuntimeConfig rc;
   rc.classify_every = o.classify_every;

@@ -17,6 +17,13 @@
 //            frame encoder needs of the calibration.
 //   throws:  as empty_skin_for; UsageError when scale_to_network and no calibration is given
 //            or it records no px_per_cm (ss_calibrate --px-per-cm).
+// encoder_calibration_from(model, model_path, calibration, calibration_path, scale_to_network)
+//   -> EncoderCalibration
+//   The same for a program that has loaded the calibration already (ss_track, ss_demo);
+//   calibration_path only names the file in messages.
+//   throws:  shadowsense::Error naming both files when the model's input encoding needs an
+//            empty-skin model and the calibration holds none; UsageError when scale_to_network
+//            and the calibration records no px_per_cm.
 // Plain functions; no state.
 #pragma once
 
@@ -31,43 +38,59 @@
 
 namespace cli {
 
-inline cv::Mat empty_skin_for(const shadowsense::ModelFile& model, const std::string& model_path,
-                              const std::string& calibration_path) {
-  namespace ss = shadowsense;
-  const ss::InputEncoding e = model.preprocess.input_encoding;
-  if (!ss::needs_calibration(e)) return {};
-  if (calibration_path.empty())
-    throw UsageError("model " + model_path + " was trained with input encoding " +
-                     ss::to_string(e) +
-                     " and needs --calibration FILE (the robot's calibration with its empty-skin "
-                     "model, from ss_calibrate --empty)");
-  ss::SegmenterCalibration cal = ss::load_calibration(calibration_path);
-  if (cal.empty_skin.empty())
-    throw ss::Error("calibration " + calibration_path + " holds no empty-skin model, which model " +
-                    model_path + " (input encoding " + ss::to_string(e) +
-                    ") needs; calibrate with ss_calibrate --empty to store one");
-  return cal.empty_skin;
-}
-
 struct EncoderCalibration {
   cv::Mat empty_skin;
   double camera_px_per_cm = 0;
 };
 
+inline EncoderCalibration encoder_calibration_from(const shadowsense::ModelFile& model,
+                                                   const std::string& model_path,
+                                                   const shadowsense::SegmenterCalibration& cal,
+                                                   const std::string& calibration_path,
+                                                   bool scale_to_network) {
+  namespace ss = shadowsense;
+  const ss::InputEncoding e = model.preprocess.input_encoding;
+  EncoderCalibration c;
+  if (ss::needs_calibration(e)) {
+    if (cal.empty_skin.empty())
+      throw ss::Error("calibration " + calibration_path +
+                      " holds no empty-skin model, which model " + model_path +
+                      " (input encoding " + ss::to_string(e) +
+                      ") needs; calibrate with ss_calibrate --empty to store one");
+    c.empty_skin = cal.empty_skin;
+  }
+  if (scale_to_network) {
+    if (!(cal.px_per_cm > 0))
+      throw UsageError("--scale-to-network: calibration " + calibration_path +
+                       " records no camera scale; make it with ss_calibrate --px-per-cm X");
+    c.camera_px_per_cm = cal.px_per_cm;
+  }
+  return c;
+}
+
 inline EncoderCalibration encoder_calibration_for(const shadowsense::ModelFile& model,
                                                   const std::string& model_path,
                                                   const std::string& calibration_path,
                                                   bool scale_to_network) {
-  EncoderCalibration c{empty_skin_for(model, model_path, calibration_path), 0};
-  if (!scale_to_network) return c;
-  if (calibration_path.empty())
+  namespace ss = shadowsense;
+  const ss::InputEncoding e = model.preprocess.input_encoding;
+  if (!ss::needs_calibration(e) && !scale_to_network) return {};
+  if (calibration_path.empty()) {
+    if (ss::needs_calibration(e))
+      throw UsageError("model " + model_path + " was trained with input encoding " +
+                       ss::to_string(e) +
+                       " and needs --calibration FILE (the robot's calibration with its "
+                       "empty-skin model, from ss_calibrate --empty)");
     throw UsageError("--scale-to-network needs --calibration FILE recording the camera's scale "
                      "(ss_calibrate --px-per-cm)");
-  c.camera_px_per_cm = shadowsense::load_calibration(calibration_path).px_per_cm;
-  if (c.camera_px_per_cm <= 0)
-    throw UsageError("--scale-to-network: calibration " + calibration_path +
-                     " records no camera scale; make it with ss_calibrate --px-per-cm X");
-  return c;
+  }
+  return encoder_calibration_from(model, model_path, ss::load_calibration(calibration_path),
+                                  calibration_path, scale_to_network);
+}
+
+inline cv::Mat empty_skin_for(const shadowsense::ModelFile& model, const std::string& model_path,
+                              const std::string& calibration_path) {
+  return encoder_calibration_for(model, model_path, calibration_path, false).empty_skin;
 }
 
 } // namespace cli
