@@ -25,6 +25,10 @@
 // fill around a shrunk frame.
 // --head-val-fraction F, --head-epochs N, --head-standardise, --head-balanced: the heads' recipe
 // (HeadTrainer::Config; default the paper's: 0.3, 20, off, off).
+// A class of the model with no frame anywhere in the data (a source without pointing hands) is
+// absent: the Tables' heads keep its output, trained with no example of it, its confusion row
+// stays empty, and the JSON lists it under "absent_classes". A class that is in the data but
+// missing from one split's training or test part is still an error naming it.
 #include <shadowsense/eval.hpp>
 #include <shadowsense/train/gesture_samples.hpp>
 
@@ -111,6 +115,13 @@ Eigen::MatrixXd rows(const Eigen::MatrixXd& x, const Indices& idx) {
   return out;
 }
 
+// Per class of the set: whether any frame of the data has it (see "absent" above).
+std::vector<bool> classes_in_data(const ss::GestureSamples& set) {
+  std::vector<bool> in(set.class_names.size(), false);
+  for (const auto& f : set.frames) in[static_cast<std::size_t>(f.label)] = true;
+  return in;
+}
+
 // Trains a head on `pool` (70/30 train/validation by time) and returns the predicted class of
 // every test frame.
 std::vector<int> train_and_predict(const Options& o, const ss::GestureSamples& set,
@@ -122,8 +133,9 @@ std::vector<int> train_and_predict(const Options& o, const ss::GestureSamples& s
                            std::to_string(test.size()) + ")");
   const int classes = static_cast<int>(set.class_names.size());
   const auto yt = ss::labels_of(set, train);
+  const std::vector<bool> in_data = classes_in_data(set);
   for (int c = 0; c < classes; ++c)
-    if (std::find(yt.begin(), yt.end(), c) == yt.end())
+    if (in_data[static_cast<std::size_t>(c)] && std::find(yt.begin(), yt.end(), c) == yt.end())
       throw ss::DatasetError("class '" + set.class_names[static_cast<std::size_t>(c)] +
                              "' of the model has no training frames in a split of this data "
                              "(a class folder is missing or empty)");
@@ -161,10 +173,11 @@ Score score(const ss::GestureSamples& set, const Indices& test, const std::vecto
     ++s.frames;
   }
   if (s.frames == 0) throw ss::DatasetError("a test split has no frames");
+  const std::vector<bool> in_data = classes_in_data(set);
   for (std::size_t c = 0; c < k; ++c) {
     int n = 0;
     for (int v : s.confusion[c]) n += v;
-    if (n == 0)
+    if (n == 0 && in_data[c])
       throw ss::DatasetError("class '" + set.class_names[c] +
                              "' has no test frames in a split (its class folder is missing or "
                              "empty for these users/lightings)");
@@ -654,6 +667,16 @@ int run_tables(const Options& o) {
   json.key("class_names").begin_array(cli::JsonWriter::compact);
   for (const auto& n : set.class_names) json.value(n);
   json.end_array().field("backbone", o.backbone);
+  const std::vector<bool> in_data = classes_in_data(set);
+  json.key("absent_classes").begin_array(cli::JsonWriter::compact);
+  for (std::size_t c = 0; c < in_data.size(); ++c)
+    if (!in_data[c]) {
+      json.value(set.class_names[c]);
+      if (!o.quiet)
+        std::cerr << "note: class '" << set.class_names[c] << "' has no frame in " << o.data
+                  << ": the heads are trained without it and it has no row in the scores\n";
+    }
+  json.end_array();
   TableRun r{
       o, set, all, json, o.normalise ? " (lighting normalisation on)" : " (paper preprocessing)",
       {}};

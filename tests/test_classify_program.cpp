@@ -427,6 +427,66 @@ TEST_CASE("ss_eval_classify --score --session-calibrations: each session's own e
   CHECK(no_score.err.find("--session-calibrations: only with --score MODEL") != std::string::npos);
 }
 
+TEST_CASE("ss_eval_classify --tables: a class with no frame in the data is absent, not an error") {
+  namespace ss = shadowsense;
+  const fs::path dir = tests::fresh_dir("eval_tables_absent_class");
+  const std::string model = SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn";
+  const std::vector<std::string> names = ss::ModelFile::load(model).class_names;
+  REQUIRE(names.size() >= 3);
+  const std::string absent = names.back(); // never in the data
+  const std::string partial = names[0];    // `only_user`: in the data for user 1 only
+  // Two users x three lightings, 4 frames per session x class; `only_user` decides whether the
+  // first class is kept for user 2 too.
+  auto make = [&](const fs::path& data, bool only_user) {
+    std::string csv = "file_name,class,user,lighting,lighting_level,session,frame_index,"
+                      "timestamp_ms,shadow_x,shadow_y,shadow_w,shadow_h,contact_x,contact_y,"
+                      "contact_w,contact_h,contact_cx,contact_cy,px_per_cm\n";
+    int k = 0;
+    for (const char* user : {"1", "2"})
+      for (const auto& [lighting, level] :
+           {std::pair{"daylight", "1"}, std::pair{"dusk", "0.5"}, std::pair{"night", "0"}})
+        for (std::size_t c = 0; c + 1 < names.size(); ++c) {
+          if (only_user && c == 0 && std::string(user) == "2") continue;
+          const std::string session = std::string("u") + user + "_" + lighting;
+          fs::create_directories(data / names[c]);
+          for (int i = 0; i < 4; ++i, ++k) {
+            const std::string file = names[c] + "/" + session + "_" + std::to_string(i) + ".png";
+            REQUIRE(cv::imwrite((data / file).string(), frame(static_cast<int>(c) + i % 2)));
+            csv += file + "," + names[c] + "," + user + "," + lighting + "," + level + "," +
+                   session + "," + std::to_string(i) + "," + std::to_string(100 * k) +
+                   ",,,,,,,,,,,7.6\n";
+          }
+        }
+    std::FILE* f = std::fopen((data / "metadata.csv").string().c_str(), "wb");
+    REQUIRE(f != nullptr);
+    REQUIRE(std::fwrite(csv.data(), 1, csv.size(), f) == csv.size());
+    std::fclose(f);
+  };
+  auto tables = [&](const fs::path& data, const std::string& json) {
+    return tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,
+                              "--input " + shell_quote(data.string()) + " --backbone " +
+                                  shell_quote(model) +
+                                  " --tables 1,2 --head-val-fraction 0 --head-epochs 3 --json " +
+                                  shell_quote((dir / json).string()),
+                              dir / "run");
+  };
+  make(dir / "without_last", false);
+  const auto r = tables(dir / "without_last", "t.json");
+  REQUIRE(r.status == 0);
+  CHECK(r.err.find("note: class '" + absent + "' has no frame in") != std::string::npos);
+  const std::string js = tests::read_file(dir / "t.json");
+  CHECK(js.find("\"absent_classes\": [\"" + absent + "\"]") != std::string::npos);
+  CHECK(js.find("\"table1\"") != std::string::npos);
+  CHECK(js.find("\"table2\"") != std::string::npos);
+  // A class in the data that one split lacks (leaving user 1 out leaves no frame of it to
+  // train on) is still an error naming it.
+  make(dir / "partial", true);
+  const auto p = tables(dir / "partial", "p.json");
+  CHECK(p.status == 2);
+  CHECK(p.err.find("class '" + partial + "' of the model has no training frames") !=
+        std::string::npos);
+}
+
 #else
 // Reported as skipped (not passed): the program is not built.
 TEST_CASE("ss_classify is not built (SHADOWSENSE_BUILD_EXAMPLES=OFF)" * doctest::skip()) {}
