@@ -156,6 +156,9 @@ Options parse(int argc, char** argv) {
   if (o.input.empty()) throw cli::UsageError("--input is required (a folder, a video or a camera)");
   if (o.calibration.empty())
     throw cli::UsageError("--calibration is required (make one with ss_calibrate)");
+  if (o.scale_to_network && o.model == "none")
+    throw cli::UsageError("--scale-to-network scales the classifier's input, and --model none "
+                          "runs no classifier; give one of them");
   if (o.realtime && o.no_realtime)
     throw cli::UsageError("--realtime and --no-realtime contradict each other; give one");
   if (o.source.empty()) o.source = o.input;
@@ -221,6 +224,8 @@ int run(const Options& o) {
     throw IoError("'" + o.calibration +
                   "' holds no empty-skin model (a version-1 calibration); without one the "
                   "segmenter reports phantom shadows - make a new calibration with ss_calibrate");
+  // Checked here, not only where the classifier is made: a flag that cannot act is an error.
+  cli::camera_scale_for(cal, o.calibration, o.scale_to_network);
   SegmenterConfig sc;
   sc.calibration = cal;
   sc.max_image_side = o.max_side;

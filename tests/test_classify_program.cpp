@@ -361,12 +361,7 @@ TEST_CASE("ss_eval_classify --score --session-calibrations: each session's own e
       csv += file + "," + cls + ",1," + lighting + "," + level + "," + session + "," +
              std::to_string(i) + "," + std::to_string(100 * i) + ",,,,,,,,,,,7.6\n";
     }
-  {
-    std::FILE* f = std::fopen((data / "metadata.csv").string().c_str(), "wb");
-    REQUIRE(f != nullptr);
-    REQUIRE(std::fwrite(csv.data(), 1, csv.size(), f) == csv.size());
-    std::fclose(f);
-  }
+  REQUIRE(tests::write_file(data / "metadata.csv", csv));
   auto score = [&](const std::string& extra, const std::string& json) {
     return tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,
                               "--score " + shell_quote(model) + " --input " +
@@ -457,10 +452,7 @@ TEST_CASE("ss_eval_classify --tables: a class with no frame in the data is absen
                    ",,,,,,,,,,,7.6\n";
           }
         }
-    std::FILE* f = std::fopen((data / "metadata.csv").string().c_str(), "wb");
-    REQUIRE(f != nullptr);
-    REQUIRE(std::fwrite(csv.data(), 1, csv.size(), f) == csv.size());
-    std::fclose(f);
+    REQUIRE(tests::write_file(data / "metadata.csv", csv));
   };
   auto tables = [&](const fs::path& data, const std::string& json) {
     return tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,

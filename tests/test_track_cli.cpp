@@ -273,6 +273,14 @@ TEST_CASE("ss_track: a calibration's camera scale is the touch gestures' and, wi
                      "' --fps 13 --quiet --scale-to-network");
   CHECK(no.status == 2);
   CHECK(no.err.find("--scale-to-network") != std::string::npos);
+  // ... and with no classifier to scale for, too (the flag would do nothing).
+  for (const std::string& calib : {calibration_path(), scaled}) {
+    const Run none = run("--input '" + folder.string() + "' --calibration '" + calib +
+                         "' --fps 13 --quiet --model none --scale-to-network");
+    CHECK(none.status == 2);
+    CHECK(none.err.find("--scale-to-network") != std::string::npos);
+    CHECK(none.out.empty());
+  }
   // --px-per-cm overrides the calibration's for the touch gestures (not for the classifier).
   const Run o = run("--input '" + folder.string() + "' --calibration '" + scaled +
                     "' --fps 13 --quiet --source cam0 --model none --px-per-cm 7.6");

@@ -17,6 +17,11 @@
 //            frame encoder needs of the calibration.
 //   throws:  as empty_skin_for; UsageError when scale_to_network and no calibration is given
 //            or it records no px_per_cm (ss_calibrate --px-per-cm).
+// camera_scale_for(calibration, calibration_path, scale_to_network) -> double
+//   ensures: the calibration's px_per_cm when scale_to_network, else 0.
+//   throws:  UsageError naming --scale-to-network and the file when scale_to_network and the
+//            calibration records no px_per_cm. A program calls it where it reads its options,
+//            so the option is checked whether or not a classifier runs.
 // encoder_calibration_from(model, model_path, calibration, calibration_path, scale_to_network)
 //   -> EncoderCalibration
 //   The same for a program that has loaded the calibration already (ss_track, ss_demo);
@@ -43,6 +48,15 @@ struct EncoderCalibration {
   double camera_px_per_cm = 0;
 };
 
+inline double camera_scale_for(const shadowsense::SegmenterCalibration& cal,
+                               const std::string& calibration_path, bool scale_to_network) {
+  if (!scale_to_network) return 0;
+  if (!(cal.px_per_cm > 0))
+    throw UsageError("--scale-to-network: calibration " + calibration_path +
+                     " records no camera scale; make it with ss_calibrate --px-per-cm X");
+  return cal.px_per_cm;
+}
+
 inline EncoderCalibration encoder_calibration_from(const shadowsense::ModelFile& model,
                                                    const std::string& model_path,
                                                    const shadowsense::SegmenterCalibration& cal,
@@ -59,12 +73,7 @@ inline EncoderCalibration encoder_calibration_from(const shadowsense::ModelFile&
                       ") needs; calibrate with ss_calibrate --empty to store one");
     c.empty_skin = cal.empty_skin;
   }
-  if (scale_to_network) {
-    if (!(cal.px_per_cm > 0))
-      throw UsageError("--scale-to-network: calibration " + calibration_path +
-                       " records no camera scale; make it with ss_calibrate --px-per-cm X");
-    c.camera_px_per_cm = cal.px_per_cm;
-  }
+  c.camera_px_per_cm = camera_scale_for(cal, calibration_path, scale_to_network);
   return c;
 }
 

@@ -11,6 +11,10 @@
 // std::string read_file(const std::filesystem::path& p)
 //   ensures: every byte of p; "" when p cannot be opened.
 //
+// bool write_file(const std::filesystem::path& p, const std::string& bytes)
+//   ensures: p holds exactly `bytes` (created or replaced); false when it cannot be written.
+//   Test fixtures only: not atomic (the library's writes are, core/atomic_file.hpp).
+//
 // std::vector<std::string> snippet_lines(const std::filesystem::path& p, const std::string& from,
 //                                        const std::string& to)
 //   ensures: the lines of p from the first that starts with `from` (after its leading spaces) to
@@ -48,6 +52,13 @@ inline std::filesystem::path fresh_dir(const std::filesystem::path& relative) {
 inline std::string read_file(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(f), {}};
+}
+
+inline bool write_file(const std::filesystem::path& p, const std::string& bytes) {
+  std::ofstream f(p, std::ios::binary | std::ios::trunc);
+  f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  f.close();
+  return static_cast<bool>(f);
 }
 
 inline std::vector<std::string> snippet_lines(const std::filesystem::path& p,
