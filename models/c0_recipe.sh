@@ -8,7 +8,9 @@
 # "--input-encoding skin_relative"; empty for C0-C2). The sessions' empty_skin/ folders
 # (ss_gesture_data --empty-skin) are merged too when they exist. USERS (environment, default 12):
 # users per session; the sessions then hold users 100.., 100+2*USERS.. (randomised) and
-# 100+USERS.. (plain), which for 12 are the users above.
+# 100+USERS.. (plain), which for 12 are the users above. LIGHTING (environment, default
+# --lighting-normalise): the training's lighting option; empty for an encoding that takes none
+# (darkness_warmth).
 #   sh models/c0_recipe.sh BUILD_DIR WORK_DIR OUT [DATA_FLAGS [TRAIN_FLAGS]]
 set -e
 BUILD=$1
@@ -17,6 +19,7 @@ OUT=$3
 DATA_FLAGS=$4
 TRAIN_FLAGS=${5:-}
 USERS=${USERS:-12}
+LIGHTING=${LIGHTING---lighting-normalise}
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 "$BUILD/examples/ss_gesture_data" --out "$WORK/randomised" --overwrite --users "$USERS" \
   --first-user 100 --frames 12 --seed 2 --randomise $DATA_FLAGS
@@ -43,5 +46,5 @@ fi
 } >"$WORK/mixed/metadata.csv"
 /usr/bin/python3 "$SRC/tools/train.py" "$WORK/mixed" -o "$OUT" \
   --mode scratch --growth-rate 12 --block-config 4 4 4 --init-features 24 \
-  --resize 160 88 --crop 0 0 --lighting-normalise --augment --augment-geometry --seed 0 \
+  --resize 160 88 --crop 0 0 $LIGHTING --augment --augment-geometry --seed 0 \
   --threads 1 --classes nothing,hug,palm,point,punch,two_hands $TRAIN_FLAGS

@@ -300,14 +300,96 @@ TEST_CASE("skin_relative without a calibration is refused; colour ignores one") 
   CHECK_THROWS_AS(plain.encode_input(frame, f), InvalidArgument);
 }
 
-TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encoding") {
-  // tools/make_encoding_fixture.py: the calibration file written by tools/calibration_file.py
-  // (so the C++ reader is checked on the Python writer) and six frames encoded by train.py's
-  // functions, at the model's size and resized, plain, dark and lighting-normalised.
+namespace {
+// A lit skin for darkness_warmth: the model times a light level (float frame), with a shadow
+// (all channels x 0.3) and a contact (green and blue x 0.35, red kept). Light levels of the
+// form (b + 0.5) / 512 are the reference's bin centres, so the reference is the level itself.
+struct LitSkin {
+  cv::Mat model{30, 40, CV_32FC3, cv::Scalar(0.9, 0.8, 0.7)}; // BGR
+  cv::Rect shadow{5, 10, 8, 6}, contact{25, 18, 8, 7};
+  LitSkin() { model.rowRange(0, 3).setTo(cv::Scalar::all(0.2)); } // not skin: sum 0.6 < 1.5
+  cv::Mat frame(float level) const {
+    cv::Mat f = model * level;
+    f(shadow) *= 0.3;
+    cv::Mat c = f(contact);
+    c.forEach<cv::Vec3f>([](cv::Vec3f& v, const int*) { v[0] *= 0.35f, v[1] *= 0.35f; });
+    return f;
+  }
+};
+} // namespace
+
+TEST_CASE("darkness_warmth: the pixel rule's darkness and warmth over the lit skin, any light") {
+  const PreprocessParams p = identity_params(InputEncoding::darkness_warmth);
+  const LitSkin skin;
+  FrameEncoder enc({p, ChannelOrder::bgr, skin.model});
+  const Tensor bright = encode(enc, skin.frame(409.5f / 512)),
+               dim = encode(enc, skin.frame(204.5f / 512));
+  REQUIRE(bright.h() == 30);
+  // Planes: darkness, warmth, skin.
+  auto at = [](const Tensor& t, int c, cv::Point q) { return t(0, c, q.y, q.x); };
+  for (const Tensor* t : {&bright, &dim}) {
+    const cv::Point lit(20, 5), shade(7, 12), touch(28, 20), off(20, 1);
+    CHECK(at(*t, 0, lit) <= 1e-5f);
+    CHECK(at(*t, 1, lit) == doctest::Approx(0.5).epsilon(1e-5));
+    CHECK(at(*t, 2, lit) == 1.0f);
+    CHECK(at(*t, 0, shade) == doctest::Approx(0.7).epsilon(1e-5));
+    CHECK(at(*t, 1, shade) == doctest::Approx(0.5).epsilon(1e-5));
+    CHECK(at(*t, 0, touch) == doctest::Approx(1.0 - (0.35 + 0.35 + 1.0) / 3).epsilon(1e-5));
+    CHECK(at(*t, 1, touch) == doctest::Approx(0.5 + 0.5 * (1.0 - 0.35)).epsilon(1e-5));
+    for (int c = 0; c < 3; ++c) CHECK(at(*t, c, off) == 0.0f); // off the skin
+  }
+  // The light is divided out: half the light, the same maps.
+  double worst = 0;
+  for (std::size_t i = 0; i < bright.size(); ++i)
+    worst = std::max(worst, double(std::abs(bright.data()[i] - dim.data()[i])));
+  CHECK(worst <= 1e-5);
+  // Never dark: the caller's dark flag changes nothing (no brightness factor).
+  const cv::Mat frame = skin.frame(0.3f);
+  CHECK(same(encode(enc, frame, true), encode(enc, frame, false)));
+  // RGB input: the same planes from the channel-swapped frame (the model stays BGR).
+  cv::Mat rgb;
+  cv::cvtColor(frame, rgb, cv::COLOR_BGR2RGB);
+  FrameEncoder enc_rgb({p, ChannelOrder::rgb, skin.model});
+  CHECK(same(encode(enc_rgb, rgb), encode(enc, frame)));
+  // A model with no skin at all: every plane 0, no reference to take.
+  FrameEncoder none({p, ChannelOrder::bgr, cv::Mat(30, 40, CV_32FC3, cv::Scalar::all(0.2))});
+  const Tensor z = encode(none, frame);
+  CHECK(std::all_of(z.values().begin(), z.values().end(), [](float v) { return v == 0.0f; }));
+}
+
+TEST_CASE("darkness_warmth is refused without a calibration and with lighting normalisation") {
+  PreprocessParams p = identity_params(InputEncoding::darkness_warmth);
+  CHECK_THROWS_WITH_AS(FrameEncoder({p, ChannelOrder::bgr}),
+                       doctest::Contains("input encoding is darkness_warmth, which needs a "
+                                         "calibration with an empty-skin model"),
+                       InvalidArgument);
+  const cv::Mat model(4, 4, CV_32FC3, cv::Scalar::all(1.0));
+  CHECK_THROWS_WITH_AS(FrameEncoder(p, true, model),
+                       doctest::Contains("darkness_warmth input encoding is already independent "
+                                         "of the light level"),
+                       InvalidArgument);
+  p.lighting_normalise = true;
+  CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("takes no lighting normalisation"),
+                       InvalidArgument);
+  CHECK(parse_input_encoding("darkness_warmth") == InputEncoding::darkness_warmth);
+  CHECK(std::string(to_string(InputEncoding::darkness_warmth)) == "darkness_warmth");
+}
+
+namespace {
+// Reads a golden file of tools/make_encoding_fixture.py (its docstring has the format) and
+// encodes every case with `encoding`; returns the largest differences from train.py's stage 0
+// and network input.
+struct GoldenDiff {
+  int cases = 0;
+  double stage0 = 0, tensor = 0;
+};
+GoldenDiff golden_diff(const char* path, InputEncoding encoding) {
+  // The calibration file was written by tools/calibration_file.py, so the C++ reader is checked
+  // on the Python writer.
   const SegmenterCalibration cal =
       load_calibration(SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib");
   REQUIRE(cal.empty_skin.size() == cv::Size(40, 30));
-  std::ifstream f(SHADOWSENSE_TEST_DATA_DIR "/encoding_golden.bin", std::ios::binary);
+  std::ifstream f(path, std::ios::binary);
   REQUIRE(f.good());
   const std::vector<char> b((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   std::size_t at = 0;
@@ -326,10 +408,9 @@ TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encodin
     take(&v, 4);
     return v;
   };
-  const int cases = u32();
-  REQUIRE(cases == 6);
-  double worst_stage0 = 0, worst_tensor = 0;
-  for (int k = 0; k < cases; ++k) {
+  GoldenDiff worst;
+  worst.cases = u32();
+  for (int k = 0; k < worst.cases; ++k) {
     const int h = u32(), w = u32();
     const bool dark = u32() != 0;
     PreprocessParams p;
@@ -340,7 +421,7 @@ TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encodin
     p.crop_height = u32();
     p.contrast_factor = f32();
     p.dark_brightness_factor = f32();
-    p.input_encoding = InputEncoding::skin_relative;
+    p.input_encoding = encoding;
     cv::Mat frame(h, w, CV_8UC3), expected_stage0(h, w, CV_32FC3);
     take(frame.data, frame.total() * 3);
     take(expected_stage0.data, expected_stage0.total() * 3 * 4);
@@ -351,7 +432,7 @@ TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encodin
     FrameEncoder enc({p, ChannelOrder::bgr, cal.empty_skin});
     cv::Mat stage0;
     enc.encode_input(frame, stage0);
-    worst_stage0 = std::max(worst_stage0, cv::norm(stage0, expected_stage0, cv::NORM_INF));
+    worst.stage0 = std::max(worst.stage0, cv::norm(stage0, expected_stage0, cv::NORM_INF));
     Tensor got;
     enc.run(frame, dark, got);
     REQUIRE(got.h() == oh);
@@ -359,15 +440,39 @@ TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encodin
     double d = 0;
     for (std::size_t i = 0; i < got.size(); ++i)
       d = std::max(d, double(std::abs(got.data()[i] - expected.data()[i])));
-    worst_tensor = std::max(worst_tensor, d);
+    worst.tensor = std::max(worst.tensor, d);
   }
   CHECK(at == b.size());
+  return worst;
+}
+} // namespace
+
+TEST_CASE("skin_relative golden: the C++ encoder equals tools/train.py's encoding") {
+  // Six frames encoded by train.py's functions, at the model's size and resized, plain, dark
+  // and lighting-normalised.
+  const GoldenDiff d =
+      golden_diff(SHADOWSENSE_TEST_DATA_DIR "/encoding_golden.bin", InputEncoding::skin_relative);
+  CHECK(d.cases == 6);
   MESSAGE("skin_relative vs train.py: stage 0 max abs diff "
-          << worst_stage0 << ", network input max abs diff " << worst_tensor);
+          << d.stage0 << ", network input max abs diff " << d.tensor);
   // Stage 0 is the same float operations in the same order (cv2.resize is OpenCV's resize):
   // the same bits. The rest is the Preprocessor's golden bound (test_preprocess.cpp).
-  CHECK(worst_stage0 == 0.0);
-  CHECK(worst_tensor <= 1e-5);
+  CHECK(d.stage0 == 0.0);
+  CHECK(d.tensor <= 1e-5);
+}
+
+TEST_CASE("darkness_warmth golden: the C++ encoder equals tools/train.py's encoding") {
+  // Random frames (plain and with the dark flag, which must be ignored), lit skin with a
+  // shadow and a contact at two light levels, and a black frame.
+  const GoldenDiff d = golden_diff(SHADOWSENSE_TEST_DATA_DIR "/encoding_golden_darkness_warmth.bin",
+                                   InputEncoding::darkness_warmth);
+  CHECK(d.cases == 7);
+  MESSAGE("darkness_warmth vs train.py: stage 0 max abs diff "
+          << d.stage0 << ", network input max abs diff " << d.tensor);
+  // The reference is an integer histogram and every float operation is train.py's, in its
+  // order: the same bits at stage 0.
+  CHECK(d.stage0 == 0.0);
+  CHECK(d.tensor <= 1e-5);
 }
 
 namespace {

@@ -52,7 +52,7 @@ VERSION = 2
 # encoding after the dark-frame threshold and an int8 flag (always 0 here) before the checksum;
 # written only for an encoding other than colour, so colour models stay version 2.
 VERSION_ENCODED = 4
-INPUT_ENCODINGS = ("colour", "skin_relative")  # InputEncoding codes 0, 1
+INPUT_ENCODINGS = ("colour", "skin_relative", "darkness_warmth")  # InputEncoding codes 0, 1, 2
 MAX_SIDE = 4096  # preprocess_max_side in include/shadowsense/classify/preprocess_params.hpp
 DEFAULT_DARK_THRESHOLD = 0.165  # default_dark_luminance_threshold (same header)
 DEFAULT_LIGHTING_TARGET = 0.35  # LightingNormaliser::Config::target

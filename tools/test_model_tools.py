@@ -160,6 +160,37 @@ class SkinRelativeEncoding(unittest.TestCase):
         self.assertEqual(e[2, 0, 2].item(), 1.0)                          # 0.502 / 0.125 > 1
         self.assertEqual(e[1, 0, 2].item(), f32(f32(64 / 255.0) / f32(0.7)))
 
+    def test_darkness_warmth_by_hand(self):
+        # The lit skin at a light level on a reference bin's centre (409.5 / 512), so the
+        # reference is the level: lit skin darkness 0 and warmth 0.5, a shadow (x 0.3) darkness
+        # 0.7, a contact (green and blue x 0.35) darkness 1 - 1.7 / 3 and warmth 0.825.
+        import numpy as np
+        import torch
+        import train
+        m = np.full((12, 12, 3), 0.8, np.float32)  # B, G, R
+        m[0] = 0.2                                 # a row that is not skin
+        level = 409.5 / 512
+        x = torch.from_numpy(m).permute(2, 0, 1).flip(0) * level  # R, G, B
+        x[:, 4:7, 1:4] *= 0.3
+        x[1:, 8:11, 8:11] *= 0.35
+        e = train.darkness_warmth(x, m)
+        self.assertLess(e[0, 2, 10].item(), 1e-6)
+        self.assertAlmostEqual(e[1, 2, 10].item(), 0.5, places=5)
+        self.assertEqual(e[2, 2, 10].item(), 1.0)
+        self.assertAlmostEqual(e[0, 5, 2].item(), 0.7, places=5)
+        self.assertAlmostEqual(e[0, 9, 9].item(), 1 - 1.7 / 3, places=5)
+        self.assertAlmostEqual(e[1, 9, 9].item(), 0.825, places=5)
+        self.assertEqual(e[:, 0, 5].tolist(), [0.0, 0.0, 0.0])  # off the skin
+        # About half the light (another bin centre): the same maps.
+        half = train.darkness_warmth(x * (204.5 / 409.5), m)
+        self.assertLess((half - e).abs().max().item(), 1e-5)
+
+    def test_darkness_warmth_takes_no_lighting_normalisation(self):
+        r = run("train.py", "unused", "-o", "unused.ssm", "--input-encoding", "darkness_warmth",
+                "--lighting-normalise")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("takes no --lighting-normalise", r.stderr)
+
     def test_calibration_file_round_trip_and_damage(self):
         import numpy as np
         import calibration_file as cf
@@ -245,6 +276,21 @@ class SkinRelativeEncoding(unittest.TestCase):
             self.assertIn("needs the empty-skin model of session", r.stderr)
             self.assertNotIn("Traceback", r.stderr)
             self.assertFalse(os.path.exists(os.path.join(work, "x.ssm")))
+            # darkness_warmth: code 2, read back by name.
+            dw = [a if a != "skin_relative" else "darkness_warmth" for a in args]
+            r = run("train.py", *dw, "--calibration", cal, "--contrast", "1", "-o", out)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertEqual(struct.unpack_from("<I", read_bytes(out), at)[0], 2)
+            self.assertEqual(train.read_model_file(out)[1]["input_encoding"], "darkness_warmth")
+            # tools/model_encoding.py reads the same from the header alone.
+            r = run("model_encoding.py", out)
+            self.assertEqual((r.returncode, r.stdout), (0, "darkness_warmth\n"), r.stderr)
+            r = run("model_encoding.py", os.path.join(HERE, "..", "models", "default.ssm"))
+            self.assertEqual((r.returncode, r.stdout), (0, "colour\n"), r.stderr)
+            r = run("model_encoding.py", cal)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("not a shadowsense model file", r.stderr)
+            self.assertNotIn("Traceback", r.stderr)
         finally:
             shutil.rmtree(work)
 

@@ -16,6 +16,9 @@ encoding of include/shadowsense/classify/frame_encoder.hpp (--input-encoding):
                   empty_skin/<session>.calib (ss_gesture_data --empty-skin; docs/dataset_format.md).
                   The model file records the encoding (format version 4): the C++ programs then
                   need --calibration FILE, and refuse to run without one.
+  darkness_warmth the relative pixel rule's darkness and warmth maps beside the skin mask
+                  (darkness_warmth() below), from the same empty-skin models; independent of the
+                  light level, so it takes no --lighting-normalise and no frame is dark.
 
 Modes
   --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
@@ -76,6 +79,11 @@ NORMALISE_TARGET = 0.35
 # by the model's, floored at MODEL_FLOOR.
 SKIN_MODEL_SUM = 1.5
 MODEL_FLOOR = 0.125
+# The darkness_warmth encoding's frame reference (FrameEncoder): the 90th percentile of each
+# channel's quotient over the skin samples, in bins of 1/REFERENCE_BINS_PER_UNIT, floored.
+REFERENCE_BINS = 1024
+REFERENCE_BINS_PER_UNIT = 512.0
+REFERENCE_FLOOR = 1.0 / 64.0
 
 
 # ---------------------------------------------------------------------------------- model file
@@ -123,7 +131,8 @@ def read_model_file(path):
     if version == d2m.VERSION_ENCODED:
         code = u32()
         if not 1 <= code < len(d2m.INPUT_ENCODINGS):  # colour is never version 4
-            raise SystemExit(f"{path}: input encoding code {code}, expected 1 (skin_relative)")
+            raise SystemExit(f"{path}: input encoding code {code}, expected 1 (skin_relative) "
+                             f"or 2 (darkness_warmth)")
         encoding = d2m.INPUT_ENCODINGS[code]
     names = []
     for _ in range(u32()):
@@ -284,12 +293,11 @@ def load_image(path):
     return x.float().div(255)
 
 
-def skin_relative(x, empty_skin):
-    """The skin_relative encoding of FrameEncoder: x RGB 3 x H x W in [0, 1], empty_skin a
-    calibration's model (numpy float32 h x w x 3, B G R), bilinearly resized to H x W with
-    cv2.resize (INTER_LINEAR, the library's cv::resize) when its size differs. Per pixel:
-    skin = (B + G) + R of the model >= SKIN_MODEL_SUM; value = min(x / max(model, MODEL_FLOOR),
-    1) on the skin, 0 off it, per channel in float32."""
+def skin_quotient(x, empty_skin):
+    """(q, skin): x RGB 3 x H x W in [0, 1] over empty_skin, a calibration's model (numpy
+    float32 h x w x 3, B G R), bilinearly resized to H x W with cv2.resize (INTER_LINEAR, the
+    library's cv::resize) when its size differs. skin = (B + G) + R of the model >=
+    SKIN_MODEL_SUM; q = x / max(model, MODEL_FLOOR) per channel in float32 (RGB planes)."""
     h, w = x.shape[1], x.shape[2]
     m = empty_skin
     if m.shape[0] != h or m.shape[1] != w:
@@ -297,8 +305,37 @@ def skin_relative(x, empty_skin):
         m = cv2.resize(m, (w, h), interpolation=cv2.INTER_LINEAR)
     m = torch.from_numpy(m.astype("float32", copy=False)).permute(2, 0, 1)  # B, G, R planes
     skin = (m[0] + m[1]) + m[2] >= SKIN_MODEL_SUM
-    v = torch.clamp(x / m.flip(0).clamp_min(MODEL_FLOOR), max=1.0)
-    return torch.where(skin, v, torch.zeros((), dtype=v.dtype))
+    return x / m.flip(0).clamp_min(MODEL_FLOOR), skin
+
+
+def skin_relative(x, empty_skin):
+    """The skin_relative encoding of FrameEncoder: min(q, 1) on the skin, 0 off it."""
+    q, skin = skin_quotient(x, empty_skin)
+    return torch.where(skin, torch.clamp(q, max=1.0), torch.zeros((), dtype=q.dtype))
+
+
+def darkness_warmth(x, empty_skin):
+    """The darkness_warmth encoding of FrameEncoder (its header has the definition): the
+    quotient q over the frame's reference r (per channel the 90th percentile of q over the skin
+    samples of rows and columns 1, 4, 7, ..., binned), then darkness = 1 - mean, warmth = 0.5 +
+    0.5 (R - B), both clamped to [0, 1], and the skin mask: RGB planes darkness, warmth, skin;
+    0 off the skin."""
+    q, skin = skin_quotient(x, empty_skin)
+    samples = q[:, 1::3, 1::3][:, skin[1::3, 1::3]]  # 3 x n
+    n = samples.shape[1]
+    ref = torch.ones(3)
+    if n > 0:
+        target = max(1, (9 * n + 9) // 10)
+        bins = (samples * REFERENCE_BINS_PER_UNIT).clamp(max=REFERENCE_BINS - 1).long()
+        for c in range(3):
+            below = torch.bincount(bins[c], minlength=REFERENCE_BINS).cumsum(0)
+            b = min(int((below >= target).nonzero()[0]), REFERENCE_BINS - 1)
+            ref[c] = max(REFERENCE_FLOOR, (b + 0.5) / REFERENCE_BINS_PER_UNIT)
+    p = q / ref.view(3, 1, 1)
+    darkness = (1.0 - ((p[2] + p[1]) + p[0]) / 3.0).clamp(0, 1)
+    warmth = (0.5 + 0.5 * (p[0] - p[2])).clamp(0, 1)
+    out = torch.stack([darkness, warmth, torch.ones_like(darkness)])
+    return torch.where(skin, out, torch.zeros((), dtype=out.dtype))
 
 
 class EmptySkins:
@@ -322,7 +359,7 @@ class EmptySkins:
                              f"would not match inference: use a calibration without px_per_cm")
         if m is None:
             raise SystemExit(f"train.py: {path}: the calibration holds no empty-skin model, "
-                             f"which --input-encoding skin_relative needs (ss_calibrate --empty)")
+                             f"which a calibrated --input-encoding needs (ss_calibrate --empty)")
         return m
 
     def __call__(self, row):
@@ -332,7 +369,7 @@ class EmptySkins:
         if session not in self.cache:
             path = os.path.join(self.root, "empty_skin", f"{session}.calib")
             if not os.path.isfile(path):
-                raise SystemExit(f"train.py: --input-encoding skin_relative needs the empty-skin "
+                raise SystemExit(f"train.py: a calibrated --input-encoding needs the empty-skin "
                                  f"model of session '{session}': no {path} (write the dataset "
                                  f"with ss_gesture_data --empty-skin, or pass --calibration FILE)")
             self.cache[session] = self.read(path)
@@ -395,6 +432,8 @@ def encode(x, pre, empty_skin=None):
     """The frame -> the Preprocessor's input image (stage 0 of FrameEncoder)."""
     if pre.get("input_encoding", "colour") == "skin_relative":
         return skin_relative(x, empty_skin)
+    if pre.get("input_encoding", "colour") == "darkness_warmth":
+        return darkness_warmth(x, empty_skin)
     return x
 
 
@@ -403,7 +442,9 @@ def cache(rows, pre, normalised, classes, label, empty_skins=None):
     t0 = time.time()
     for i, r in enumerate(rows):
         x = load_image(r["path"])
-        dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)))  # the frame, not the encoding
+        # The frame, not the encoding; darkness_warmth has divided the light out: never dark.
+        dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)) and
+                    pre.get("input_encoding", "colour") != "darkness_warmth")
         if pre.get("input_encoding", "colour") != "colour":
             x = encode(x, pre, empty_skins(r))
         if normalised:
@@ -488,8 +529,8 @@ def main(argv=None):
     ap.add_argument("--input-encoding", choices=d2m.INPUT_ENCODINGS, default="colour",
                     help="what the network sees (see above); recorded in the model file")
     ap.add_argument("--calibration", metavar="FILE",
-                    help="skin_relative: the calibration file (ss_calibrate) whose empty-skin "
-                         "model every frame is divided by (default: the dataset's "
+                    help="a calibrated encoding: the calibration file (ss_calibrate) whose "
+                         "empty-skin model every frame is divided by (default: the dataset's "
                          "empty_skin/<session>.calib)")
     ap.add_argument("--augment", action="store_true", help="lighting augmentation (scratch)")
     ap.add_argument("--augment-geometry", action="store_true",
@@ -522,7 +563,10 @@ def main(argv=None):
         if not (d2m.finite(v) and 0 <= v < 1):
             ap.error(f"{name} {v}: expected a value in [0, 1)")
     if args.calibration and args.input_encoding == "colour":
-        ap.error("--calibration is for --input-encoding skin_relative (colour needs none)")
+        ap.error("--calibration is for a calibrated --input-encoding (colour needs none)")
+    if args.lighting_normalise and args.input_encoding == "darkness_warmth":
+        ap.error("--input-encoding darkness_warmth is already independent of the light level "
+                 "and takes no --lighting-normalise")
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
     random.seed(args.seed)

@@ -12,7 +12,20 @@
 //      so the lit empty skin becomes flat at its reference brightness (the light level stays:
 //      the dark-frame rule and the lighting normalisation keep their meaning), a shadow keeps
 //      its darkness relative to the skin under it, and whatever is not skin is black. The
-//      dark-frame rule reads the frame itself, never the encoded image;
+//      dark-frame rule reads the frame itself, never the encoded image.
+//      darkness_warmth: the relative pixel rule's features (sense/pixel_rule.hpp), defined here
+//      so that tools/train.py computes the same bits. With m, f and skin as above, per skin pixel
+//      and channel q = f / max(m, 0.125) (unclipped); the frame's reference per channel r is the
+//      90th percentile of q over the skin pixels of every third row and column (rows and columns
+//      1, 4, 7, ...): b = min(floor(512 q), 1023) binned, r = (b* + 0.5) / 512 with b* the
+//      smallest bin whose count from below reaches ceil(9 n / 10) of the n samples, floored at
+//      1/64 (r = 1 with no sample). Then p = q / r and, in float,
+//        darkness = clamp(1 - ((p_B + p_G) + p_R) / 3, 0, 1)
+//        warmth   = clamp(0.5 + 0.5 (p_R - p_B), 0, 1)
+//      in the R, G and B slots of the image (the network's RGB channels 0, 1, 2 hold darkness,
+//      warmth, skin), the B slot 1 on the skin; all three are 0 off the skin. The light level is
+//      divided out (lighting normalisation is refused, PreprocessParams::validate) and the frame
+//      is never dark (no brightness factor);
 //   1. lighting normalisation (classify/lighting_normalise.hpp) when
 //      params.lighting_normalise is set; the brightness factor is then never applied;
 //   2. otherwise the dark-frame rule decides whether the brightness factor applies:
@@ -63,11 +76,12 @@
 // run(frame, out)        encodes with the dark-frame rule.
 // run(frame, dark, out)  encodes with the caller's dark flag (evaluations that follow the
 //                        paper's protocol, where dark comes from the collection metadata);
-//                        ignored when lighting normalisation is on.
+//                        ignored when lighting normalisation is on or the encoding is
+//                        darkness_warmth.
 //   requires: frame CV_8UC3 (0..255) or CV_32FC3 (0..1) in config().input_order.
 //   ensures: out is the 1 x 3 x h x w input; throws InvalidArgument on a bad frame.
-// encode_input(frame, out) (skin_relative only): stage 0 alone, out CV_32FC3 in 0..1 in the
-//   input order (the golden tests compare it with tools/train.py's).
+// encode_input(frame, out) (a calibrated encoding only): stage 0 alone, out CV_32FC3 in 0..1 in
+//   the input order (the golden tests compare it with tools/train.py's).
 // Threading: run() reuses internal buffers: one instance per thread.
 #pragma once
 
@@ -82,6 +96,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -135,9 +150,13 @@ public:
     ScaleFill scale_fill = default_scale_fill;
   };
 
-  // The skin test and the division floor of the skin_relative encoding (header comment).
+  // The skin test and the division floor of the calibrated encodings, and the darkness_warmth
+  // reference's bins and floor (header comment).
   static constexpr float skin_model_sum = 1.5f;
   static constexpr float model_floor = 0.125f;
+  static constexpr int reference_bins = 1024;
+  static constexpr float reference_bins_per_unit = 512.0f;
+  static constexpr float reference_floor = 1.0f / 64.0f;
 
   FrameEncoder() : FrameEncoder(Config{}) {}
   explicit FrameEncoder(Config config)
@@ -239,12 +258,12 @@ public:
     return out;
   }
 
-  // Stage 0 of the skin_relative encoding: out CV_32FC3 in 0..1, in the input order.
+  // Stage 0 of a calibrated encoding: out CV_32FC3 in 0..1, in the input order.
   void encode_input(const cv::Mat& frame, cv::Mat& out) {
     check_frame(frame);
-    detail::require(input_encoding() == InputEncoding::skin_relative,
+    detail::require(input_encoding() != InputEncoding::colour,
                     "FrameEncoder::encode_input: the input encoding is colour (nothing to do)");
-    skin_relative(frame, out);
+    encode_calibrated(frame, out);
   }
 
   double mean_luminance(const cv::Mat& frame) const {
@@ -279,7 +298,10 @@ private:
     return scale * (wr * r + wg * s[1] + wb * b);
   }
   void checked_run(const cv::Mat& frame, bool dark, Tensor& out) {
-    if (input_encoding() == InputEncoding::skin_relative) {
+    if (input_encoding() == InputEncoding::darkness_warmth) {
+      encode_calibrated(frame, encoded_); // independent of the light: never dark
+      pre_.run(rescale(encoded_, scaled_), false, out);
+    } else if (input_encoding() == InputEncoding::skin_relative) {
       skin_relative(frame, encoded_);
       if (lighting_normalise()) {
         norm_.run(encoded_, float_);
@@ -327,21 +349,106 @@ private:
     return model_;
   }
 
+  void encode_calibrated(const cv::Mat& frame, cv::Mat& out) {
+    if (input_encoding() == InputEncoding::darkness_warmth)
+      darkness_warmth(frame, out);
+    else
+      skin_relative(frame, out);
+  }
+
+  // q = f / max(m, floor) per channel on the skin (unclipped), -1 off it: the skin_relative
+  // values before their clip, which darkness_warmth divides by the frame's reference.
+  void skin_quotient(const cv::Mat& frame, cv::Mat& out) {
+    const cv::Mat& m = model_for(frame.size());
+    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
+    const bool bytes = frame.type() == CV_8UC3;
+    check_float_frame(frame);
+    out.create(frame.rows, frame.cols, CV_32FC3);
+    for (int y = 0; y < frame.rows; ++y) {
+      const float* mp = m.ptr<float>(y);
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < frame.cols; ++x) {
+        const float* mm = mp + 3 * x;
+        const bool skin = (mm[b] + mm[1]) + mm[r] >= skin_model_sum;
+        for (int c = 0; c < 3; ++c) {
+          const float f = bytes
+                              ? static_cast<float>(frame.ptr<unsigned char>(y)[3 * x + c]) / 255.0f
+                              : frame.ptr<float>(y)[3 * x + c];
+          d[3 * x + c] = skin ? f / std::max(mm[c], model_floor) : -1.0f;
+        }
+      }
+    }
+  }
+
+  void darkness_warmth(const cv::Mat& frame, cv::Mat& out) {
+    skin_quotient(frame, out);
+    // The reference: the 90th percentile of q per channel over the skin samples, binned.
+    for (auto& h : hist_) h.fill(0);
+    int n = 0;
+    for (int y = 1; y < out.rows; y += 3) {
+      const float* q = out.ptr<float>(y);
+      for (int x = 1; x < out.cols; x += 3) {
+        if (q[3 * x] < 0.0f) continue; // off the skin
+        ++n;
+        for (int c = 0; c < 3; ++c) {
+          const float v = q[3 * x + c] * reference_bins_per_unit;
+          ++hist_[c][static_cast<std::size_t>(v >= reference_bins - 1 ? reference_bins - 1
+                                                                      : static_cast<int>(v))];
+        }
+      }
+    }
+    float ref[3] = {1.0f, 1.0f, 1.0f};
+    if (n > 0) {
+      const int target = std::max(1, (9 * n + 9) / 10); // ceil(9 n / 10)
+      for (int c = 0; c < 3; ++c) {
+        int below = 0, bin = 0;
+        for (; bin < reference_bins - 1; ++bin) {
+          below += hist_[c][static_cast<std::size_t>(bin)];
+          if (below >= target) break;
+        }
+        ref[c] =
+            std::max(reference_floor, (static_cast<float>(bin) + 0.5f) / reference_bins_per_unit);
+      }
+    }
+    // The features, in place; slots by channel role whatever the input order.
+    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
+    for (int y = 0; y < out.rows; ++y) {
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < out.cols; ++x) {
+        float* px = d + 3 * x;
+        if (px[0] < 0.0f) { // off the skin
+          px[0] = px[1] = px[2] = 0.0f;
+          continue;
+        }
+        const float pb = px[b] / ref[b], pg = px[1] / ref[1], pr = px[r] / ref[r];
+        const float darkness = std::clamp(1.0f - ((pb + pg) + pr) / 3.0f, 0.0f, 1.0f);
+        const float warmth = std::clamp(0.5f + 0.5f * (pr - pb), 0.0f, 1.0f);
+        px[r] = darkness;
+        px[1] = warmth;
+        px[b] = 1.0f;
+      }
+    }
+  }
+
+  // A float frame's values are checked here (the Preprocessor sees only the encoded image).
+  static void check_float_frame(const cv::Mat& frame) {
+    if (frame.type() == CV_8UC3) return;
+    detail::require(cv::checkRange(frame), "FrameEncoder: float frame holds NaN or Inf, "
+                                           "expected finite values in 0..1");
+    double lo = 0, hi = 0;
+    cv::minMaxIdx(frame.reshape(1), &lo, &hi);
+    if (!(lo >= 0.0 && hi <= 1.0))
+      SHADOWSENSE_THROW(InvalidArgument("FrameEncoder: float frame values span " +
+                                        std::to_string(lo) + ".." + std::to_string(hi) +
+                                        ", expected 0..1"));
+  }
+
   void skin_relative(const cv::Mat& frame, cv::Mat& out) {
     const cv::Mat& m = model_for(frame.size());
     // The skin test sums B, G, R in that order whatever the input order (as tools/train.py).
     const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
     const bool bytes = frame.type() == CV_8UC3;
-    if (!bytes) { // a float frame's values are checked here (the Preprocessor sees only out)
-      detail::require(cv::checkRange(frame), "FrameEncoder: float frame holds NaN or Inf, "
-                                             "expected finite values in 0..1");
-      double lo = 0, hi = 0;
-      cv::minMaxIdx(frame.reshape(1), &lo, &hi);
-      if (!(lo >= 0.0 && hi <= 1.0))
-        SHADOWSENSE_THROW(InvalidArgument("FrameEncoder: float frame values span " +
-                                          std::to_string(lo) + ".." + std::to_string(hi) +
-                                          ", expected 0..1"));
-    }
+    check_float_frame(frame);
     out.create(frame.rows, frame.cols, CV_32FC3);
     for (int y = 0; y < frame.rows; ++y) {
       const float* mp = m.ptr<float>(y);
@@ -365,6 +472,7 @@ private:
   cv::Mat float_, encoded_, model_, scaled_;
   cv::Mat shrunk_; // rescale()'s shrunk frame before its border is filled
   LightingNormaliser::Table table_{};
+  std::array<std::array<int, reference_bins>, 3> hist_{}; // darkness_warmth's reference
 };
 
 SHADOWSENSE_NAMESPACE_END

@@ -12,6 +12,11 @@
 //   skin_relative  the frame over the calibration's empty-skin model (flat-field correction:
 //                  vignetting and the skin's own pattern divided out, the light level kept);
 //                  needs a calibration with an empty-skin model (needs_calibration).
+//   darkness_warmth the relative pixel rule's own features (sense/pixel_rule.hpp): each skin
+//                  pixel over the empty skin there and over the frame's reference, as darkness
+//                  and warmth maps beside the skin mask; independent of the light level, so a
+//                  model with it never takes lighting normalisation or the brightness factor.
+//                  Needs a calibration with an empty-skin model.
 //   to_string(e) / parse_input_encoding(name) -> optional: the names above.
 //
 // PreprocessParams
@@ -24,7 +29,8 @@
 //   lighting_normalise    scale every channel's mean to lighting_target first (and never
 //                         apply the brightness factor: the normalisation replaces it)
 //   lighting_target       the channel mean after normalisation, in (0, 1]
-//   input_encoding        InputEncoding above (0 colour, 1 skin_relative)
+//   input_encoding        InputEncoding above (0 colour, 1 skin_relative, 2 darkness_warmth);
+//                         darkness_warmth with lighting_normalise is refused
 //   dark_luminance_threshold
 //                         the dark-frame rule: a frame is dark (gets the brightness factor)
 //                         exactly when the mean of 0.2989 R + 0.587 G + 0.114 B over the whole
@@ -59,16 +65,18 @@ SHADOWSENSE_NAMESPACE_BEGIN
 enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
 
 // What the network sees of a frame (see the header comment).
-enum class InputEncoding : std::uint32_t { colour = 0, skin_relative = 1 };
+enum class InputEncoding : std::uint32_t { colour = 0, skin_relative = 1, darkness_warmth = 2 };
 
 inline constexpr const char* to_string(InputEncoding e) {
-  return e == InputEncoding::colour          ? "colour"
-         : e == InputEncoding::skin_relative ? "skin_relative"
-                                             : "unknown";
+  return e == InputEncoding::colour            ? "colour"
+         : e == InputEncoding::skin_relative   ? "skin_relative"
+         : e == InputEncoding::darkness_warmth ? "darkness_warmth"
+                                               : "unknown";
 }
 inline std::optional<InputEncoding> parse_input_encoding(std::string_view name) {
   if (name == "colour") return InputEncoding::colour;
   if (name == "skin_relative") return InputEncoding::skin_relative;
+  if (name == "darkness_warmth") return InputEncoding::darkness_warmth;
   return std::nullopt;
 }
 // True when frames can only be encoded with a calibration's empty-skin model.
@@ -140,10 +148,14 @@ struct PreprocessParams {
                            std::to_string(dark_luminance_threshold) +
                            ", expected a value in [0, 1] (0 = no frame is dark)");
     detail::require<E>(input_encoding == InputEncoding::colour ||
-                           input_encoding == InputEncoding::skin_relative,
+                           input_encoding == InputEncoding::skin_relative ||
+                           input_encoding == InputEncoding::darkness_warmth,
                        "preprocessing: input encoding code " +
                            std::to_string(static_cast<std::uint32_t>(input_encoding)) +
-                           ", expected 0 (colour) or 1 (skin_relative)");
+                           ", expected 0 (colour), 1 (skin_relative) or 2 (darkness_warmth)");
+    detail::require<E>(!(input_encoding == InputEncoding::darkness_warmth && lighting_normalise),
+                       "preprocessing: the darkness_warmth input encoding is already independent "
+                       "of the light level and takes no lighting normalisation (turn it off)");
   }
 };
 
