@@ -224,8 +224,6 @@ int run(const Options& o) {
     throw IoError("'" + o.calibration +
                   "' holds no empty-skin model (a version-1 calibration); without one the "
                   "segmenter reports phantom shadows - make a new calibration with ss_calibrate");
-  // Checked here, not only where the classifier is made: a flag that cannot act is an error.
-  cli::camera_scale_for(cal, o.calibration, o.scale_to_network);
   SegmenterConfig sc;
   sc.calibration = cal;
   sc.max_image_side = o.max_side;

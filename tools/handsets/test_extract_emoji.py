@@ -36,6 +36,11 @@ def small_hand():
     return out
 
 
+def run_extractor(src, out):
+    return subprocess.run([sys.executable, os.path.join(HERE, "extract_emoji.py"), "--src", src,
+                           "--out", out], capture_output=True, text=True)
+
+
 def main():
     fails = 0
     g = np.zeros((50, 50), np.uint8)
@@ -60,8 +65,7 @@ def main():
                 with open(os.path.join(d, f"{n}.jpg"), "wb") as f:
                     f.write(buf.tobytes())
         out = os.path.join(tmp, "out")
-        r = subprocess.run([sys.executable, os.path.join(HERE, "extract_emoji.py"), "--src", src,
-                            "--out", out], capture_output=True, text=True)
+        r = run_extractor(src, out)
         rows = []
         if r.returncode == 0:
             with open(os.path.join(out, "manifest.csv")) as f:
@@ -81,8 +85,7 @@ def main():
                 fails += 1
         with open(os.path.join(src, "Emojinator", "gestures", "4", "20.jpg"), "w") as f:
             f.write("not an image")
-        r = subprocess.run([sys.executable, os.path.join(HERE, "extract_emoji.py"), "--src", src,
-                            "--out", os.path.join(tmp, "bad")], capture_output=True, text=True)
+        r = run_extractor(src, os.path.join(tmp, "bad"))
         if r.returncode != 2 or "cannot read" not in r.stderr:
             print(f"bad image: exit {r.returncode}, stderr {r.stderr.strip()!r}")
             fails += 1
