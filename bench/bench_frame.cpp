@@ -1,9 +1,10 @@
 // The whole frame of the shipped model (models/default.ssm) on one core, per stage and
 // together, on robot-rig generator frames: segmenter, touch pipeline (segmenter + ids + state
 // machines), frame encoder, forward pass, classify (encode + forward) and the whole frame
-// (pipeline + classify). One benchmark iteration = every fixture frame once (per-frame time =
-// mean / frames). bench/frame_time prints the same stages as a table with heap allocations per
-// frame.
+// (pipeline + classify); and the frame encoder alone with each input encoding (the shipped
+// model's geometry, the sim calibration's empty skin). One benchmark iteration = every fixture
+// frame once (per-frame time = mean / frames). bench/frame_time prints the same stages as a table
+// with heap allocations per frame.
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
@@ -14,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 using namespace shadowsense;
@@ -70,4 +72,31 @@ TEST_CASE("whole frame of the shipped model, per stage (robot rig, 1 thread, 10 
     }
     return n;
   };
+}
+
+TEST_CASE("frame encoder per input encoding (shipped model's geometry, 1 thread, 10 frames)") {
+  cv::setNumThreads(1);
+  const ModelFile model =
+      ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
+  sim::Renderer renderer(sim::Rig::robot());
+  const SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
+  const cv::Mat empty_skin = segmenter_from(calibration).empty_skin_model().clone();
+  std::vector<cv::Mat> frames;
+  for (std::uint64_t i = 0; i < 10; ++i)
+    frames.push_back(sim::render_random_tracking_frame(renderer,
+                                                       static_cast<sim::TrackCategory>(i % 5),
+                                                       sim::derive_seed(0xF1, i))
+                         .image);
+  Tensor input;
+  for (const InputEncoding e :
+       {InputEncoding::colour, InputEncoding::skin_relative, InputEncoding::darkness_warmth}) {
+    PreprocessParams p = model.preprocess;
+    p.input_encoding = e;
+    if (e == InputEncoding::darkness_warmth) p.lighting_normalise = false; // it takes none
+    FrameEncoder encoder(FrameEncoder::Config{p, ChannelOrder::bgr, empty_skin});
+    BENCHMARK(std::string("encode x10, ") + to_string(e)) {
+      for (const cv::Mat& f : frames) encoder.run(f, input);
+      return input.size();
+    };
+  }
 }
