@@ -103,6 +103,7 @@
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
@@ -298,16 +299,17 @@ private:
     return scale * (wr * r + wg * s[1] + wb * b);
   }
   void checked_run(const cv::Mat& frame, bool dark, Tensor& out) {
+    // The encoded images are finite and in 0..1 by construction: no second range check.
     if (input_encoding() == InputEncoding::darkness_warmth) {
       encode_calibrated(frame, encoded_); // independent of the light: never dark
-      pre_.run(rescale(encoded_, scaled_), false, out);
+      pre_.run_in_range(rescale(encoded_, scaled_), false, out);
     } else if (input_encoding() == InputEncoding::skin_relative) {
       skin_relative(frame, encoded_);
       if (lighting_normalise()) {
         norm_.run(encoded_, float_);
-        pre_.run(rescale(float_, scaled_), false, out);
+        pre_.run_in_range(rescale(float_, scaled_), false, out);
       } else {
-        pre_.run(rescale(encoded_, scaled_), dark, out);
+        pre_.run_in_range(rescale(encoded_, scaled_), dark, out);
       }
     } else if (lighting_normalise() && frame.type() == CV_8UC3) {
       // The normalisation as a value table applied while resizing: the same values as
@@ -336,17 +338,26 @@ private:
                           ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
   }
 
-  // The model at the frame's size in the input order (made on the first frame of a size).
-  const cv::Mat& model_for(cv::Size size) {
-    if (model_.empty() || model_.size() != size) {
-      const cv::Mat& m = config_.empty_skin;
-      if (m.size() == size)
-        model_ = m.clone();
-      else
-        cv::resize(m, model_, size, 0, 0, cv::INTER_LINEAR);
-      if (config_.input_order == ChannelOrder::rgb) cv::cvtColor(model_, model_, cv::COLOR_BGR2RGB);
+  // The model at the frame's size in the input order, its divisor max(m, model_floor) and the
+  // skin test per pixel (made on the first frame of a size).
+  void model_for(cv::Size size) {
+    if (!model_.empty() && model_.size() == size) return;
+    const cv::Mat& m = config_.empty_skin;
+    if (m.size() == size)
+      model_ = m.clone();
+    else
+      cv::resize(m, model_, size, 0, 0, cv::INTER_LINEAR);
+    if (config_.input_order == ChannelOrder::rgb) cv::cvtColor(model_, model_, cv::COLOR_BGR2RGB);
+    divisor_ = cv::max(model_, model_floor);
+    // The skin test sums B, G, R in that order whatever the input order (as tools/train.py).
+    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
+    skin_.create(size, CV_8UC1);
+    for (int y = 0; y < size.height; ++y) {
+      const float* mm = model_.ptr<float>(y);
+      unsigned char* k = skin_.ptr<unsigned char>(y);
+      for (int x = 0; x < size.width; ++x, mm += 3)
+        k[x] = (mm[b] + mm[1]) + mm[r] >= skin_model_sum ? 1 : 0;
     }
-    return model_;
   }
 
   void encode_calibrated(const cv::Mat& frame, cv::Mat& out) {
@@ -356,26 +367,22 @@ private:
       skin_relative(frame, out);
   }
 
-  // q = f / max(m, floor) per channel on the skin (unclipped), -1 off it: the skin_relative
-  // values before their clip, which darkness_warmth divides by the frame's reference.
+  // q = f / max(m, floor) for every value of the frame (on the skin or not): flat loops over
+  // each row, which the compiler vectorises (IEEE division: the same bits as one at a time).
   void skin_quotient(const cv::Mat& frame, cv::Mat& out) {
-    const cv::Mat& m = model_for(frame.size());
-    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
-    const bool bytes = frame.type() == CV_8UC3;
     check_float_frame(frame);
+    model_for(frame.size());
     out.create(frame.rows, frame.cols, CV_32FC3);
+    const int n = 3 * frame.cols;
     for (int y = 0; y < frame.rows; ++y) {
-      const float* mp = m.ptr<float>(y);
-      float* d = out.ptr<float>(y);
-      for (int x = 0; x < frame.cols; ++x) {
-        const float* mm = mp + 3 * x;
-        const bool skin = (mm[b] + mm[1]) + mm[r] >= skin_model_sum;
-        for (int c = 0; c < 3; ++c) {
-          const float f = bytes
-                              ? static_cast<float>(frame.ptr<unsigned char>(y)[3 * x + c]) / 255.0f
-                              : frame.ptr<float>(y)[3 * x + c];
-          d[3 * x + c] = skin ? f / std::max(mm[c], model_floor) : -1.0f;
-        }
+      const float* __restrict div = divisor_.ptr<float>(y);
+      float* __restrict d = out.ptr<float>(y);
+      if (frame.type() == CV_8UC3) {
+        const unsigned char* __restrict v = frame.ptr<unsigned char>(y);
+        for (int i = 0; i < n; ++i) d[i] = static_cast<float>(v[i]) / 255.0f / div[i];
+      } else {
+        const float* __restrict f = frame.ptr<float>(y);
+        for (int i = 0; i < n; ++i) d[i] = f[i] / div[i];
       }
     }
   }
@@ -387,8 +394,9 @@ private:
     int n = 0;
     for (int y = 1; y < out.rows; y += 3) {
       const float* q = out.ptr<float>(y);
+      const unsigned char* skin = skin_.ptr<unsigned char>(y);
       for (int x = 1; x < out.cols; x += 3) {
-        if (q[3 * x] < 0.0f) continue; // off the skin
+        if (!skin[x]) continue;
         ++n;
         for (int c = 0; c < 3; ++c) {
           const float v = q[3 * x + c] * reference_bins_per_unit;
@@ -410,17 +418,24 @@ private:
             std::max(reference_floor, (static_cast<float>(bin) + 0.5f) / reference_bins_per_unit);
       }
     }
-    // The features, in place; slots by channel role whatever the input order.
+    // p = q / r as a flat loop over each row (r repeated per pixel), then the features in
+    // place; slots by channel role whatever the input order.
+    const int w = 3 * out.cols;
+    reference_row_.resize(static_cast<std::size_t>(w));
+    for (int i = 0; i < w; ++i) reference_row_[static_cast<std::size_t>(i)] = ref[i % 3];
+    const float* __restrict rr = reference_row_.data();
     const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
     for (int y = 0; y < out.rows; ++y) {
-      float* d = out.ptr<float>(y);
+      float* __restrict d = out.ptr<float>(y);
+      for (int i = 0; i < w; ++i) d[i] = d[i] / rr[i];
+      const unsigned char* skin = skin_.ptr<unsigned char>(y);
       for (int x = 0; x < out.cols; ++x) {
         float* px = d + 3 * x;
-        if (px[0] < 0.0f) { // off the skin
+        if (!skin[x]) {
           px[0] = px[1] = px[2] = 0.0f;
           continue;
         }
-        const float pb = px[b] / ref[b], pg = px[1] / ref[1], pr = px[r] / ref[r];
+        const float pb = px[b], pg = px[1], pr = px[r];
         const float darkness = std::clamp(1.0f - ((pb + pg) + pr) / 3.0f, 0.0f, 1.0f);
         const float warmth = std::clamp(0.5f + 0.5f * (pr - pb), 0.0f, 1.0f);
         px[r] = darkness;
@@ -443,26 +458,14 @@ private:
                                         ", expected 0..1"));
   }
 
+  // min(q, 1) on the skin, 0 off it.
   void skin_relative(const cv::Mat& frame, cv::Mat& out) {
-    const cv::Mat& m = model_for(frame.size());
-    // The skin test sums B, G, R in that order whatever the input order (as tools/train.py).
-    const int b = config_.input_order == ChannelOrder::bgr ? 0 : 2, r = 2 - b;
-    const bool bytes = frame.type() == CV_8UC3;
-    check_float_frame(frame);
-    out.create(frame.rows, frame.cols, CV_32FC3);
-    for (int y = 0; y < frame.rows; ++y) {
-      const float* mp = m.ptr<float>(y);
+    skin_quotient(frame, out);
+    for (int y = 0; y < out.rows; ++y) {
       float* d = out.ptr<float>(y);
-      for (int x = 0; x < frame.cols; ++x) {
-        const float* mm = mp + 3 * x;
-        const bool skin = (mm[b] + mm[1]) + mm[r] >= skin_model_sum;
-        for (int c = 0; c < 3; ++c) {
-          const float f = bytes
-                              ? static_cast<float>(frame.ptr<unsigned char>(y)[3 * x + c]) / 255.0f
-                              : frame.ptr<float>(y)[3 * x + c];
-          d[3 * x + c] = skin ? std::min(f / std::max(mm[c], model_floor), 1.0f) : 0.0f;
-        }
-      }
+      const unsigned char* skin = skin_.ptr<unsigned char>(y);
+      for (int x = 0; x < out.cols; ++x)
+        for (int c = 0; c < 3; ++c) d[3 * x + c] = skin[x] ? std::min(d[3 * x + c], 1.0f) : 0.0f;
     }
   }
 
@@ -470,7 +473,9 @@ private:
   Preprocessor pre_;
   LightingNormaliser norm_;
   cv::Mat float_, encoded_, model_, scaled_;
-  cv::Mat shrunk_; // rescale()'s shrunk frame before its border is filled
+  cv::Mat divisor_, skin_;           // max(model_, model_floor); the skin test (0/1)
+  std::vector<float> reference_row_; // darkness_warmth: r per value of a row
+  cv::Mat shrunk_;                   // rescale()'s shrunk frame before its border is filled
   LightingNormaliser::Table table_{};
   std::array<std::array<int, reference_bins>, 3> hist_{}; // darkness_warmth's reference
 };

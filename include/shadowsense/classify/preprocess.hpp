@@ -23,6 +23,10 @@
 //             c; not checked). ensures: run() on the image mapped through table, computed
 //             without a full-size float image (8-bit images in run() go this way with
 //             table = v / 255). Throws InvalidArgument on a bad image or crop.
+// run_in_range(image, dark, out)
+//   requires: image CV_32FC3 whose values are finite and in 0..1 (not checked: the caller's
+//             contract, e.g. FrameEncoder's own encoded images). ensures: run() on the image
+//             without its full-size range check. Throws InvalidArgument on a bad type or crop.
 // set_contrast_region(r): adjust_contrast's mean reads only the pixels of the (resized, cropped)
 //   image whose centres map into r, a rectangle of the input image (input pixels; a resized
 //   pixel j maps to (j + 0.5) * in / out - 0.5); an empty r (the default) or one that leaves no
@@ -112,6 +116,15 @@ public:
           InvalidArgument("Preprocessor: float image values span " + std::to_string(lo) + ".." +
                           std::to_string(hi) +
                           ", expected 0..1 (divide a 0..255 float image by 255, or pass CV_8UC3)"));
+    finish(image, dark, out);
+  }
+
+  void run_in_range(const cv::Mat& image, bool dark, Tensor& out) {
+    if (!(!image.empty() && image.dims == 2 && image.type() == CV_32FC3))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Preprocessor::run_in_range: image is " +
+                          (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
+                          ", expected CV_32FC3"));
     finish(image, dark, out);
   }
 
