@@ -1,5 +1,6 @@
 // Preprocessing against torchvision's tensor path (golden vectors from
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
+#include <algorithm>
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/classify/preprocess.hpp>
 
@@ -187,4 +188,24 @@ TEST_CASE("paper geometry (400x300 -> 318x235 -> 220x150) against torchvision at
     worst = std::max(worst, d);
   }
   MESSAGE("paper geometry: max abs tensor diff vs torchvision ", worst);
+}
+
+TEST_CASE("run_in_range: run() on a float image in 0..1 without the range check") {
+  Preprocessor pre;
+  cv::Mat f(300, 400, CV_32FC3);
+  cv::theRNG().state = 11;
+  cv::randu(f, cv::Scalar::all(0.0), cv::Scalar::all(1.0));
+  for (const bool dark : {false, true}) {
+    Tensor checked, trusted;
+    pre.run(f, dark, checked);
+    pre.run_in_range(f, dark, trusted);
+    CHECK(checked.shape_string() == trusted.shape_string());
+    CHECK(std::equal(checked.values().begin(), checked.values().end(), trusted.values().begin()));
+  }
+  Tensor t;
+  CHECK_THROWS_WITH_AS(pre.run_in_range(cv::Mat(300, 400, CV_8UC3), false, t),
+                       doctest::Contains("run_in_range: image is CV_8UC3, expected CV_32FC3"),
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(pre.run_in_range(cv::Mat(), false, t), doctest::Contains("image is empty"),
+                       InvalidArgument);
 }
