@@ -1,11 +1,11 @@
 // Preprocessing against torchvision's tensor path (golden vectors from
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
-#include <algorithm>
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/classify/preprocess.hpp>
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
