@@ -365,8 +365,8 @@ TEST_CASE("darkness_warmth is refused without a calibration and with lighting no
                        InvalidArgument);
   const cv::Mat model(4, 4, CV_32FC3, cv::Scalar::all(1.0));
   CHECK_THROWS_WITH_AS(FrameEncoder(p, true, model),
-                       doctest::Contains("darkness_warmth input encoding is already independent "
-                                         "of the light level"),
+                       doctest::Contains("--lighting-normalise) with a model whose input encoding "
+                                         "is darkness_warmth"),
                        InvalidArgument);
   p.lighting_normalise = true;
   CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("takes no lighting normalisation"),

@@ -67,7 +67,8 @@
 //   the BGR encoder of params (with that empty-skin model and camera scale), with lighting
 //   normalisation switched on
 //   when force_lighting_normalise is true (programs' --lighting-normalise for version-1 model files
-//   that do not record it); false keeps params.lighting_normalise as it is.
+//   that do not record it); false keeps params.lighting_normalise as it is. Forcing it on a
+//   darkness_warmth model throws InvalidArgument naming the option (that encoding takes none).
 // mean_luminance(frame) const -> double
 //   requires: frame CV_8UC3 or CV_32FC3 (0..1) in config().input_order.
 //   ensures: the mean over all pixels of 0.2989 R + 0.587 G + 0.114 B, in 0..1.
@@ -326,6 +327,11 @@ private:
   }
 
   static PreprocessParams forced(PreprocessParams p, bool force) {
+    if (force && p.input_encoding == InputEncoding::darkness_warmth)
+      SHADOWSENSE_THROW(InvalidArgument(
+          "FrameEncoder: lighting normalisation was asked for (a program's --lighting-normalise) "
+          "with a model whose input encoding is darkness_warmth, which has the light divided out "
+          "and takes none: drop the option"));
     if (force) p.lighting_normalise = true;
     return p;
   }
