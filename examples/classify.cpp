@@ -323,7 +323,7 @@ int run(const Options& o) {
               << " (no recorded lighting normalisation or dark-frame rule); upgrade it with\n"
                  "  /usr/bin/python3 tools/densenet_to_model.py --upgrade "
               << o.model << " -o NEW.ssm [--lighting-normalise] [--dark-threshold X]\n";
-  if (o.force_normalise) model.preprocess.lighting_normalise = true;
+  if (o.force_normalise) cli::force_lighting_normalise(model, o.model);
   const cli::EncoderCalibration cal =
       cli::encoder_calibration_for(model, o.model, o.calibration, o.scale_to_network);
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,

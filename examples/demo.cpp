@@ -239,7 +239,9 @@ int main(int argc, char** argv) {
     if (model_path.empty()) model_path = runner::find_default_model(argv[0]);
     const auto t_start = std::chrono::steady_clock::now();
     auto model = ss::ModelFile::load(model_path);
-    // On by default (version-1 files do not record it; the shipped version-2 model does).
+    // On by default (version-1 files do not record it; the shipped version-2 model does), but
+    // never for a darkness_warmth model, which has the light divided out and takes none.
+    normalise = normalise && model.preprocess.input_encoding != ss::InputEncoding::darkness_warmth;
     model.preprocess.lighting_normalise = normalise;
 
     sim::Renderer renderer(sim::Rig::robot());

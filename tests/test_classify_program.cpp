@@ -307,6 +307,36 @@ TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignore
   CHECK(plain.out != with.out); // the encoding changes what the network sees
 }
 
+TEST_CASE("--calibration: a darkness_warmth model needs one and refuses --lighting-normalise") {
+  namespace ss = shadowsense;
+  const fs::path dir = tests::fresh_dir("classify_darkness_warmth");
+  fs::create_directories(dir / "frames");
+  for (int i = 0; i < 3; ++i) cv::imwrite((dir / "frames" / numbered("f", i)).string(), frame(i));
+  ss::ModelFile m = ss::ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  m.preprocess.input_encoding = ss::InputEncoding::darkness_warmth;
+  m.preprocess.lighting_normalise = false; // the encoding takes none
+  const fs::path model = dir / "dw.ssm";
+  m.save(model);
+  const std::string frames = shell_quote((dir / "frames").string());
+  const std::string cal = SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib";
+  const auto missing = run_classify("--model " + shell_quote(model.string()) + " " + frames);
+  CHECK(missing.status == 2);
+  CHECK(missing.out.empty());
+  CHECK(missing.err.find("was trained with input encoding darkness_warmth and needs "
+                         "--calibration FILE") != std::string::npos);
+  const std::string with_cal =
+      "--model " + shell_quote(model.string()) + " --calibration " + shell_quote(cal) + " ";
+  const auto with = run_classify(with_cal + frames);
+  REQUIRE(with.status == 0);
+  CHECK(lines(with.out).size() == 4);
+  const auto forced = run_classify(with_cal + "--lighting-normalise " + frames);
+  CHECK(forced.status == 2);
+  CHECK(forced.out.empty());
+  CHECK(forced.err.find("--lighting-normalise with model " + model.string() +
+                        ", whose input encoding is darkness_warmth") != std::string::npos);
+  CHECK(forced.err.find("drop the option") != std::string::npos);
+}
+
 // The confusion matrix of one key ("daylight", "all", ...) in ss_eval_classify --score's JSON, as
 // its text ("[[1,0],[0,2]]"); empty when the key is missing.
 static std::string confusion_of(const std::string& json, const std::string& key) {

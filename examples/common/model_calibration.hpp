@@ -29,6 +29,10 @@
 //   throws:  shadowsense::Error naming both files when the model's input encoding needs an
 //            empty-skin model and the calibration holds none; UsageError when scale_to_network
 //            and the calibration records no px_per_cm.
+// force_lighting_normalise(model, model_path)
+//   A program's --lighting-normalise: switches the model's lighting normalisation on.
+//   throws:  UsageError (exit 2) naming the model and the option when the model's input encoding
+//            is darkness_warmth, which has the light divided out and takes none.
 // Plain functions; no state.
 #pragma once
 
@@ -47,6 +51,14 @@ struct EncoderCalibration {
   cv::Mat empty_skin;
   double camera_px_per_cm = 0;
 };
+
+inline void force_lighting_normalise(shadowsense::ModelFile& model, const std::string& model_path) {
+  if (model.preprocess.input_encoding == shadowsense::InputEncoding::darkness_warmth)
+    throw UsageError("--lighting-normalise with model " + model_path +
+                     ", whose input encoding is darkness_warmth: it has the light divided out "
+                     "and takes no lighting normalisation; drop the option");
+  model.preprocess.lighting_normalise = true;
+}
 
 inline double camera_scale_for(const shadowsense::SegmenterCalibration& cal,
                                const std::string& calibration_path, bool scale_to_network) {
