@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """Scores gesture models on the generator hold-outs g and hold at every pre-registered scale
-(models/make_scaled_holdouts.sh) with ss_eval_classify --score --lighting-normalise (not for a
-darkness_warmth model, which takes none) --session-calibrations (each session's own empty-skin model for a calibrated input encoding; a
-colour model does not read them), and prints
-per set accuracy and per-class recall, and over all sets pooled the minimum and mean per-class
-recall: the selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
+(models/make_scaled_holdouts.sh) with ss_eval_classify --score --session-calibrations (each
+session's own empty-skin model for a calibrated input encoding; a colour model does not read
+them; no --lighting-normalise: every model file records its own), and prints per set accuracy
+and per-class recall, and over all sets pooled the minimum and mean per-class recall: the
+selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
 handdata: the highest pooled minimum recall wins; ties within one frame go to the higher mean).
 usage: models/score_scaled_holdouts.py NAME=MODEL.ssm[:FILL] ...
   :FILL  bring every frame of a set at scale S to the network's scale: the camera's scale is
@@ -15,8 +15,6 @@ SS_EVAL_CLASSIFY (default build/examples/ss_eval_classify), HOLDOUTS (default
 /work/hands-sets), SCORE_CACHE (json per model and set, default /work/hands-logs/gen; a cached
 file is reused, so give every model its own NAME)."""
 import json, os, subprocess, sys
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
-import model_encoding  # noqa: E402
 SCALES = os.environ.get("SCALES", "0.6,0.7,1,1.5,2").split(",")
 SETS = [f"{s}_s{z}" for z in SCALES for s in ("g", "hold")]
 NETWORK_PX_PER_CM = 242.5 / 32.0  # FrameEncoder's network_scale (sim::Rig::robot())
@@ -43,10 +41,8 @@ for arg in sys.argv[1:]:
             if fill:
                 px = float(s.split("_s")[1]) * NETWORK_PX_PER_CM
                 scale = ["--camera-px-per-cm", repr(px), "--scale-fill", fill]
-            light = ([] if model_encoding.input_encoding(model) == "darkness_warmth"
-                     else ["--lighting-normalise"])
-            subprocess.run([BIN, "--score", model, "--data", data] + light +
-                           ["--session-calibrations", "--quiet", "--json", out] + scale,
+            subprocess.run([BIN, "--score", model, "--data", data, "--session-calibrations",
+                            "--quiet", "--json", out] + scale,
                            check=True, stdout=subprocess.DEVNULL)
         j = json.load(open(out))
         c = j["confusion"]["all"]

@@ -91,13 +91,9 @@ tmp=$(mktemp) || die "mktemp failed"
 trap 'rm -f "$tmp"' EXIT
 camera=""
 [ -z "$fill" ] || camera=$(/usr/bin/python3 -c "print(repr($scale * 242.5 / 32))")
-# The recipe's --lighting-normalise, except for a darkness_warmth model, which has the light
-# divided out already and refuses it (docs/input_encodings.md).
-encoding=$(/usr/bin/python3 "$root/tools/model_encoding.py" "$model") ||
-  die "cannot read the input encoding of '$model'"
-normalise=--lighting-normalise
-[ "$encoding" != darkness_warmth ] || normalise=
-"$bin/ss_eval_classify" --score "$model" --data "$out/gestures" $normalise --quiet \
+# No --lighting-normalise: every model file records its own lighting normalisation (the flag
+# only switches it on for version-1 files, and a darkness_warmth model refuses it).
+"$bin/ss_eval_classify" --score "$model" --data "$out/gestures" --quiet \
   --session-calibrations --json "$tmp" ${fill:+--camera-px-per-cm "$camera" --scale-fill "$fill"} \
   >/dev/null || die "ss_eval_classify failed on '$out/gestures'"
 if [ -n "$json" ]; then
