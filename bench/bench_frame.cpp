@@ -20,19 +20,34 @@
 
 using namespace shadowsense;
 
+namespace {
+
+// The fixture both cases share: the shipped model, the sim calibration and ten robot-rig
+// tracking frames (two of each track category).
+struct RobotFrames {
+  ModelFile model =
+      ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
+  sim::Renderer renderer{sim::Rig::robot()};
+  SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
+  std::vector<cv::Mat> frames;
+  RobotFrames() {
+    for (std::uint64_t i = 0; i < 10; ++i)
+      frames.push_back(sim::render_random_tracking_frame(renderer,
+                                                         static_cast<sim::TrackCategory>(i % 5),
+                                                         sim::derive_seed(0xF1, i))
+                           .image);
+  }
+};
+
+} // namespace
+
 TEST_CASE("whole frame of the shipped model, per stage (robot rig, 1 thread, 10 frames)") {
   cv::setNumThreads(1);
-  const ModelFile model =
-      ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
+  const RobotFrames fixture;
+  const ModelFile& model = fixture.model;
+  const SimCalibration& calibration = fixture.calibration;
+  const std::vector<cv::Mat>& frames = fixture.frames;
   auto classifier = make_densenet_classifier(model, {.threads = 1});
-  sim::Renderer renderer(sim::Rig::robot());
-  const SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
-  std::vector<cv::Mat> frames;
-  for (std::uint64_t i = 0; i < 10; ++i)
-    frames.push_back(sim::render_random_tracking_frame(renderer,
-                                                       static_cast<sim::TrackCategory>(i % 5),
-                                                       sim::derive_seed(0xF1, i))
-                         .image);
   Segmenter segmenter = segmenter_from(calibration);
   TouchPipeline pipeline(segmenter_from(calibration));
   FrameEncoder encoder(FrameEncoder::Config{model.preprocess, ChannelOrder::bgr});
@@ -76,17 +91,10 @@ TEST_CASE("whole frame of the shipped model, per stage (robot rig, 1 thread, 10 
 
 TEST_CASE("frame encoder per input encoding (shipped model's geometry, 1 thread, 10 frames)") {
   cv::setNumThreads(1);
-  const ModelFile model =
-      ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
-  sim::Renderer renderer(sim::Rig::robot());
-  const SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
-  const cv::Mat empty_skin = segmenter_from(calibration).empty_skin_model().clone();
-  std::vector<cv::Mat> frames;
-  for (std::uint64_t i = 0; i < 10; ++i)
-    frames.push_back(sim::render_random_tracking_frame(renderer,
-                                                       static_cast<sim::TrackCategory>(i % 5),
-                                                       sim::derive_seed(0xF1, i))
-                         .image);
+  const RobotFrames fixture;
+  const ModelFile& model = fixture.model;
+  const std::vector<cv::Mat>& frames = fixture.frames;
+  const cv::Mat empty_skin = segmenter_from(fixture.calibration).empty_skin_model().clone();
   Tensor input;
   for (const InputEncoding e :
        {InputEncoding::colour, InputEncoding::skin_relative, InputEncoding::darkness_warmth}) {

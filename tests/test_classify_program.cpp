@@ -265,17 +265,33 @@ TEST_CASE("a small PNG claiming 30000x30000 pixels is refused from its header, n
   CHECK(r.out.find("huge.png") == std::string::npos);
 }
 
-TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignores one") {
-  namespace ss = shadowsense;
-  const fs::path dir = tests::fresh_dir("classify_calibration");
+// The committed tiny model re-saved at PATH recording input encoding E (a darkness_warmth model
+// without lighting normalisation, which that encoding refuses); returns what it saved.
+static shadowsense::ModelFile save_tiny_model_with(shadowsense::InputEncoding e,
+                                                   const fs::path& path) {
+  shadowsense::ModelFile m =
+      shadowsense::ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
+  m.preprocess.input_encoding = e;
+  if (e == shadowsense::InputEncoding::darkness_warmth) m.preprocess.lighting_normalise = false;
+  m.save(path);
+  return m;
+}
+
+// A fresh folder NAME holding three frames in NAME/frames.
+static fs::path fresh_dir_with_frames(const std::string& name) {
+  const fs::path dir = tests::fresh_dir(name);
   fs::create_directories(dir / "frames");
   for (int i = 0; i < 3; ++i) cv::imwrite((dir / "frames" / numbered("f", i)).string(), frame(i));
+  return dir;
+}
+
+TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignores one") {
+  namespace ss = shadowsense;
+  const fs::path dir = fresh_dir_with_frames("classify_calibration");
   // The committed tiny model, once as it is (colour) and once recording skin_relative.
   const std::string tiny = SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn";
-  ss::ModelFile m = ss::ModelFile::load(tiny);
-  m.preprocess.input_encoding = ss::InputEncoding::skin_relative;
   const fs::path skin_model = dir / "skin.ssm";
-  m.save(skin_model);
+  save_tiny_model_with(ss::InputEncoding::skin_relative, skin_model);
   const std::string frames = shell_quote((dir / "frames").string());
   const std::string cal = SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib";
   const auto missing = run_classify("--model " + shell_quote(skin_model.string()) + " " + frames);
@@ -308,15 +324,9 @@ TEST_CASE("--calibration: a skin_relative model needs one, a colour model ignore
 }
 
 TEST_CASE("--calibration: a darkness_warmth model needs one and refuses --lighting-normalise") {
-  namespace ss = shadowsense;
-  const fs::path dir = tests::fresh_dir("classify_darkness_warmth");
-  fs::create_directories(dir / "frames");
-  for (int i = 0; i < 3; ++i) cv::imwrite((dir / "frames" / numbered("f", i)).string(), frame(i));
-  ss::ModelFile m = ss::ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
-  m.preprocess.input_encoding = ss::InputEncoding::darkness_warmth;
-  m.preprocess.lighting_normalise = false; // the encoding takes none
+  const fs::path dir = fresh_dir_with_frames("classify_darkness_warmth");
   const fs::path model = dir / "dw.ssm";
-  m.save(model);
+  save_tiny_model_with(shadowsense::InputEncoding::darkness_warmth, model);
   const std::string frames = shell_quote((dir / "frames").string());
   const std::string cal = SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib";
   const auto missing = run_classify("--model " + shell_quote(model.string()) + " " + frames);
@@ -363,10 +373,8 @@ TEST_CASE("ss_eval_classify --score --session-calibrations: each session's own e
   const fs::path data = dir / "data";
   // The committed tiny model recording skin_relative, two sessions (one per lighting, so the
   // per-lighting confusions are per session) whose calibrations differ.
-  ss::ModelFile m = ss::ModelFile::load(SHADOWSENSE_TEST_DATA_DIR "/densenet_tiny.ssdn");
-  m.preprocess.input_encoding = ss::InputEncoding::skin_relative;
   const std::string model = (dir / "skin.ssm").string();
-  m.save(model);
+  const ss::ModelFile m = save_tiny_model_with(ss::InputEncoding::skin_relative, model);
   const ss::SegmenterCalibration base =
       ss::load_calibration(SHADOWSENSE_TEST_DATA_DIR "/encoding_calibration.calib");
   ss::SegmenterCalibration dark = base;
