@@ -39,23 +39,17 @@ import os
 import re
 import struct
 import sys
-import zlib
 
 import torch
 import torchvision
 
 from atomic_write import write_atomic
 
-MAGIC = b"SSDNMOD\n"
-VERSION = 2
-# Version 4 (include/shadowsense/backends/densenet/model_file.hpp): version 2 plus the input
-# encoding after the dark-frame threshold and an int8 flag (always 0 here) before the checksum;
-# written only for an encoding other than colour, so colour models stay version 2.
-VERSION_ENCODED = 4
-INPUT_ENCODINGS = ("colour", "skin_relative", "darkness_warmth")  # InputEncoding codes 0, 1, 2
+# The format's constants live in model_header.py (torch-free, shared with the readers).
+from model_header import (DEFAULT_LIGHTING_TARGET, INPUT_ENCODINGS, MAGIC,  # noqa: F401
+                          VERSION, VERSION_ENCODED, checksum)
 MAX_SIDE = 4096  # preprocess_max_side in include/shadowsense/classify/preprocess_params.hpp
 DEFAULT_DARK_THRESHOLD = 0.165  # default_dark_luminance_threshold (same header)
-DEFAULT_LIGHTING_TARGET = 0.35  # LightingNormaliser::Config::target
 ARCHS = {
     "densenet121": (32, (6, 12, 24, 16), 64),
     "densenet161": (48, (6, 12, 36, 24), 96),
@@ -280,11 +274,6 @@ def upgrade(data, lighting_normalise, lighting_target, dark_threshold, path="mod
     out = bytearray(data[:8]) + struct.pack("<I", VERSION) + data[12:at] + extra + data[at:-4]
     out.extend(struct.pack("<I", checksum(out)))
     return bytes(out)
-
-
-def checksum(data):
-    """CRC-32 (zlib) of every byte before the checksum."""
-    return zlib.crc32(bytes(data)) & 0xFFFFFFFF
 
 
 def finite(v):

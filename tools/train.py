@@ -66,6 +66,7 @@ import calibration_file  # noqa: E402
 import dataset_reader  # noqa: E402
 from atomic_write import write_atomic  # noqa: E402
 import densenet_to_model as d2m  # noqa: E402
+import model_header  # noqa: E402
 import ss_version  # noqa: E402
 
 MEAN = [0.485, 0.456, 0.406]
@@ -91,11 +92,17 @@ def read_model_file(path):
     """Parse a shadowsense model file: (architecture dict, preprocessing dict, class names,
     state_dict). The checksum is verified."""
     data = open(path, "rb").read()
-    if len(data) < 12 or data[:8] != d2m.MAGIC:
+    if len(data) < 12 or data[:8] != model_header.MAGIC:
         raise SystemExit(f"{path}: not a shadowsense model file (bad magic)")
-    if d2m.checksum(data[:-4]) != struct.unpack("<I", data[-4:])[0]:
+    if model_header.checksum(data[:-4]) != struct.unpack("<I", data[-4:])[0]:
         raise SystemExit(f"{path}: checksum mismatch (corrupt or truncated)")
-    pos = 8
+    try:  # not version 3: int8 (docs/model_format.md)
+        _, arch, pre, pos = model_header.read_header(
+            data, path, versions=(1, model_header.VERSION, model_header.VERSION_ENCODED))
+    except ValueError as e:
+        raise SystemExit(str(e))
+    if pre.pop("channel_order") != 0:
+        raise SystemExit(f"{path}: network channel order BGR is not supported by train.py")
 
     def u32():
         nonlocal pos
@@ -103,37 +110,6 @@ def read_model_file(path):
         pos += 4
         return v
 
-    def f32():
-        nonlocal pos
-        v = struct.unpack_from("<f", data, pos)[0]
-        pos += 4
-        return v
-
-    version = u32()
-    if version not in (1, d2m.VERSION, d2m.VERSION_ENCODED):  # not 3: int8 (docs/model_format.md)
-        raise SystemExit(f"{path}: format version {version}, expected 1, {d2m.VERSION} or "
-                         f"{d2m.VERSION_ENCODED}")
-    growth, bn_size, init, classes = u32(), u32(), u32(), u32()
-    eps = f32()
-    blocks = tuple(u32() for _ in range(u32()))
-    rw, rh, cw, ch = u32(), u32(), u32(), u32()
-    contrast, brightness = f32(), f32()
-    mean = [f32() for _ in range(3)]
-    std = [f32() for _ in range(3)]
-    order = u32()
-    if order != 0:
-        raise SystemExit(f"{path}: network channel order BGR is not supported by train.py")
-    if version >= 2:
-        normalise, target, dark_threshold = u32() == 1, f32(), f32()
-    else:  # version 1's behaviour
-        normalise, target, dark_threshold = False, d2m.DEFAULT_LIGHTING_TARGET, 0.0
-    encoding = "colour"
-    if version == d2m.VERSION_ENCODED:
-        code = u32()
-        if not 1 <= code < len(d2m.INPUT_ENCODINGS):  # colour is never version 4
-            raise SystemExit(f"{path}: input encoding code {code}, expected 1 (skin_relative) "
-                             f"or 2 (darkness_warmth)")
-        encoding = d2m.INPUT_ENCODINGS[code]
     names = []
     for _ in range(u32()):
         n = u32()
@@ -151,11 +127,6 @@ def read_model_file(path):
         t = torch.frombuffer(bytearray(data[pos:pos + 4 * count]), dtype=torch.float32)
         pos += 4 * count
         sd[name] = t.reshape(shape).clone()
-    arch = dict(growth=growth, blocks=blocks, init=init, bn_size=bn_size, classes=classes, eps=eps)
-    pre = dict(resize_width=rw, resize_height=rh, crop_width=cw, crop_height=ch,
-               contrast=contrast, brightness=brightness, mean=mean, std=std,
-               lighting_normalise=normalise, lighting_target=target,
-               dark_threshold=dark_threshold, input_encoding=encoding)
     return arch, pre, names, sd
 
 
