@@ -29,7 +29,8 @@ import tempfile
 import time
 import traceback
 
-MODULES = {"ss_version.py", "atomic_write.py", "handsets/handsil.py", "realhand/timeline_io.py"}  # imported by the programs, not run
+MODULES = {"ss_version.py", "atomic_write.py", "model_header.py", "handsets/handsil.py",
+           "realhand/timeline_io.py"}  # imported by the programs, not run
 OPTIONS = ("--help", "--version", "--no-such-option-xyz")
 
 

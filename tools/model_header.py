@@ -1,4 +1,3 @@
-#!/usr/bin/python3
 """The constants and the header of a shadowsense model file (docs/model_format.md), without
 torch: tools/densenet_to_model.py writes files with these constants; tools/train.py and
 tools/model_encoding.py read headers with read_header.
