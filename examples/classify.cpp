@@ -316,14 +316,13 @@ void print_confusion(const std::vector<std::vector<int>>& m,
 }
 
 int run(const Options& o) {
-  auto model = ss::ModelFile::load(o.model);
+  auto model = cli::load_model(o.model, o.force_normalise);
   if (model.format_version < ss::model_file_float_version)
     std::cerr << "ss_classify: note: " << o.model << " is model format version "
               << model.format_version
               << " (no recorded lighting normalisation or dark-frame rule); upgrade it with\n"
                  "  /usr/bin/python3 tools/densenet_to_model.py --upgrade "
               << o.model << " -o NEW.ssm [--lighting-normalise] [--dark-threshold X]\n";
-  if (o.force_normalise) cli::force_lighting_normalise(model, o.model);
   const cli::EncoderCalibration cal =
       cli::encoder_calibration_for(model, o.model, o.calibration, o.scale_to_network);
   auto clf = ss::make_densenet_classifier(model, {.threads = o.threads}, ss::ChannelOrder::bgr,

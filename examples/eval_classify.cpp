@@ -87,14 +87,13 @@ struct Features {
 // A model's encoder: the --calibration's empty-skin model, the --camera-px-per-cm scale.
 ss::FrameEncoder make_encoder(const ss::ModelFile& model, const std::string& path,
                               const Options& o) {
-  return ss::FrameEncoder(model.preprocess, o.normalise,
-                          cli::empty_skin_for(model, path, o.calibration), o.camera_px_per_cm,
-                          o.scale_fill);
+  return ss::FrameEncoder(model.preprocess, false, cli::empty_skin_for(model, path, o.calibration),
+                          o.camera_px_per_cm, o.scale_fill);
 }
 
 Features features_for(const std::string& path, const ss::GestureSamples& set, const Options& o,
                       const Indices& all) {
-  const auto model = ss::ModelFile::load(path);
+  const auto model = cli::load_model(path, o.normalise);
   if (model.class_names != set.class_names)
     throw ss::ModelFileError(path + ": classes differ from the Table-1 backbone's; every "
                                     "backbone must use the same class order");
@@ -269,7 +268,7 @@ int run_speed(const Options& o) {
       const int h = side.parse("--speed " + spec + ": height", std::string_view(wxh).substr(x + 1));
       size = std::pair{w, h};
     }
-    auto model = ss::ModelFile::load(path);
+    auto model = cli::load_model(path, o.normalise);
     if (size) {
       model.preprocess.resize_width = size->first;
       model.preprocess.resize_height = size->second;
@@ -355,7 +354,7 @@ int run_speed(const Options& o) {
 // the C++ Classifier: accuracy per lighting and overall, confusion matrices.
 int run_score(const Options& o) {
   if (o.data.empty()) throw cli::UsageError("--score: needs --input DIR");
-  const auto model = ss::ModelFile::load(o.score_model);
+  const auto model = cli::load_model(o.score_model, o.normalise);
   const auto set = ss::load_gesture_samples(o.data, model.class_names);
   // Per session (--session-calibrations on a calibrated model): one encoder, given each
   // session's empty-skin model when the frames move to another session (memory stays one
@@ -377,7 +376,7 @@ int run_score(const Options& o) {
   };
   const ss::GestureSample& first = set.frames.front();
   // (Per session, only the empty-skin models are read; the scale is --camera-px-per-cm's.)
-  ss::FrameEncoder encoder(model.preprocess, o.normalise,
+  ss::FrameEncoder encoder(model.preprocess, false,
                            per_session ? session_skin(first)
                                        : cli::empty_skin_for(model, o.score_model, o.calibration),
                            o.camera_px_per_cm, o.scale_fill);
@@ -658,7 +657,7 @@ void table4_one_lighting_to_others(TableRun& r) {
 }
 
 int run_tables(const Options& o) {
-  const auto base = ss::ModelFile::load(o.backbone);
+  const auto base = cli::load_model(o.backbone, o.normalise);
   const auto set = ss::load_gesture_samples(o.data, base.class_names);
   const Indices all = ss::select_samples(set, [](const ss::GestureSample&) { return true; });
   cli::JsonWriter json;

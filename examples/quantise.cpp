@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
       model_path = cli::find_default_model(argv[0], &what).string();
       std::cerr << "ss_quantise: model " << model_path << " (" << what << ")\n";
     }
-    auto model = ss::ModelFile::load(model_path);
+    auto model = cli::load_model(model_path, normalise);
     model.int8.reset(); // calibrate the float model, not an earlier quantisation
     const cv::Mat empty_skin = cli::empty_skin_for(model, model_path, calibration);
     const auto set = ss::load_gesture_folder(data, model.class_names);
@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     const std::size_t total = set.frames.size();
     const std::size_t use =
         max_frames > 0 ? std::min(total, static_cast<std::size_t>(max_frames)) : total;
-    ss::FrameEncoder enc(model.preprocess, normalise, empty_skin);
+    ss::FrameEncoder enc(model.preprocess, false, empty_skin);
     ss::Int8Calibration cal(model, percentile);
     ss::Tensor t;
     for (std::size_t i = 0; i < use; ++i) {
@@ -84,7 +84,6 @@ int main(int argc, char** argv) {
       cal.add(t.image(0).data(), t.h(), t.w());
     }
     model.int8 = cal.quantise();
-    if (normalise) model.preprocess.lighting_normalise = true;
     model.save(out); // validates (codes are the weights rounded) and writes atomically
     std::cout << "calibrated " << model.int8->size() << " convolutions on " << use
               << " frames (percentile " << percentile << "); wrote " << out << "\n";

@@ -103,7 +103,7 @@ int main(int argc, char** argv) {
       model_path = cli::find_default_model(argv[0], &what).string();
       std::cerr << "ss_train_head: model " << model_path << " (" << what << ")\n";
     }
-    const auto model = ss::ModelFile::load(model_path);
+    const auto model = cli::load_model(model_path, normalise);
     const cli::EncoderCalibration cal =
         cli::encoder_calibration_for(model, model_path, calibration, scale_to_network);
     // Classes: the model's, unless the folder has others (a new task): then sorted folder names.
@@ -137,7 +137,7 @@ int main(int argc, char** argv) {
     std::cout << "\n";
 
     ss::FeatureExtractor fx(model, {.threads = threads});
-    ss::FrameEncoder enc(model.preprocess, normalise, cal.empty_skin, cal.camera_px_per_cm);
+    ss::FrameEncoder enc(model.preprocess, false, cal.empty_skin, cal.camera_px_per_cm);
     auto progress = [](std::size_t d, std::size_t n) {
       std::cout << "  features " << d << "/" << n << "\n" << std::flush;
     };
@@ -185,7 +185,6 @@ int main(int argc, char** argv) {
           std::fflush(stdout);
         });
     auto trained = ss::model_with_head(model, result.head, set.class_names);
-    if (normalise) trained.preprocess.lighting_normalise = true; // recorded for the Classifier
     ss::save_model_file(trained, out);
     std::cout << "best epoch " << result.best_epoch << "; wrote " << out << "\n";
     return 0;

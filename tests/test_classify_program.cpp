@@ -345,6 +345,17 @@ TEST_CASE("--calibration: a darkness_warmth model needs one and refuses --lighti
   CHECK(forced.err.find("--lighting-normalise with model " + model.string() +
                         ", whose input encoding is darkness_warmth") != std::string::npos);
   CHECK(forced.err.find("drop the option") != std::string::npos);
+  // ss_eval_classify refuses it with the same words (one check, cli::load_model, serves all
+  // four programs that take the option), before it reads any data.
+  const auto scored =
+      tests::run_program(SS_EVAL_CLASSIFY_PROGRAM,
+                         "--score " + shell_quote(model.string()) + " --input " + frames +
+                             " --calibration " + shell_quote(cal) + " --lighting-normalise",
+                         dir / "eval_run");
+  CHECK(scored.status == 2);
+  CHECK(scored.out.empty());
+  CHECK(scored.err.find("--lighting-normalise with model " + model.string() +
+                        ", whose input encoding is darkness_warmth") != std::string::npos);
 }
 
 // The confusion matrix of one key ("daylight", "all", ...) in ss_eval_classify --score's JSON, as

@@ -33,6 +33,10 @@
 //   A program's --lighting-normalise: switches the model's lighting normalisation on.
 //   throws:  UsageError (exit 2) naming the model and the option when the model's input encoding
 //            is darkness_warmth, which has the light divided out and takes none.
+// load_model(model_path, lighting_normalise) -> ModelFile
+//   ModelFile::load, then force_lighting_normalise when lighting_normalise (the option) is set:
+//   the one place every program (ss_classify, ss_eval_classify, ss_train_head, ss_quantise)
+//   applies --lighting-normalise, so their encoders take the model's preprocessing as it is.
 // Plain functions; no state.
 #pragma once
 
@@ -58,6 +62,12 @@ inline void force_lighting_normalise(shadowsense::ModelFile& model, const std::s
                      ", whose input encoding is darkness_warmth: it has the light divided out "
                      "and takes no lighting normalisation; drop the option");
   model.preprocess.lighting_normalise = true;
+}
+
+inline shadowsense::ModelFile load_model(const std::string& model_path, bool lighting_normalise) {
+  auto model = shadowsense::ModelFile::load(model_path);
+  if (lighting_normalise) force_lighting_normalise(model, model_path);
+  return model;
 }
 
 inline double camera_scale_for(const shadowsense::SegmenterCalibration& cal,
