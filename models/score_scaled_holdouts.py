@@ -4,8 +4,8 @@
 session's own empty-skin model for a calibrated input encoding; a colour model does not read
 them; no --lighting-normalise: every model file records its own), and prints per set accuracy
 and per-class recall, and over all sets pooled the minimum and mean per-class recall: the
-selection rule of the issue-21 protocol (docs/validation_protocol.md on branch
-handdata: the highest pooled minimum recall wins; ties within one frame go to the higher mean).
+selection rule of the issue-21 protocol (docs/validation_protocol.md: the highest pooled
+minimum recall wins; ties within one frame go to the higher mean).
 usage: models/score_scaled_holdouts.py NAME=MODEL.ssm[:FILL] ...
   :FILL  bring every frame of a set at scale S to the network's scale: the camera's scale is
          S x 7.578125 px per cm (ss_eval_classify --camera-px-per-cm, --scale-fill FILL with
@@ -22,6 +22,7 @@ SCALES = os.environ.get("SCALES", "0.6,0.7,1,1.5,2").split(",")
 SETS = (os.environ["SETS"].split(",") if os.environ.get("SETS")
         else [f"{s}_s{z}" for z in SCALES for s in ("g", "hold")])
 NETWORK_PX_PER_CM = 242.5 / 32.0  # FrameEncoder's network_scale (sim::Rig::robot())
+WIDTH = max(9, max(len(s) for s in SETS))  # set names line up in the printed table
 BIN = os.environ.get("SS_EVAL_CLASSIFY", "build/examples/ss_eval_classify")
 SETS_DIR = os.environ.get("HOLDOUTS", "/work/hands-sets")
 CACHE = os.environ.get("SCORE_CACHE", "/work/hands-logs/gen")
@@ -54,7 +55,7 @@ for arg in sys.argv[1:]:
         for i in range(6):
             for k in range(6):
                 pooled[i][k] += c[i][k]
-        print(f"  {s:9s} acc {100 * j['accuracy']['all']:6.2f}%  recall " +
+        print(f"  {s:{WIDTH}s} acc {100 * j['accuracy']['all']:6.2f}%  recall " +
               " ".join("    -" if r is None else f"{100 * r:5.1f}" for r in rec))
     # Classes with no frame in the pool (a source without fists) take no part in min and mean.
     rec = {CLASSES[i]: pooled[i][i] / sum(pooled[i]) for i in range(6) if sum(pooled[i])}
