@@ -6,22 +6,13 @@
 # the generator's own renderer. epsrc and cnngest were validation sources already "used for
 # decisions"; from C8 on they are "trained on" for it (docs/validation_protocol.md, "Issue 21,
 # real hands from three sources: candidate C8"). The three are merged into WORK_DIR/hands (one
-# manifest, every row split `train`). About 45 minutes of one core, 5 of them data.
+# manifest, every row split `train`: models/merge_hand_sources.sh). About 45 minutes of one core, 5 of them data.
 #   sh models/make_c8.sh [BUILD_DIR] [WORK_DIR] [OUT]
 set -e
 SRC=$(cd "$(dirname "$0")/.." && pwd)
 WORK=${2:-/tmp/shadowsense-c8}
 HANDS=$WORK/hands
-rm -rf "$HANDS"
-mkdir -p "$HANDS"
-head -n 1 "$SRC/data/hands/rps/manifest.csv" >"$HANDS/manifest.csv.tmp"
-for s in rps epsrc cnngest; do
-  cp -R "$SRC/data/hands/$s" "$HANDS/$s"
-  # rps: its train rows only (its heldout rows stay a within-source check); epsrc, cnngest: all.
-  awk -F, -v OFS=, -v s="$s" 'NR > 1 && (s != "rps" || $4 == "train") { $1 = s "/" $1; $4 = "train"; print }' \
-    "$SRC/data/hands/$s/manifest.csv" >>"$HANDS/manifest.csv.tmp"
-done
-mv "$HANDS/manifest.csv.tmp" "$HANDS/manifest.csv"
+sh "$SRC/models/merge_hand_sources.sh" "$HANDS" rps epsrc cnngest
 exec sh "$SRC/models/c0_recipe.sh" "${1:-build}" "$WORK" \
   "${3:-$SRC/models/candidates/c8.ssm}" \
   "--scale-range 0.6,2 --hands $HANDS --hands-split train --real-hand-probability 0.5"
