@@ -139,41 +139,7 @@ TEST_CASE("touch frames given by load: the same calibration, each frame loaded a
 TEST_CASE("the segmenter from box labels meets the mask-fitted accuracy on other frames") {
   Segmenter seg({.calibration = fitted().calibration}); // the model comes with the calibration
   REQUIRE(seg.has_empty_skin());
-  sim::TrackingSampleConfig variety; // the generator's default mix of lighting
-  const char* names[] = {"nothing", "hover", "palm", "fist", "finger"};
-  for (int c = 0; c < 5; ++c) {
-    RunningStats shadow_iou, contact_iou;
-    int shadow_miss = 0, contact_miss = 0, shadow_fp = 0, contact_fp = 0;
-    for (int i = 0; i < 12; ++i) {
-      const sim::Frame f = sim::render_random_tracking_frame(
-          test::box_renderer(), static_cast<sim::TrackCategory>(c), 0x7E57 + 1000 * c + i, variety);
-      const Segmentation s = seg.segment(f.image);
-      if (f.gt.shadow_box) {
-        if (s.shadow_box)
-          shadow_iou.add(box_iou(*s.shadow_box, *f.gt.shadow_box));
-        else
-          ++shadow_miss;
-      } else if (s.shadow_box)
-        ++shadow_fp;
-      if (f.gt.contact_box) {
-        if (s.contact_box)
-          contact_iou.add(box_iou(*s.contact_box, *f.gt.contact_box));
-        else
-          ++contact_miss;
-      } else if (s.contact_box)
-        ++contact_fp;
-    }
-    INFO(names[c] << ": shadow IoU " << shadow_iou.mean() << " contact IoU " << contact_iou.mean());
-    CHECK(shadow_miss == 0);
-    CHECK(contact_miss == 0);
-    CHECK(shadow_fp == 0);
-    CHECK(contact_fp == 0);
-    if (c == 1) CHECK(shadow_iou.mean() >= 0.85);
-    if (c >= 2) {
-      CHECK(shadow_iou.mean() >= 0.93);
-      CHECK(contact_iou.mean() >= 0.85);
-    }
-  }
+  test::check_random_tracking_frames(seg);
 }
 
 TEST_CASE("the calibration file holds the empty-skin model; the loaded segmenter is the same") {
