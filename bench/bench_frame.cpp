@@ -12,6 +12,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "common/robot_frames.hpp"
+
 #include <opencv2/core.hpp>
 
 #include <filesystem>
@@ -23,20 +25,11 @@ using namespace shadowsense;
 namespace {
 
 // The fixture both cases share: the shipped model, the sim calibration and ten robot-rig
-// tracking frames (two of each track category).
-struct RobotFrames {
+// tracking frames (two of each track category; common/robot_frames.hpp).
+struct RobotFrames : bench::RobotFrames {
   ModelFile model =
       ModelFile::load(std::filesystem::path(SHADOWSENSE_SOURCE_DIR) / "models" / "default.ssm");
-  sim::Renderer renderer{sim::Rig::robot()};
-  SimCalibration calibration = calibrate_on_sim(renderer, 0xF0, 50);
-  std::vector<cv::Mat> frames;
-  RobotFrames() {
-    for (std::uint64_t i = 0; i < 10; ++i)
-      frames.push_back(sim::render_random_tracking_frame(renderer,
-                                                         static_cast<sim::TrackCategory>(i % 5),
-                                                         sim::derive_seed(0xF1, i))
-                           .image);
-  }
+  RobotFrames() : bench::RobotFrames(10) {}
 };
 
 } // namespace

@@ -24,6 +24,7 @@
 #include "common/bench_util.hpp"
 #include "common/counting_new.hpp"
 #include "common/frame_options.hpp"
+#include "common/robot_frames.hpp"
 
 #include <opencv2/core.hpp>
 
@@ -96,14 +97,9 @@ int main(int argc, char** argv) {
     const ss::ModelFile model = ss::ModelFile::load(model_path);
     auto classifier = ss::make_densenet_classifier(model, {.threads = 1});
 
-    ss::sim::Renderer renderer(ss::sim::Rig::robot());
-    const ss::SimCalibration calibration = ss::calibrate_on_sim(renderer, 0xF0, 50);
-    std::vector<cv::Mat> images;
-    for (int i = 0; i < frames; ++i)
-      images.push_back(ss::sim::render_random_tracking_frame(
-                           renderer, static_cast<ss::sim::TrackCategory>(i % 5),
-                           ss::sim::derive_seed(0xF1, static_cast<std::uint64_t>(i)))
-                           .image);
+    const bench::RobotFrames fixture(frames);
+    const ss::SimCalibration& calibration = fixture.calibration;
+    const std::vector<cv::Mat>& images = fixture.frames;
 
     ss::Segmenter segmenter = ss::segmenter_from(calibration);
     ss::Segmentation seg;

@@ -73,6 +73,7 @@
 
 #include "common/bench_util.hpp"
 #include "common/frame_options.hpp"
+#include "common/robot_frames.hpp"
 
 #include <opencv2/core.hpp>
 
@@ -629,14 +630,9 @@ int main(int argc, char** argv) {
     r.inner_gflops = kernel_peak_gflops(mk, 25, r.inner);
 
     // The frames and stages, as bench/frame_time.cpp.
-    ss::sim::Renderer renderer(ss::sim::Rig::robot());
-    const ss::SimCalibration calibration = ss::calibrate_on_sim(renderer, 0xF0, 50);
-    std::vector<cv::Mat> images;
-    for (int i = 0; i < frames; ++i)
-      images.push_back(ss::sim::render_random_tracking_frame(
-                           renderer, static_cast<ss::sim::TrackCategory>(i % 5),
-                           ss::sim::derive_seed(0xF1, static_cast<std::uint64_t>(i)))
-                           .image);
+    const bench::RobotFrames fixture(frames);
+    const ss::SimCalibration& calibration = fixture.calibration;
+    const std::vector<cv::Mat>& images = fixture.frames;
     ss::Segmenter segmenter = ss::segmenter_from(calibration);
     ss::Segmentation seg;
     ss::TouchPipeline pipeline(ss::segmenter_from(calibration));
