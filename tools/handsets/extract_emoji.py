@@ -16,11 +16,16 @@ hand length, does not enlarge single-pixel stairs; then tools/handsets/handsil.p
 forearm cut at the wrist, cropped). Every row is validation only: split = heldout. The source
 gives no person ids (person = unknown).
 
+The same format is written by other capture scripts of this family (a gesture folder per id,
+<N>.jpg masks): --folder, --poses and --source read such a source (e.g. silentink,
+docs/hand_sources.md); the defaults are Emojinator's.
+
 Usage:
   git --git-dir=MIRROR archive 1377141415fac31033ae4f8f3e148d378a4ad222 \
       Emojinator/gestures/10 Emojinator/gestures/4 Emojinator/gestures/1 \
       Emojinator/gestures/11 | tar -x -C /tmp/emoji
   /usr/bin/python3 tools/handsets/extract_emoji.py --src /tmp/emoji --out DIR
+  [--folder Emojinator/gestures] [--poses 10=punch,4=palm,1=point,11=point] [--source emoji]
 Writes DIR/palm/*.png, DIR/point/*.png, DIR/punch/*.png (1-bit) and DIR/manifest.csv
 (file,pose,source,split,person,source_file,width_px,height_px,wrist_px).
 Exit 0 on success, 2 on bad arguments or unreadable input (message on stderr).
@@ -42,8 +47,8 @@ import handsil  # noqa: E402
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))  # tools/
 import ss_version  # noqa: E402
 
-FOLDER = os.path.join("Emojinator", "gestures")
-POSES = {"10": "punch", "4": "palm", "1": "point", "11": "point"}
+FOLDER = "Emojinator/gestures"
+POSES = "10=punch,4=palm,1=point,11=point"
 NAME = re.compile(r"^(\d+)\.jpg$")
 ENLARGE = 4
 HEADER = ["file", "pose", "source", "split", "person", "source_file", "width_px", "height_px",
@@ -56,9 +61,27 @@ def hand_mask(grey):
     return (big >= 0.5).astype(np.uint8)
 
 
+def parse_poses(text):
+    """'ID=POSE,...' -> {id: pose}; None when malformed (an id not a number, a pose not one of
+    palm, point, punch, or an id given twice)."""
+    out = {}
+    for item in text.split(","):
+        gid, eq, pose = item.partition("=")
+        if not eq or not gid.isdigit() or pose not in ("palm", "point", "punch") or gid in out:
+            return None
+        out[gid] = pose
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--src", required=True, help="folder holding Emojinator/gestures/")
+    ap.add_argument("--src", required=True, help="folder holding the gesture folders' parent")
+    ap.add_argument("--folder", default=FOLDER,
+                    help=f"the gesture folders' parent under --src (default {FOLDER})")
+    ap.add_argument("--poses", default=POSES,
+                    help=f"gesture id = pose (palm, point, punch), comma-separated (default {POSES})")
+    ap.add_argument("--source", default="emoji",
+                    help="the manifest's source column (default emoji)")
     ap.add_argument("--out", required=True)
     ap.add_argument("--stride", type=int, default=10,
                     help="take frames whose number is a multiple of this (default 10)")
@@ -67,9 +90,14 @@ def main():
     if a.stride < 1:
         sys.stderr.write(f"extract_emoji: --stride must be >= 1, got {a.stride}\n")
         return 2
+    poses = parse_poses(a.poses)
+    if poses is None:
+        sys.stderr.write(f"extract_emoji: --poses '{a.poses}': expected ID=POSE,... with numeric "
+                         "ids, each once, and poses palm, point or punch\n")
+        return 2
     rows, skipped = [], {}
-    for gid in sorted(POSES, key=int):
-        d = os.path.join(a.src, FOLDER, gid)
+    for gid in sorted(poses, key=int):
+        d = os.path.join(a.src, a.folder, gid)
         try:
             files = [f for f in os.listdir(d) if NAME.match(f)]
         except OSError as e:
@@ -89,10 +117,10 @@ def main():
             if sil is None:
                 skipped[wrist] = skipped.get(wrist, 0) + 1
                 continue
-            pose = POSES[gid]
+            pose = poses[gid]
             name = f"{pose}/g{gid}_{os.path.splitext(nm)[0]}.png"
             handsil.write_png1(os.path.join(a.out, name), sil)
-            rows.append([name, pose, "emoji", "heldout", "unknown", f"gestures/{gid}/{nm}",
+            rows.append([name, pose, a.source, "heldout", "unknown", f"gestures/{gid}/{nm}",
                          sil.shape[1], sil.shape[0], wrist])
     handsil.write_manifest(a.out, HEADER, rows)
     n = {p: sum(1 for r in rows if r[1] == p) for p in ("palm", "point", "punch")}

@@ -9,6 +9,8 @@
 2. The whole extractor on a tiny source tree (one synthetic hand per gesture folder, as frames 5
    and 10): with the default stride only frame 10 is taken; the poses are punch (10), palm (4),
    point (1 and 11); a non-image file stops it with exit 2.
+3. --folder, --poses and --source (another source of the same format): only the named ids are
+   read, with their poses and the source name in the manifest; a malformed --poses is exit 2.
 Exit 0 when all pass, 1 otherwise.
 """
 import csv
@@ -36,9 +38,9 @@ def small_hand():
     return out
 
 
-def run_extractor(src, out):
+def run_extractor(src, out, *extra):
     return subprocess.run([sys.executable, os.path.join(HERE, "extract_emoji.py"), "--src", src,
-                           "--out", out], capture_output=True, text=True)
+                           "--out", out, *extra], capture_output=True, text=True)
 
 
 def main():
@@ -82,6 +84,23 @@ def main():
             sil = cv2.imread(os.path.join(out, row["file"]), cv2.IMREAD_GRAYSCALE)
             if sil is None or sil.shape != (int(row["height_px"]), int(row["width_px"])):
                 print(f"extract: {row['file']} missing or not its manifest size")
+                fails += 1
+        other = os.path.join(tmp, "other")
+        r = run_extractor(os.path.dirname(os.path.join(src, "Emojinator")), other, "--folder",
+                          "Emojinator/gestures", "--poses", "4=point,11=palm", "--source", "x")
+        rows = []
+        if r.returncode == 0:
+            with open(os.path.join(other, "manifest.csv")) as f:
+                rows = list(csv.DictReader(f))
+        got = sorted((row["source_file"], row["pose"], row["source"]) for row in rows)
+        want = sorted([("gestures/4/10.jpg", "point", "x"), ("gestures/11/10.jpg", "palm", "x")])
+        if r.returncode != 0 or got != want:
+            print(f"--poses: exit {r.returncode} {r.stderr.strip()!r}, rows {got}, want {want}")
+            fails += 1
+        for bad in ("4=fist", "4=palm,4=point", "x=palm", "4palm"):
+            r = run_extractor(src, os.path.join(tmp, "badposes"), "--poses", bad)
+            if r.returncode != 2 or "--poses" not in r.stderr:
+                print(f"--poses {bad}: exit {r.returncode}, stderr {r.stderr.strip()!r}")
                 fails += 1
         with open(os.path.join(src, "Emojinator", "gestures", "4", "20.jpg"), "w") as f:
             f.write("not an image")
