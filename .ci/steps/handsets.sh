@@ -3,7 +3,8 @@
 # normalisation on synthetic hands with known answers, then a tiny render of the committed epsrc
 # silhouettes at 1.5x (a source without fists: punch must be absent) scored through
 # tools/realhand/score.sh, the rps heldout split, and the emoji silhouettes (every class
-# rendered); tools/handsets/test_extract_emoji.py checks the emoji extractor. Figures are not
+# rendered), the silentink silhouettes (palm and point, no punch);
+# tools/handsets/test_extract_emoji.py checks the emoji (and silentink) extractor. Figures are not
 # checked here; this guards the formats and the tools.
 set -eu
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -31,6 +32,16 @@ for c in nothing hug palm point punch two_hands; do
   cut -d, -f2 "$work/emoji/gestures/metadata.csv" | grep -qx "$c" || {
     echo "handsets: emoji rendered no '$c' frame" >&2; exit 1; }
 done
+# The committed silentink silhouettes (palm, point; no fist) render palm and point, no punch.
+/usr/bin/python3 "$root/tools/realhand/render.py" --out "$work/silentink" \
+  --hands "$root/data/hands/silentink" --seed 3 --users 1 --frames-per-user 1 --only gestures \
+  --workers 2
+for c in palm point; do
+  cut -d, -f2 "$work/silentink/gestures/metadata.csv" | grep -qx "$c" || {
+    echo "handsets: silentink rendered no '$c' frame" >&2; exit 1; }
+done
+cut -d, -f2 "$work/silentink/gestures/metadata.csv" | grep -qx punch && {
+  echo "handsets: silentink has no fists, yet punch frames were rendered" >&2; exit 1; }
 cut -d, -f2 "$work/rps/gestures/metadata.csv" | grep -qx point && {
   echo "handsets: rps has no pointing hands, yet point frames were rendered" >&2; exit 1; }
 echo "handsets: ok"

@@ -7,7 +7,7 @@
 # usage: tools/realhand/score.sh --model M.ssm --source NAME --scale S [--valsets DIR]
 #                                [--bin DIR] [--json OUT.json] [--render-only]
 #                                [--camera-scale FILL]
-#   NAME: realhand | epsrc | rps_heldout | cnngest | emoji      S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
+#   NAME: realhand | epsrc | rps_heldout | cnngest | emoji | silentink   S: 0.6 | 0.7 | 1 | 1.5 | 2 (spelled so: the folder
 #   name is <source>_s<S>; any number in [0.25, 4] works)
 #   --valsets DIR  rendered folders (default /work/valsets, or $VALSETS)
 #   --bin DIR      folder of ss_eval_classify (default build/examples, or $TRACK_EVAL_BIN_DIR)
@@ -50,7 +50,8 @@ case $source in
   rps_heldout) hands="$root/data/hands/rps"; split="heldout";;
   cnngest) hands="$root/data/hands/cnngest"; split="";;
   emoji) hands="$root/data/hands/emoji"; split="";;
-  *) die "unknown --source '$source' (realhand, epsrc, rps_heldout, cnngest or emoji)";;
+  silentink) hands="$root/data/hands/silentink"; split="";;
+  *) die "unknown --source '$source' (realhand, epsrc, rps_heldout, cnngest, emoji or silentink)";;
 esac
 out="$valsets/${source}_s$scale"
 if [ ! -f "$out/gestures/metadata.csv" ]; then
