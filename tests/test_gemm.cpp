@@ -13,6 +13,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 using namespace shadowsense;
@@ -566,5 +567,80 @@ TEST_CASE("PackedMatrix::unpack returns the packed matrix") {
     detail::PackedMatrix p;
     p.pack(w.data(), 13, 7, mr);
     CHECK(p.unpack() == w);
+  }
+}
+
+// gemm() at several thread counts against its 1-thread result, bit for bit (each C entry is the
+// same micro-kernel call on the same packed panels whoever runs it), and against a double
+// reference. The shapes cover both splits: by column panels (many panels) and by row panels with
+// every B panel packed once into the shared buffer (few panels), a last panel of at most nr / 2
+// columns (the half kernel), and fewer row panels than threads.
+TEST_CASE("gemm(): every thread split gives the 1-thread result bit for bit") {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  for (const auto& mk : kernels_under_test()) {
+    const std::string name = mk.name;
+    CAPTURE(name);
+    for (const auto& [m, k, n_cols_in_panels] : {std::tuple{48, 37, 1.0},
+                                                 {48, 37, 2.5},
+                                                 {12, 200, 3.4},
+                                                 {5, 9, 4.0},
+                                                 {96, 64, 5.2},
+                                                 {3, 16, 1.5},
+                                                 {40, 11, 20.6}}) {
+      const int n = std::max(1, static_cast<int>(n_cols_in_panels * mk.nr));
+      CAPTURE(m);
+      CAPTURE(k);
+      CAPTURE(n);
+      std::vector<float> w(static_cast<std::size_t>(m) * k), b(static_cast<std::size_t>(k) * n);
+      for (auto& v : w) v = ud(rng);
+      for (auto& v : b) v = ud(rng);
+      detail::PackedMatrix a;
+      a.pack(w.data(), m, k, mk.mr);
+      // B row-major K x N; a panel is columns n0 .. n0 + cols of it, zero beyond.
+      auto pack = [&](float* dst, int n0, int cols, int*) {
+        for (int r = 0; r < k; ++r)
+          for (int j = 0; j < mk.nr; ++j)
+            dst[static_cast<std::size_t>(r) * mk.nr + j] =
+                j < cols ? b[static_cast<std::size_t>(r) * n + n0 + j] : 0.0f;
+      };
+      auto run = [&](int threads) {
+        std::vector<float> c(static_cast<std::size_t>(m) * n, -7.0f);
+        detail::ThreadPool pool(threads);
+        std::vector<detail::GemmScratch> scratch(static_cast<std::size_t>(threads));
+        for (auto& s : scratch) {
+          s.panel.assign(static_cast<std::size_t>(k) * mk.nr, 0.0f);
+          s.tile.assign(static_cast<std::size_t>(mk.mr) * mk.nr, 0.0f);
+          s.index.assign(static_cast<std::size_t>(mk.nr), 0);
+        }
+        for (int rep = 0; rep < 2; ++rep) // the second call reuses the shared buffer
+          detail::gemm(
+              mk, a, n, pack,
+              [&](int row, int n0, int cols, const float* v) {
+                std::copy(v, v + cols, c.begin() + static_cast<std::ptrdiff_t>(row) * n + n0);
+              },
+              pool, scratch);
+        return c;
+      };
+      const std::vector<float> one = run(1);
+      double worst = 0;
+      for (int i = 0; i < m; ++i)
+        for (int j = 0; j < n; ++j) {
+          double ref = 0, mag = 0;
+          for (int r = 0; r < k; ++r) {
+            const double t = double(w[static_cast<std::size_t>(i) * k + r]) *
+                             b[static_cast<std::size_t>(r) * n + j];
+            ref += t;
+            mag += std::abs(t);
+          }
+          worst = std::max(worst, std::abs(one[static_cast<std::size_t>(i) * n + j] - ref) /
+                                      std::max(mag, 1e-30));
+        }
+      CHECK(worst <= (k + 2) * double(FLT_EPSILON)); // every entry written, to float accuracy
+      for (int threads : {2, 3}) {
+        CAPTURE(threads);
+        CHECK(run(threads) == one);
+      }
+    }
   }
 }

@@ -323,7 +323,8 @@ public:
     std::size_t n = phases_.size() + conv0_out_.size() + features_.size() + logits_.size();
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
-    for (const auto& s : scratch_) n += s.panel.size() + s.tile.size() + s.index.size();
+    for (const auto& s : scratch_)
+      n += s.panel.size() + s.tile.size() + s.index.size() + s.shared.size();
     for (const auto& s : winograd_scratch_) n += s.v.size() + s.m.size() + s.y.size();
     return n * sizeof(float) + xq_.size() + q3_.size() + acc_.size() * sizeof(std::int32_t);
   }

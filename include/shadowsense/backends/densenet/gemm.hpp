@@ -21,7 +21,8 @@
 //   read-only use afterwards may be shared between threads. unpack() returns that matrix again.
 // ThreadPool: backends/densenet/thread_pool.hpp.
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
-//   sized for the largest K (K x nr panel, mr x nr tile, nr ints).
+//   sized for the largest K (K x nr panel, mr x nr tile, nr ints); scratch[0].shared grows on
+//   the first multi-thread call with few column panels (every B panel packed once) and is reused.
 // MicroKernel::half (optional): the kernel for the first nr / 2 columns only; gemm() and the
 //   Winograd GEMMs run it on a last panel of at most nr / 2 columns (half the multiply-adds).
 // gemm_fused_avx512(a, n, pack, base, offsets, segments, dst, row_stride, bias, relu, pool,
@@ -235,11 +236,12 @@ inline void run_panel_units(ThreadPool& pool, int n_panels, int m_panels, Fn&& f
 
 // Per-thread scratch of the GEMM driver.
 struct GemmScratch {
-  std::vector<float> panel; // K x NR
-  std::vector<float> tile;  // MR x NR
-  std::vector<int> index;   // NR ints for packers (pixel offsets)
-  TileSegments segments;    // the fused kernels' column runs for the current column panel
-  int cols = 0;             // columns of the current column panel
+  std::vector<float> panel;  // K x NR
+  std::vector<float> tile;   // MR x NR
+  std::vector<int> index;    // NR ints for packers (pixel offsets)
+  TileSegments segments;     // the fused kernels' column runs for the current column panel
+  int cols = 0;              // columns of the current column panel
+  std::vector<float> shared; // (thread 0's only) every B panel of a row-split gemm(), packed once
 };
 
 // The split shared by gemm() and gemm_fused_avx512(). For every column panel, prepare(s, n0, cols)
@@ -301,10 +303,44 @@ inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, i
 // C = A * B where B is produced by pack(float* dst, int n0, int nr, int* index_scratch): it
 // writes B[:, n0 : n0+nr] as a K x NR panel (columns >= nr zero). store(m, n0, nr, row) writes
 // the nr results of row m. Work is split over threads by column panels, or by row panels when
-// there are too few column panels.
+// there are too few column panels (then every B panel is packed once, by one thread, before the
+// rows are multiplied).
 template <class Pack, class Store>
 inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&& pack,
                  Store&& store, ThreadPool& pool, std::vector<GemmScratch>& scratch) {
+  const int nr = kernel.nr, mr = kernel.mr, threads = pool.size();
+  const int n_panels = (n + nr - 1) / nr, m_panels = (a.m + mr - 1) / mr;
+  // Where gemm_over_panels would split by rows (few column panels), every thread would pack
+  // every B panel. Pack each panel once instead, the panels spread over the threads, into one
+  // shared buffer; then each thread multiplies its rows by all of them. Two pool calls instead
+  // of one; the buffer grows on the first such call and is reused (no allocation after it).
+  if (threads > 1 && n_panels >= 1 && n_panels < 8 * threads && m_panels >= threads) {
+    const std::size_t stride = static_cast<std::size_t>(a.k) * nr;
+    std::vector<float>& shared = scratch[0].shared;
+    if (shared.size() < stride * n_panels) shared.resize(stride * n_panels);
+    const int packers = std::min(threads, n_panels);
+    auto pack_share = [&](int t) {
+      for (int np = n_panels * t / packers; np < n_panels * (t + 1) / packers; ++np)
+        pack(shared.data() + stride * np, np * nr, std::min(nr, n - np * nr),
+             scratch[static_cast<std::size_t>(t)].index.data());
+    };
+    auto multiply_rows = [&](int t) {
+      GemmScratch& s = scratch[static_cast<std::size_t>(t)];
+      const int mp0 = m_panels * t / threads, mp1 = m_panels * (t + 1) / threads;
+      for (int np = 0; np < n_panels; ++np) {
+        const int n0 = np * nr, cols = std::min(nr, n - n0);
+        const MicroKernelFn fn = kernel.half && cols <= nr / 2 ? kernel.half : kernel.fn;
+        for (int mp = mp0; mp < mp1; ++mp) {
+          fn(a.k, a.panel(mp), shared.data() + stride * np, s.tile.data());
+          const int rows = std::min(mr, a.m - mp * mr);
+          for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
+        }
+      }
+    };
+    pool.run(packers, pack_share);
+    pool.run(threads, multiply_rows);
+    return;
+  }
   gemm_over_panels(
       kernel, a, n,
       [&](GemmScratch& s, int n0, int cols) { pack(s.panel.data(), n0, cols, s.index.data()); },
