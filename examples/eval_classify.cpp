@@ -87,8 +87,9 @@ struct Features {
 // A model's encoder: the --calibration's empty-skin model, the --camera-px-per-cm scale.
 ss::FrameEncoder make_encoder(const ss::ModelFile& model, const std::string& path,
                               const Options& o) {
-  return ss::FrameEncoder(model.preprocess, false, cli::empty_skin_for(model, path, o.calibration),
-                          o.camera_px_per_cm, o.scale_fill);
+  return ss::FrameEncoder(model.preprocess, /*force_lighting_normalise=*/false,
+                          cli::empty_skin_for(model, path, o.calibration), o.camera_px_per_cm,
+                          o.scale_fill);
 }
 
 Features features_for(const std::string& path, const ss::GestureSamples& set, const Options& o,
@@ -376,7 +377,7 @@ int run_score(const Options& o) {
   };
   const ss::GestureSample& first = set.frames.front();
   // (Per session, only the empty-skin models are read; the scale is --camera-px-per-cm's.)
-  ss::FrameEncoder encoder(model.preprocess, false,
+  ss::FrameEncoder encoder(model.preprocess, /*force_lighting_normalise=*/false,
                            per_session ? session_skin(first)
                                        : cli::empty_skin_for(model, o.score_model, o.calibration),
                            o.camera_px_per_cm, o.scale_fill);

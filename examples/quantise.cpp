@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
     const std::size_t total = set.frames.size();
     const std::size_t use =
         max_frames > 0 ? std::min(total, static_cast<std::size_t>(max_frames)) : total;
-    ss::FrameEncoder enc(model.preprocess, false, empty_skin);
+    ss::FrameEncoder enc(model.preprocess, /*force_lighting_normalise=*/false, empty_skin);
     ss::Int8Calibration cal(model, percentile);
     ss::Tensor t;
     for (std::size_t i = 0; i < use; ++i) {

@@ -137,7 +137,8 @@ int main(int argc, char** argv) {
     std::cout << "\n";
 
     ss::FeatureExtractor fx(model, {.threads = threads});
-    ss::FrameEncoder enc(model.preprocess, false, cal.empty_skin, cal.camera_px_per_cm);
+    ss::FrameEncoder enc(model.preprocess, /*force_lighting_normalise=*/false, cal.empty_skin,
+                         cal.camera_px_per_cm);
     auto progress = [](std::size_t d, std::size_t n) {
       std::cout << "  features " << d << "/" << n << "\n" << std::flush;
     };

@@ -6,7 +6,8 @@
 # the generator's own renderer. epsrc and cnngest were validation sources already "used for
 # decisions"; from C8 on they are "trained on" for it (docs/validation_protocol.md, "Issue 21,
 # real hands from three sources: candidate C8"). The three are merged into WORK_DIR/hands (one
-# manifest, every row split `train`: models/merge_hand_sources.sh). About 45 minutes of one core, 5 of them data.
+# manifest, every row split `train`: models/merge_hand_sources.sh). About 45 minutes of one
+# core, 5 of them data.
 #   sh models/make_c8.sh [BUILD_DIR] [WORK_DIR] [OUT]
 set -e
 SRC=$(cd "$(dirname "$0")/.." && pwd)

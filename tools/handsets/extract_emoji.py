@@ -79,7 +79,8 @@ def main():
     ap.add_argument("--folder", default=FOLDER,
                     help=f"the gesture folders' parent under --src (default {FOLDER})")
     ap.add_argument("--poses", default=POSES,
-                    help=f"gesture id = pose (palm, point, punch), comma-separated (default {POSES})")
+                    help="gesture id = pose (palm, point, punch), comma-separated "
+                    f"(default {POSES})")
     ap.add_argument("--source", default="emoji",
                     help="the manifest's source column (default emoji)")
     ap.add_argument("--out", required=True)
