@@ -89,11 +89,11 @@ TEST_CASE("frame encoder per input encoding (shipped model's geometry, 1 thread,
   const std::vector<cv::Mat>& frames = fixture.frames;
   const cv::Mat empty_skin = segmenter_from(fixture.calibration).empty_skin_model().clone();
   Tensor input;
-  for (const InputEncoding e :
-       {InputEncoding::colour, InputEncoding::skin_relative, InputEncoding::darkness_warmth}) {
+  for (const InputEncoding e : {InputEncoding::colour, InputEncoding::skin_relative,
+                                InputEncoding::darkness_warmth, InputEncoding::masks}) {
     PreprocessParams p = model.preprocess;
     p.input_encoding = e;
-    if (e == InputEncoding::darkness_warmth) p.lighting_normalise = false; // it takes none
+    if (light_independent(e)) p.lighting_normalise = false; // it takes none
     FrameEncoder encoder(FrameEncoder::Config{p, ChannelOrder::bgr, empty_skin});
     BENCHMARK(std::string("encode x10, ") + to_string(e)) {
       for (const cv::Mat& f : frames) encoder.run(f, input);

@@ -240,8 +240,8 @@ int main(int argc, char** argv) {
     const auto t_start = std::chrono::steady_clock::now();
     auto model = ss::ModelFile::load(model_path);
     // On by default (version-1 files do not record it; the shipped version-2 model does), but
-    // never for a darkness_warmth model, which has the light divided out and takes none.
-    normalise = normalise && model.preprocess.input_encoding != ss::InputEncoding::darkness_warmth;
+    // never for a darkness_warmth or masks model, which has the light divided out and takes none.
+    normalise = normalise && !ss::light_independent(model.preprocess.input_encoding);
     model.preprocess.lighting_normalise = normalise;
 
     sim::Renderer renderer(sim::Rig::robot());

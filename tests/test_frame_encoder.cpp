@@ -376,6 +376,124 @@ TEST_CASE("darkness_warmth is refused without a calibration and with lighting no
 }
 
 namespace {
+// A lit skin for masks (8-bit BGR, 120 x 160): a textured empty skin (every pixel's own level,
+// so the segmenter's smoothed profile and the model differ), the top 10 rows not skin, a
+// shadow (all channels x 0.4: darkness 0.6) and a contact inside it (B, G x 0.3, R x 0.8).
+struct MaskSkin {
+  cv::Mat model = cv::Mat(120, 160, CV_32FC3); // BGR, relative brightness
+  cv::Rect shadow{20, 30, 40, 30}, contact{100, 60, 20, 16};
+  MaskSkin() {
+    model.forEach<cv::Vec3f>([](cv::Vec3f& v, const int* at) {
+      const float t = 0.9f + 0.1f * float((at[0] * 7 + at[1] * 3) % 5) / 4.0f;
+      v = cv::Vec3f(0.85f * t, 0.9f * t, 1.0f * t);
+    });
+    model.rowRange(0, 10).setTo(cv::Scalar::all(0.1));
+  }
+  cv::Mat frame(float level) const {
+    cv::Mat f = model * level;
+    f(shadow) *= 0.4;
+    f(contact).forEach<cv::Vec3f>(
+        [](cv::Vec3f& v, const int*) { v[0] *= 0.3f, v[1] *= 0.3f, v[2] *= 0.8f; });
+    cv::Mat out;
+    f.convertTo(out, CV_8UC3, 255.0);
+    return out;
+  }
+};
+// The segmenter the masks encoding is defined by: default config and thresholds, the model.
+Segmentation segment_with(const cv::Mat& model, const cv::Mat& bgr) {
+  SegmenterConfig c;
+  c.calibration.empty_skin = model;
+  Segmenter seg(c);
+  return seg.segment(bgr);
+}
+} // namespace
+
+TEST_CASE("masks: the segmenter's shadow and contact masks beside the skin test, as 0 / 1") {
+  const PreprocessParams p = identity_params(InputEncoding::masks);
+  const MaskSkin skin;
+  FrameEncoder enc({p, ChannelOrder::bgr, skin.model});
+  const cv::Mat frame = skin.frame(0.8f);
+  const Tensor t = encode(enc, frame);
+  REQUIRE(t.h() == 120);
+  REQUIRE(t.w() == 160);
+  // Plane by plane (RGB planes: shadow, contact, skin), the segmenter's own masks.
+  const Segmentation s = segment_with(skin.model, frame);
+  REQUIRE(s.shadows.size() == 2); // the contact is dark too: a shadow blob of its own
+  REQUIRE(s.contacts.size() == 1);
+  long differ = 0, shadow_px = 0, contact_px = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x) {
+      const float sh = s.shadow_mask.at<unsigned char>(y, x) ? 1.0f : 0.0f;
+      const float co = s.contact_mask.at<unsigned char>(y, x) ? 1.0f : 0.0f;
+      const float sk = y >= 10 ? 1.0f : 0.0f;
+      differ += t(0, 0, y, x) != sh || t(0, 1, y, x) != co || t(0, 2, y, x) != sk;
+      shadow_px += sh > 0, contact_px += co > 0;
+    }
+  CHECK(differ == 0);
+  // The scene's ground truth: the shadow and the contact are where they were drawn.
+  CHECK(t(0, 0, 45, 40) == 1.0f);
+  CHECK(t(0, 1, 45, 40) == 0.0f);
+  CHECK(t(0, 1, 68, 110) == 1.0f);
+  CHECK(t(0, 0, 100, 140) == 0.0f);
+  CHECK(t(0, 1, 100, 140) == 0.0f);
+  CHECK(shadow_px >= 1000); // 40 x 30 drawn, less the blurred corners
+  CHECK(contact_px >= 250); // 20 x 16 drawn
+  // Independent of the light: a darker frame, the same masks; the dark flag changes nothing.
+  CHECK(same(encode(enc, skin.frame(0.5f)), t));
+  CHECK(same(encode(enc, frame, true), t));
+  // A float RGB frame holding the same 8-bit values: the same image.
+  cv::Mat rgb, rgb_float;
+  cv::cvtColor(frame, rgb, cv::COLOR_BGR2RGB);
+  rgb.convertTo(rgb_float, CV_32FC3, 1.0 / 255.0);
+  FrameEncoder enc_rgb({p, ChannelOrder::rgb, skin.model});
+  CHECK(same(encode(enc_rgb, rgb_float), t));
+  // A model of another size is resized to the frame first (bilinear), as for the other
+  // encodings; the segmenter then works at the frame's size.
+  cv::Mat half;
+  cv::resize(skin.model, half, cv::Size(80, 60), 0, 0, cv::INTER_AREA);
+  FrameEncoder enc_half({p, ChannelOrder::bgr, half});
+  cv::Mat up;
+  cv::resize(half, up, frame.size(), 0, 0, cv::INTER_LINEAR);
+  const Segmentation su = segment_with(up, frame);
+  const Tensor th = encode(enc_half, frame);
+  long differ_half = 0;
+  for (int y = 0; y < 120; ++y)
+    for (int x = 0; x < 160; ++x)
+      differ_half += th(0, 0, y, x) != (su.shadow_mask.at<unsigned char>(y, x) ? 1.0f : 0.0f) ||
+                     th(0, 1, y, x) != (su.contact_mask.at<unsigned char>(y, x) ? 1.0f : 0.0f);
+  CHECK(differ_half == 0);
+  // encode_input gives the image itself (BGR slots).
+  cv::Mat e;
+  enc.encode_input(frame, e);
+  CHECK(e.type() == CV_32FC3);
+  CHECK(e.at<cv::Vec3f>(45, 40) == cv::Vec3f(1.0f, 0.0f, 1.0f));
+  CHECK(e.at<cv::Vec3f>(68, 110) == cv::Vec3f(1.0f, 1.0f, 1.0f));
+  CHECK(e.at<cv::Vec3f>(5, 5) == cv::Vec3f(0.0f, 0.0f, 0.0f));
+}
+
+TEST_CASE("masks is refused without a calibration and with lighting normalisation") {
+  PreprocessParams p = identity_params(InputEncoding::masks);
+  CHECK_THROWS_WITH_AS(FrameEncoder({p, ChannelOrder::bgr}),
+                       doctest::Contains("input encoding is masks, which needs a calibration"),
+                       InvalidArgument);
+  const MaskSkin skin;
+  CHECK_THROWS_WITH_AS(FrameEncoder(p, true, skin.model),
+                       doctest::Contains("whose input encoding is masks"), InvalidArgument);
+  FrameEncoder enc({p, ChannelOrder::bgr, skin.model});
+  CHECK_THROWS_AS(enc.set_empty_skin(cv::Mat()), InvalidArgument);
+  // A frame the segmenter refuses is named, not segmented.
+  Tensor t;
+  CHECK_THROWS_AS(enc.run(cv::Mat(120, 160, CV_32FC3, cv::Scalar::all(1.5)), t), InvalidArgument);
+  p.lighting_normalise = true;
+  CHECK_THROWS_WITH_AS(p.validate(), doctest::Contains("masks input encoding is already"),
+                       InvalidArgument);
+  CHECK(parse_input_encoding("masks") == InputEncoding::masks);
+  CHECK(std::string(to_string(InputEncoding::masks)) == "masks");
+  CHECK(light_independent(InputEncoding::masks));
+  CHECK(!light_independent(InputEncoding::skin_relative));
+}
+
+namespace {
 // Reads a golden file of tools/make_encoding_fixture.py (its docstring has the format) and
 // encodes every case with `encoding`; returns the largest differences from train.py's stage 0
 // and network input.

@@ -367,9 +367,9 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   CHECK(std::equal(v2.begin() + static_cast<long>(at), v2.end() - 4,
                    bytes.begin() + static_cast<long>(at) + 4));
   auto bad = bytes;
-  write_u32(bad, at, 3);
+  write_u32(bad, at, 4);
   fix_crc(bad);
-  CHECK(load_error(bad).find("colour models are version 2 or 3) is 3, expected 1..2") !=
+  CHECK(load_error(bad).find("colour models are version 2 or 3) is 4, expected 1..3") !=
         std::string::npos);
   // Code 2, darkness_warmth: refused with lighting normalisation (it takes none), loaded
   // without.
@@ -386,6 +386,15 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   CHECK(read_u32(dw_bytes, at) == 2);
   CHECK(ModelFile::from_bytes(dw_bytes).preprocess.input_encoding ==
         InputEncoding::darkness_warmth);
+  // Code 3, masks: likewise light-independent.
+  auto mk = normalised.to_bytes();
+  write_u32(mk, at, 3);
+  fix_crc(mk);
+  CHECK(load_error(mk).find("masks input encoding is already independent") != std::string::npos);
+  plain.preprocess.input_encoding = InputEncoding::masks;
+  const auto mk_bytes = plain.to_bytes();
+  CHECK(read_u32(mk_bytes, at) == 3);
+  CHECK(ModelFile::from_bytes(mk_bytes).preprocess.input_encoding == InputEncoding::masks);
   bad = bytes;
   write_u32(bad, bad.size() - 8, 2);
   fix_crc(bad);
@@ -396,7 +405,7 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   write_u32(bad, at, 0);
   fix_crc(bad);
   CHECK(load_error(bad).find("input encoding (version 4 records a calibrated one; colour models "
-                             "are version 2 or 3) is 0, expected 1..2") != std::string::npos);
+                             "are version 2 or 3) is 0, expected 1..3") != std::string::npos);
   // The truncation check covers the new fields too.
   for (std::size_t cut : {at + 2, bytes.size() - 6})
     CHECK(load_error({bytes.begin(), bytes.begin() + static_cast<long>(cut)}).find("truncated") !=

@@ -19,6 +19,11 @@ encoding of include/shadowsense/classify/frame_encoder.hpp (--input-encoding):
   darkness_warmth the relative pixel rule's darkness and warmth maps beside the skin mask
                   (darkness_warmth() below), from the same empty-skin models; independent of the
                   light level, so it takes no --lighting-normalise and no frame is dark.
+  masks           the library's segmenter's shadow and contact masks beside the skin mask, from
+                  the same calibrations; light-independent like darkness_warmth. Encoded by the
+                  C++ library itself through its Python module (shadowsense.encode_input, the
+                  code the classifier runs at inference): build it and put <build>/python on
+                  PYTHONPATH (models/make_c11.sh does).
 
 Modes
   --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
@@ -85,6 +90,8 @@ MODEL_FLOOR = 0.125
 REFERENCE_BINS = 1024
 REFERENCE_BINS_PER_UNIT = 512.0
 REFERENCE_FLOOR = 1.0 / 64.0
+# The encodings with the light level divided out (light_independent, preprocess_params.hpp).
+LIGHT_INDEPENDENT = ("darkness_warmth", "masks")
 
 
 # ---------------------------------------------------------------------------------- model file
@@ -311,14 +318,14 @@ def darkness_warmth(x, empty_skin):
 
 class EmptySkins:
     """The empty-skin model of a row: one --calibration file for all, or the dataset's
-    empty_skin/<session>.calib (read once per session)."""
+    empty_skin/<session>.calib (read once per session). With whole=True, the calibration
+    itself as the library's Python module loads it (the masks encoding)."""
 
-    def __init__(self, root, calibration):
-        self.root, self.cache = root, {}
+    def __init__(self, root, calibration, whole=False):
+        self.root, self.cache, self.whole = root, {}, whole
         self.single = self.read(calibration) if calibration else None
 
-    @staticmethod
-    def read(path):
+    def read(self, path):
         try:
             m = calibration_file.read_empty_skin(path)
             scale = calibration_file.read_px_per_cm(path)
@@ -331,7 +338,7 @@ class EmptySkins:
         if m is None:
             raise SystemExit(f"train.py: {path}: the calibration holds no empty-skin model, "
                              f"which a calibrated --input-encoding needs (ss_calibrate --empty)")
-        return m
+        return library().load_calibration(path) if self.whole else m
 
     def __call__(self, row):
         if self.single is not None:
@@ -399,8 +406,29 @@ def augment_geometry(x, gen):
     return F.grid_sample(x, grid, mode="bilinear", padding_mode="border", align_corners=False)
 
 
+def library():
+    """The library's Python module (the masks encoding runs its segmenter)."""
+    try:
+        import shadowsense
+    except ImportError as e:
+        raise SystemExit(f"train.py: --input-encoding masks runs the library's segmenter through "
+                         f"its Python module, which cannot be imported ({e}): build the project "
+                         f"and set PYTHONPATH=<build>/python")
+    return shadowsense
+
+
+def masks(x, calibration):
+    """The masks encoding of FrameEncoder, computed by the library itself: x RGB 3 x H x W in
+    [0, 1] from an 8-bit image (exact in uint8), calibration the library's Calibration."""
+    bgr = x.flip(0).mul(255).round().to(torch.uint8).permute(1, 2, 0).contiguous().numpy()
+    out = library().encode_input(bgr, "masks", calibration)  # H x W x 3, B G R slots
+    return torch.from_numpy(out).permute(2, 0, 1).flip(0).contiguous()
+
+
 def encode(x, pre, empty_skin=None):
     """The frame -> the Preprocessor's input image (stage 0 of FrameEncoder)."""
+    if pre.get("input_encoding", "colour") == "masks":
+        return masks(x, empty_skin)
     if pre.get("input_encoding", "colour") == "skin_relative":
         return skin_relative(x, empty_skin)
     if pre.get("input_encoding", "colour") == "darkness_warmth":
@@ -413,9 +441,10 @@ def cache(rows, pre, normalised, classes, label, empty_skins=None):
     t0 = time.time()
     for i, r in enumerate(rows):
         x = load_image(r["path"])
-        # The frame, not the encoding; darkness_warmth has divided the light out: never dark.
+        # The frame, not the encoding; darkness_warmth and masks have divided the light out:
+        # never dark.
         dark.append(is_dark(r, x, pre.get("dark_threshold", 0.0)) and
-                    pre.get("input_encoding", "colour") != "darkness_warmth")
+                    pre.get("input_encoding", "colour") not in LIGHT_INDEPENDENT)
         if pre.get("input_encoding", "colour") != "colour":
             x = encode(x, pre, empty_skins(r))
         if normalised:
@@ -535,9 +564,9 @@ def main(argv=None):
             ap.error(f"{name} {v}: expected a value in [0, 1)")
     if args.calibration and args.input_encoding == "colour":
         ap.error("--calibration is for a calibrated --input-encoding (colour needs none)")
-    if args.lighting_normalise and args.input_encoding == "darkness_warmth":
-        ap.error("--input-encoding darkness_warmth is already independent of the light level "
-                 "and takes no --lighting-normalise")
+    if args.lighting_normalise and args.input_encoding in LIGHT_INDEPENDENT:
+        ap.error(f"--input-encoding {args.input_encoding} is already independent of the light "
+                 f"level and takes no --lighting-normalise")
     torch.set_num_threads(args.threads)
     torch.manual_seed(args.seed)
     random.seed(args.seed)
@@ -579,7 +608,7 @@ def main(argv=None):
     if missing:
         raise SystemExit(f"no training images of class(es) {missing}")
 
-    empty_skins = (EmptySkins(args.data, args.calibration)
+    empty_skins = (EmptySkins(args.data, args.calibration, whole=args.input_encoding == "masks")
                    if args.input_encoding != "colour" else None)
     xt, yt, dt = cache(train_rows, pre, args.lighting_normalise, classes, "train", empty_skins)
     xv, yv, dv = cache(val_rows, pre, args.lighting_normalise, classes, "val", empty_skins)

@@ -32,7 +32,7 @@
 // force_lighting_normalise(model, model_path)
 //   A program's --lighting-normalise: switches the model's lighting normalisation on.
 //   throws:  UsageError (exit 2) naming the model and the option when the model's input encoding
-//            is darkness_warmth, which has the light divided out and takes none.
+//            is light-independent (darkness_warmth, masks: the light divided out), taking none.
 // load_model(model_path, lighting_normalise) -> ModelFile
 //   ModelFile::load, then force_lighting_normalise when lighting_normalise (the option) is set:
 //   the one place every program (ss_classify, ss_eval_classify, ss_train_head, ss_quantise)
@@ -57,10 +57,12 @@ struct EncoderCalibration {
 };
 
 inline void force_lighting_normalise(shadowsense::ModelFile& model, const std::string& model_path) {
-  if (model.preprocess.input_encoding == shadowsense::InputEncoding::darkness_warmth)
+  const shadowsense::InputEncoding e = model.preprocess.input_encoding;
+  if (shadowsense::light_independent(e))
     throw UsageError("--lighting-normalise with model " + model_path +
-                     ", whose input encoding is darkness_warmth: it has the light divided out "
-                     "and takes no lighting normalisation; drop the option");
+                     ", whose input encoding is " + shadowsense::to_string(e) +
+                     ": it has the light divided out and takes no "
+                     "lighting normalisation; drop the option");
   model.preprocess.lighting_normalise = true;
 }
 

@@ -752,6 +752,36 @@ PYBIND11_MODULE(_shadowsense, m) {
   bind_calibration(m);
   bind_pipeline(m);
   bind_sinks(m);
+  // Stage 0 of the classifier's frame encoder, for training on exactly what inference sees
+  // (tools/train.py --input-encoding masks runs the library's own segmenter through this).
+  m.def(
+      "encode_input",
+      [](const py::array& frame, const std::string& encoding,
+         const ss::SegmenterCalibration& calibration) {
+        const std::optional<ss::InputEncoding> e = ss::parse_input_encoding(encoding);
+        if (!e || *e == ss::InputEncoding::colour)
+          throw py::value_error("encode_input: input encoding '" + encoding +
+                                "', expected skin_relative, darkness_warmth or masks (colour "
+                                "is the frame itself)");
+        ss::PreprocessParams p;
+        p.input_encoding = *e;
+        ss::FrameEncoder encoder(
+            ss::FrameEncoder::Config{p, ss::ChannelOrder::bgr, calibration.empty_skin});
+        const cv::Mat image = frame_view(frame, "encode_input");
+        cv::Mat out;
+        {
+          py::gil_scoped_release release;
+          encoder.encode_input(image, out);
+        }
+        return py::array_t<float>({static_cast<py::ssize_t>(out.rows),
+                                   static_cast<py::ssize_t>(out.cols), py::ssize_t{3}},
+                                  out.ptr<float>());
+      },
+      py::arg("frame"), py::arg("encoding"), py::arg("calibration"),
+      "The input encoding of a calibrated classifier (classify/frame_encoder.hpp, stage 0) of\n"
+      "one HxWx3 uint8 BGR frame -> HxWx3 float32 in 0..1, BGR slots. encoding: skin_relative,\n"
+      "darkness_warmth or masks; calibration: holds the empty-skin model (InvalidArgument\n"
+      "naming the encoding otherwise). A new encoder per call: for training, not a loop.");
   // The frame check alone, for the zero-copy test: the address the cv::Mat header points at.
   m.def(
       "_frame_address",

@@ -26,6 +26,18 @@
 //      warmth, skin), the B slot 1 on the skin; all three are 0 off the skin. The light level is
 //      divided out (lighting normalisation is refused, PreprocessParams::validate) and the frame
 //      is never dark (no brightness factor);
+//      masks: what the calibrated segmenter decides (sense/segmenter.hpp): a Segmenter with the
+//      default SegmenterConfig and the default relative-rule thresholds (SegmenterCalibration{}:
+//      shadow darkness 0.2, contact darkness 0.45, contact warmth 0.08) over m, the empty-skin
+//      model (bilinearly resized to the frame's size as above, then smoothed by the segmenter's
+//      own profile_smoothing), segments the frame (a CV_32FC3 frame is first rounded to 8 bits,
+//      v * 255 saturated as cv::Mat::convertTo does; an RGB one reordered to BGR). The image is
+//      1 where the segmenter's shadow mask is set (R slot), 1 where its contact mask is set (G
+//      slot; both after the mask blur and threshold), the skin test above in the B slot, and 0
+//      elsewhere. The thresholds are the ones every masks model is trained with, not a robot's
+//      fitted ones (which would change what the network sees); the calibration gives the empty
+//      skin. Independent of the light level like darkness_warmth (no lighting normalisation,
+//      never dark);
 //   1. lighting normalisation (classify/lighting_normalise.hpp) when
 //      params.lighting_normalise is set; the brightness factor is then never applied;
 //   2. otherwise the dark-frame rule decides whether the brightness factor applies:
@@ -68,7 +80,7 @@
 //   normalisation switched on
 //   when force_lighting_normalise is true (programs' --lighting-normalise for version-1 model files
 //   that do not record it); false keeps params.lighting_normalise as it is. Forcing it on a
-//   darkness_warmth model throws InvalidArgument naming the option (that encoding takes none).
+//   darkness_warmth or masks model throws InvalidArgument naming the option (those take none).
 // mean_luminance(frame) const -> double
 //   requires: frame CV_8UC3 or CV_32FC3 (0..1) in config().input_order.
 //   ensures: the mean over all pixels of 0.2989 R + 0.587 G + 0.114 B, in 0..1.
@@ -78,7 +90,7 @@
 // run(frame, dark, out)  encodes with the caller's dark flag (evaluations that follow the
 //                        paper's protocol, where dark comes from the collection metadata);
 //                        ignored when lighting normalisation is on or the encoding is
-//                        darkness_warmth.
+//                        light-independent (darkness_warmth, masks).
 //   requires: frame CV_8UC3 (0..255) or CV_32FC3 (0..1) in config().input_order.
 //   ensures: out is the 1 x 3 x h x w input; throws InvalidArgument on a bad frame.
 // encode_input(frame, out) (a calibrated encoding only): stage 0 alone, out CV_32FC3 in 0..1 in
@@ -92,6 +104,7 @@
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
+#include <shadowsense/sense/segmenter.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -198,6 +211,7 @@ public:
       require_empty_skin(e, false);
       config_.empty_skin.release();
       model_.release();
+      segmenter_.reset();
       return;
     }
     if (!(model.dims == 2 && model.type() == CV_32FC3))
@@ -210,6 +224,7 @@ public:
           "expected brightness relative to the reference (about 1 on the skin)"));
     config_.empty_skin = model.clone();
     model_.release(); // resized (and reordered) for the first frame's size
+    segmenter_.reset();
   }
 
   void set_camera_px_per_cm(double v) {
@@ -280,8 +295,8 @@ public:
   void run(const cv::Mat& frame, Tensor& out) {
     check_frame(frame);
     const float t = config_.params.dark_luminance_threshold;
-    const bool dark =
-        !lighting_normalise() && t > 0.0f && checked_mean_luminance(frame) < double(t);
+    const bool dark = !lighting_normalise() && !light_independent(input_encoding()) && t > 0.0f &&
+                      checked_mean_luminance(frame) < double(t);
     checked_run(frame, dark, out);
   }
   void run(const cv::Mat& frame, bool dark, Tensor& out) {
@@ -301,7 +316,7 @@ private:
   }
   void checked_run(const cv::Mat& frame, bool dark, Tensor& out) {
     // The encoded images are finite and in 0..1 by construction: no second range check.
-    if (input_encoding() == InputEncoding::darkness_warmth) {
+    if (light_independent(input_encoding())) {
       encode_calibrated(frame, encoded_); // independent of the light: never dark
       pre_.run_in_range(rescale(encoded_, scaled_), false, out);
     } else if (input_encoding() == InputEncoding::skin_relative) {
@@ -327,11 +342,13 @@ private:
   }
 
   static PreprocessParams forced(PreprocessParams p, bool force) {
-    if (force && p.input_encoding == InputEncoding::darkness_warmth)
+    if (force && light_independent(p.input_encoding))
       SHADOWSENSE_THROW(InvalidArgument(
-          "FrameEncoder: lighting normalisation was asked for (a program's --lighting-normalise) "
-          "with a model whose input encoding is darkness_warmth, which has the light divided out "
-          "and takes none: drop the option"));
+          std::string("FrameEncoder: lighting normalisation was asked for (a program's "
+                      "--lighting-normalise) with a model whose input encoding is ") +
+          to_string(p.input_encoding) +
+          ", which has the light divided out and takes none: "
+          "drop the option"));
     if (force) p.lighting_normalise = true;
     return p;
   }
@@ -369,6 +386,8 @@ private:
   void encode_calibrated(const cv::Mat& frame, cv::Mat& out) {
     if (input_encoding() == InputEncoding::darkness_warmth)
       darkness_warmth(frame, out);
+    else if (input_encoding() == InputEncoding::masks)
+      masks(frame, out);
     else
       skin_relative(frame, out);
   }
@@ -464,6 +483,46 @@ private:
                                         ", expected 0..1"));
   }
 
+  // The segmenter's shadow and contact masks beside the skin test (header comment).
+  void masks(const cv::Mat& frame, cv::Mat& out) {
+    check_float_frame(frame);
+    model_for(frame.size());
+    const bool rgb = config_.input_order == ChannelOrder::rgb;
+    const cv::Mat* bgr = &frame;
+    if (frame.type() == CV_32FC3) {
+      frame.convertTo(bgr8_, CV_8UC3, 255.0);
+      if (rgb) cv::cvtColor(bgr8_, bgr8_, cv::COLOR_RGB2BGR);
+      bgr = &bgr8_;
+    } else if (rgb) {
+      cv::cvtColor(frame, bgr8_, cv::COLOR_RGB2BGR);
+      bgr = &bgr8_;
+    }
+    if (!segmenter_ || segmenter_size_ != frame.size()) {
+      SegmenterConfig sc;
+      const cv::Mat& m = config_.empty_skin; // BGR, the calibration's order
+      if (m.size() == frame.size())
+        sc.calibration.empty_skin = m;
+      else
+        cv::resize(m, sc.calibration.empty_skin, frame.size(), 0, 0, cv::INTER_LINEAR);
+      segmenter_.emplace(sc);
+      segmenter_size_ = frame.size();
+    }
+    segmenter_->segment(*bgr, segmentation_);
+    out.create(frame.rows, frame.cols, CV_32FC3);
+    const int b = rgb ? 2 : 0, r = 2 - b;
+    for (int y = 0; y < frame.rows; ++y) {
+      const unsigned char* shadow = segmentation_.shadow_mask.ptr<unsigned char>(y);
+      const unsigned char* contact = segmentation_.contact_mask.ptr<unsigned char>(y);
+      const unsigned char* skin = skin_.ptr<unsigned char>(y);
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < frame.cols; ++x, d += 3) {
+        d[r] = shadow[x] ? 1.0f : 0.0f;
+        d[1] = contact[x] ? 1.0f : 0.0f;
+        d[b] = skin[x] ? 1.0f : 0.0f;
+      }
+    }
+  }
+
   // min(q, 1) on the skin, 0 off it.
   void skin_relative(const cv::Mat& frame, cv::Mat& out) {
     skin_quotient(frame, out);
@@ -479,9 +538,13 @@ private:
   Preprocessor pre_;
   LightingNormaliser norm_;
   cv::Mat float_, encoded_, model_, scaled_;
-  cv::Mat divisor_, skin_;           // max(model_, model_floor); the skin test (0/1)
-  std::vector<float> reference_row_; // darkness_warmth: r per value of a row
-  cv::Mat shrunk_;                   // rescale()'s shrunk frame before its border is filled
+  cv::Mat divisor_, skin_;             // max(model_, model_floor); the skin test (0/1)
+  std::vector<float> reference_row_;   // darkness_warmth: r per value of a row
+  std::optional<Segmenter> segmenter_; // masks: made for the first frame of a size
+  cv::Size segmenter_size_{};
+  Segmentation segmentation_{};
+  cv::Mat bgr8_;   // masks: a float or RGB frame as the segmenter's 8-bit BGR
+  cv::Mat shrunk_; // rescale()'s shrunk frame before its border is filled
   LightingNormaliser::Table table_{};
   std::array<std::array<int, reference_bins>, 3> hist_{}; // darkness_warmth's reference
 };

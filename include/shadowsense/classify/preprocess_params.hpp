@@ -17,6 +17,10 @@
 //                  and warmth maps beside the skin mask; independent of the light level, so a
 //                  model with it never takes lighting normalisation or the brightness factor.
 //                  Needs a calibration with an empty-skin model.
+//   masks          what the calibrated segmenter decides (sense/segmenter.hpp): its shadow and
+//                  contact masks (after the mask blur and threshold) beside the skin mask, as
+//                  0 / 1; independent of the light level like darkness_warmth. Needs a
+//                  calibration with an empty-skin model.
 //   to_string(e) / parse_input_encoding(name) -> optional: the names above.
 //
 // PreprocessParams
@@ -29,8 +33,9 @@
 //   lighting_normalise    scale every channel's mean to lighting_target first (and never
 //                         apply the brightness factor: the normalisation replaces it)
 //   lighting_target       the channel mean after normalisation, in (0, 1]
-//   input_encoding        InputEncoding above (0 colour, 1 skin_relative, 2 darkness_warmth);
-//                         darkness_warmth with lighting_normalise is refused
+//   input_encoding        InputEncoding above (0 colour, 1 skin_relative, 2 darkness_warmth,
+//                         3 masks); a light-independent one (light_independent: darkness_warmth,
+//                         masks) with lighting_normalise is refused
 //   dark_luminance_threshold
 //                         the dark-frame rule: a frame is dark (gets the brightness factor)
 //                         exactly when the mean of 0.2989 R + 0.587 G + 0.114 B over the whole
@@ -65,19 +70,30 @@ SHADOWSENSE_NAMESPACE_BEGIN
 enum class ChannelOrder : std::uint32_t { rgb = 0, bgr = 1 };
 
 // What the network sees of a frame (see the header comment).
-enum class InputEncoding : std::uint32_t { colour = 0, skin_relative = 1, darkness_warmth = 2 };
+enum class InputEncoding : std::uint32_t {
+  colour = 0,
+  skin_relative = 1,
+  darkness_warmth = 2,
+  masks = 3
+};
 
 inline constexpr const char* to_string(InputEncoding e) {
   return e == InputEncoding::colour            ? "colour"
          : e == InputEncoding::skin_relative   ? "skin_relative"
          : e == InputEncoding::darkness_warmth ? "darkness_warmth"
+         : e == InputEncoding::masks           ? "masks"
                                                : "unknown";
 }
 inline std::optional<InputEncoding> parse_input_encoding(std::string_view name) {
   if (name == "colour") return InputEncoding::colour;
   if (name == "skin_relative") return InputEncoding::skin_relative;
   if (name == "darkness_warmth") return InputEncoding::darkness_warmth;
+  if (name == "masks") return InputEncoding::masks;
   return std::nullopt;
+}
+// True when the encoding has the light level divided out: no lighting normalisation, never dark.
+inline constexpr bool light_independent(InputEncoding e) {
+  return e == InputEncoding::darkness_warmth || e == InputEncoding::masks;
 }
 // True when frames can only be encoded with a calibration's empty-skin model.
 inline constexpr bool needs_calibration(InputEncoding e) {
@@ -149,13 +165,16 @@ struct PreprocessParams {
                            ", expected a value in [0, 1] (0 = no frame is dark)");
     detail::require<E>(input_encoding == InputEncoding::colour ||
                            input_encoding == InputEncoding::skin_relative ||
-                           input_encoding == InputEncoding::darkness_warmth,
+                           input_encoding == InputEncoding::darkness_warmth ||
+                           input_encoding == InputEncoding::masks,
                        "preprocessing: input encoding code " +
                            std::to_string(static_cast<std::uint32_t>(input_encoding)) +
-                           ", expected 0 (colour), 1 (skin_relative) or 2 (darkness_warmth)");
-    detail::require<E>(!(input_encoding == InputEncoding::darkness_warmth && lighting_normalise),
-                       "preprocessing: the darkness_warmth input encoding is already independent "
-                       "of the light level and takes no lighting normalisation (turn it off)");
+                           ", expected 0 (colour), 1 (skin_relative), 2 (darkness_warmth) or 3 "
+                           "(masks)");
+    detail::require<E>(!(light_independent(input_encoding) && lighting_normalise),
+                       std::string("preprocessing: the ") + to_string(input_encoding) +
+                           " input encoding is already independent of the light level and takes "
+                           "no lighting normalisation (turn it off)");
   }
 };
 

@@ -1,0 +1,42 @@
+"""encode_input: the calibrated classifier encodings of the C++ frame encoder, the masks one
+as tools/train.py --input-encoding masks trains on it."""
+import numpy as np
+import pytest
+
+import shadowsense as ss
+
+
+def test_masks_are_the_segmenters_shadow_and_contact(sequence):
+    calibration = ss.load_calibration(sequence.calibration_path)
+    touched = next(i for i in range(len(sequence.images))
+                   if ss.Segmenter(calibration).segment(sequence.images[i]).shadow_box)
+    frame = sequence.images[touched]
+    out = ss.encode_input(frame, "masks", calibration)
+    assert out.shape == frame.shape and out.dtype == np.float32
+    assert set(np.unique(out).tolist()) <= {0.0, 1.0}
+    skin, contact, shadow = out[..., 0], out[..., 1], out[..., 2]  # B, G, R slots
+    assert 0.2 < skin.mean() <= 1.0
+    assert not (shadow * (1 - skin)).any()  # nothing is segmented off the skin
+    assert shadow.sum() > 100
+    # The shadow pixels lie in the shadow box the segmenter reports for the frame.
+    x, y, w, h = ss.Segmenter(calibration).segment(frame).shadow_box
+    inside = shadow[y:y + h, x:x + w].sum()
+    assert inside / shadow.sum() >= 0.9
+    # The empty skin: next to no shadow.
+    empty = ss.encode_input(sequence.images[0], "masks", calibration)
+    assert empty[..., 2].sum() < 0.01 * shadow.size
+    assert np.array_equal(empty[..., 0], skin)  # the skin test reads the model, not the frame
+
+
+def test_the_other_calibrated_encodings_and_errors(sequence):
+    calibration = ss.load_calibration(sequence.calibration_path)
+    frame = sequence.images[0]
+    for encoding in ("skin_relative", "darkness_warmth"):
+        out = ss.encode_input(frame, encoding, calibration)
+        assert out.shape == frame.shape and 0.0 <= out.min() and out.max() <= 1.0
+    with pytest.raises(ValueError, match="input encoding 'colour'"):
+        ss.encode_input(frame, "colour", calibration)
+    with pytest.raises(ValueError, match="input encoding 'mask'"):
+        ss.encode_input(frame, "mask", calibration)
+    with pytest.raises(ValueError, match="expected a non-empty C-contiguous HxWx3 uint8"):
+        ss.encode_input(frame.astype(np.float32), "masks", calibration)
