@@ -471,6 +471,37 @@ TEST_CASE("masks: the segmenter's shadow and contact masks beside the skin test,
   CHECK(e.at<cv::Vec3f>(5, 5) == cv::Vec3f(0.0f, 0.0f, 0.0f));
 }
 
+TEST_CASE("darkness_contact: darkness_warmth's darkness and skin, the masks' contact plane") {
+  const MaskSkin skin;
+  const cv::Mat frame = skin.frame(0.8f);
+  FrameEncoder dc(
+      {identity_params(InputEncoding::darkness_contact), ChannelOrder::bgr, skin.model}),
+      dw({identity_params(InputEncoding::darkness_warmth), ChannelOrder::bgr, skin.model}),
+      mk({identity_params(InputEncoding::masks), ChannelOrder::bgr, skin.model});
+  const Tensor c = encode(dc, frame), d = encode(dw, frame), m = encode(mk, frame);
+  REQUIRE(c.size() == d.size());
+  const std::size_t plane = static_cast<std::size_t>(c.h() * c.w());
+  auto equal_plane = [&](const Tensor& a, int pa, const Tensor& b, int pb) {
+    return std::equal(a.data() + pa * plane, a.data() + (pa + 1) * plane, b.data() + pb * plane);
+  };
+  CHECK(equal_plane(c, 0, d, 0)); // darkness
+  CHECK(equal_plane(c, 1, m, 1)); // the contact mask
+  CHECK(equal_plane(c, 2, d, 2)); // skin
+  CHECK(c(0, 1, 68, 110) == 1.0f);
+  CHECK(c(0, 1, 45, 40) == 0.0f); // shadow, no contact
+  CHECK(c(0, 0, 45, 40) == doctest::Approx(0.6).epsilon(0.02));
+  // Light-independent: the dark flag changes nothing; lighting normalisation is refused.
+  CHECK(same(encode(dc, frame, true), c));
+  CHECK_THROWS_WITH_AS(
+      FrameEncoder(identity_params(InputEncoding::darkness_contact), true, skin.model),
+      doctest::Contains("whose input encoding is darkness_contact"), InvalidArgument);
+  CHECK_THROWS_WITH_AS(
+      FrameEncoder({identity_params(InputEncoding::darkness_contact), ChannelOrder::bgr}),
+      doctest::Contains("darkness_contact, which needs a calibration"), InvalidArgument);
+  CHECK(parse_input_encoding("darkness_contact") == InputEncoding::darkness_contact);
+  CHECK(light_independent(InputEncoding::darkness_contact));
+}
+
 TEST_CASE("masks is refused without a calibration and with lighting normalisation") {
   PreprocessParams p = identity_params(InputEncoding::masks);
   CHECK_THROWS_WITH_AS(FrameEncoder({p, ChannelOrder::bgr}),

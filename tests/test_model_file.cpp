@@ -367,9 +367,9 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   CHECK(std::equal(v2.begin() + static_cast<long>(at), v2.end() - 4,
                    bytes.begin() + static_cast<long>(at) + 4));
   auto bad = bytes;
-  write_u32(bad, at, 4);
+  write_u32(bad, at, 5);
   fix_crc(bad);
-  CHECK(load_error(bad).find("colour models are version 2 or 3) is 4, expected 1..3") !=
+  CHECK(load_error(bad).find("colour models are version 2 or 3) is 5, expected 1..4") !=
         std::string::npos);
   // Code 2, darkness_warmth: refused with lighting normalisation (it takes none), loaded
   // without.
@@ -395,6 +395,16 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   const auto mk_bytes = plain.to_bytes();
   CHECK(read_u32(mk_bytes, at) == 3);
   CHECK(ModelFile::from_bytes(mk_bytes).preprocess.input_encoding == InputEncoding::masks);
+  plain.preprocess.input_encoding = InputEncoding::darkness_contact; // code 4
+  const auto dc_bytes = plain.to_bytes();
+  CHECK(read_u32(dc_bytes, at) == 4);
+  CHECK(ModelFile::from_bytes(dc_bytes).preprocess.input_encoding ==
+        InputEncoding::darkness_contact);
+  auto dcn = normalised.to_bytes(); // with lighting normalisation: refused like masks
+  write_u32(dcn, at, 4);
+  fix_crc(dcn);
+  CHECK(load_error(dcn).find("darkness_contact input encoding is already independent") !=
+        std::string::npos);
   bad = bytes;
   write_u32(bad, bad.size() - 8, 2);
   fix_crc(bad);
@@ -405,7 +415,7 @@ TEST_CASE("version 4 records the input encoding; colour models stay version 2 by
   write_u32(bad, at, 0);
   fix_crc(bad);
   CHECK(load_error(bad).find("input encoding (version 4 records a calibrated one; colour models "
-                             "are version 2 or 3) is 0, expected 1..3") != std::string::npos);
+                             "are version 2 or 3) is 0, expected 1..4") != std::string::npos);
   // The truncation check covers the new fields too.
   for (std::size_t cut : {at + 2, bytes.size() - 6})
     CHECK(load_error({bytes.begin(), bytes.begin() + static_cast<long>(cut)}).find("truncated") !=

@@ -23,8 +23,8 @@ VERSION_INT8 = 3
 # encoding after the dark-frame threshold and an int8 flag before the checksum; written only for
 # an encoding other than colour, so colour models stay version 2.
 VERSION_ENCODED = 4
-# InputEncoding codes 0, 1, 2, 3
-INPUT_ENCODINGS = ("colour", "skin_relative", "darkness_warmth", "masks")
+# InputEncoding codes 0, 1, 2, 3, 4
+INPUT_ENCODINGS = ("colour", "skin_relative", "darkness_warmth", "masks", "darkness_contact")
 DEFAULT_LIGHTING_TARGET = 0.35  # LightingNormaliser::Config::target
 MAX_BLOCKS = 16
 
@@ -77,7 +77,7 @@ def read_header(data, path, versions=(1, VERSION, VERSION_INT8, VERSION_ENCODED)
         code = u32()
         if not 1 <= code < len(INPUT_ENCODINGS):  # colour is never version 4
             raise ValueError(f"{path}: input encoding code {code}, expected 1 (skin_relative), "
-                             f"2 (darkness_warmth) or 3 (masks)")
+                             f"2 (darkness_warmth), 3 (masks) or 4 (darkness_contact)")
         encoding = INPUT_ENCODINGS[code]
     arch = dict(growth=growth, blocks=blocks, init=init, bn_size=bn_size, classes=classes, eps=eps)
     pre = dict(resize_width=rw, resize_height=rh, crop_width=cw, crop_height=ch,

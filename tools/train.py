@@ -24,6 +24,8 @@ encoding of include/shadowsense/classify/frame_encoder.hpp (--input-encoding):
                   C++ library itself through its Python module (shadowsense.encode_input, the
                   code the classifier runs at inference): build it and put <build>/python on
                   PYTHONPATH (models/make_c11.sh does).
+  darkness_contact darkness_warmth's darkness map, the masks encoding's contact mask in place of
+                  warmth, and the skin mask (a combination); made by the library like masks.
 
 Modes
   --mode scratch    a compact DenseNet (--growth-rate/--block-config/--init-features/--bn-size)
@@ -91,7 +93,9 @@ REFERENCE_BINS = 1024
 REFERENCE_BINS_PER_UNIT = 512.0
 REFERENCE_FLOOR = 1.0 / 64.0
 # The encodings with the light level divided out (light_independent, preprocess_params.hpp).
-LIGHT_INDEPENDENT = ("darkness_warmth", "masks")
+LIGHT_INDEPENDENT = ("darkness_warmth", "masks", "darkness_contact")
+# The encodings that run the library's segmenter (through its Python module).
+SEGMENTED = ("masks", "darkness_contact")
 
 
 # ---------------------------------------------------------------------------------- model file
@@ -411,24 +415,25 @@ def library():
     try:
         import shadowsense
     except ImportError as e:
-        raise SystemExit(f"train.py: --input-encoding masks runs the library's segmenter through "
-                         f"its Python module, which cannot be imported ({e}): build the project "
-                         f"and set PYTHONPATH=<build>/python")
+        raise SystemExit(f"train.py: --input-encoding masks / darkness_contact run the library's "
+                         f"segmenter through its Python module, which cannot be imported ({e}): "
+                         f"build the project and set PYTHONPATH=<build>/python")
     return shadowsense
 
 
-def masks(x, calibration):
-    """The masks encoding of FrameEncoder, computed by the library itself: x RGB 3 x H x W in
-    [0, 1] from an 8-bit image (exact in uint8), calibration the library's Calibration."""
+def segmented(x, encoding, calibration):
+    """The masks or darkness_contact encoding of FrameEncoder, computed by the library itself:
+    x RGB 3 x H x W in [0, 1] from an 8-bit image (exact in uint8), calibration the library's
+    Calibration."""
     bgr = x.flip(0).mul(255).round().to(torch.uint8).permute(1, 2, 0).contiguous().numpy()
-    out = library().encode_input(bgr, "masks", calibration)  # H x W x 3, B G R slots
+    out = library().encode_input(bgr, encoding, calibration)  # H x W x 3, B G R slots
     return torch.from_numpy(out).permute(2, 0, 1).flip(0).contiguous()
 
 
 def encode(x, pre, empty_skin=None):
     """The frame -> the Preprocessor's input image (stage 0 of FrameEncoder)."""
-    if pre.get("input_encoding", "colour") == "masks":
-        return masks(x, empty_skin)
+    if pre.get("input_encoding", "colour") in SEGMENTED:
+        return segmented(x, pre["input_encoding"], empty_skin)
     if pre.get("input_encoding", "colour") == "skin_relative":
         return skin_relative(x, empty_skin)
     if pre.get("input_encoding", "colour") == "darkness_warmth":
@@ -608,7 +613,7 @@ def main(argv=None):
     if missing:
         raise SystemExit(f"no training images of class(es) {missing}")
 
-    empty_skins = (EmptySkins(args.data, args.calibration, whole=args.input_encoding == "masks")
+    empty_skins = (EmptySkins(args.data, args.calibration, whole=args.input_encoding in SEGMENTED)
                    if args.input_encoding != "colour" else None)
     xt, yt, dt = cache(train_rows, pre, args.lighting_normalise, classes, "train", empty_skins)
     xv, yv, dv = cache(val_rows, pre, args.lighting_normalise, classes, "val", empty_skins)

@@ -761,8 +761,8 @@ PYBIND11_MODULE(_shadowsense, m) {
         const std::optional<ss::InputEncoding> e = ss::parse_input_encoding(encoding);
         if (!e || *e == ss::InputEncoding::colour)
           throw py::value_error("encode_input: input encoding '" + encoding +
-                                "', expected skin_relative, darkness_warmth or masks (colour "
-                                "is the frame itself)");
+                                "', expected skin_relative, darkness_warmth, masks or "
+                                "darkness_contact (colour is the frame itself)");
         ss::PreprocessParams p;
         p.input_encoding = *e;
         ss::FrameEncoder encoder(
@@ -780,8 +780,8 @@ PYBIND11_MODULE(_shadowsense, m) {
       py::arg("frame"), py::arg("encoding"), py::arg("calibration"),
       "The input encoding of a calibrated classifier (classify/frame_encoder.hpp, stage 0) of\n"
       "one HxWx3 uint8 BGR frame -> HxWx3 float32 in 0..1, BGR slots. encoding: skin_relative,\n"
-      "darkness_warmth or masks; calibration: holds the empty-skin model (InvalidArgument\n"
-      "naming the encoding otherwise). A new encoder per call: for training, not a loop.");
+      "darkness_warmth, masks or darkness_contact; calibration: holds the empty-skin model\n"
+      "(InvalidArgument naming the encoding otherwise). A new encoder per call: for training.");
   // The frame check alone, for the zero-copy test: the address the cv::Mat header points at.
   m.def(
       "_frame_address",

@@ -31,9 +31,16 @@ def test_masks_are_the_segmenters_shadow_and_contact(sequence):
 def test_the_other_calibrated_encodings_and_errors(sequence):
     calibration = ss.load_calibration(sequence.calibration_path)
     frame = sequence.images[0]
-    for encoding in ("skin_relative", "darkness_warmth"):
+    for encoding in ("skin_relative", "darkness_warmth", "darkness_contact"):
         out = ss.encode_input(frame, encoding, calibration)
         assert out.shape == frame.shape and 0.0 <= out.min() and out.max() <= 1.0
+    # The combination: darkness_warmth's darkness and skin, the masks' contact plane.
+    touched = sequence.images[len(sequence.images) // 2]
+    dc = ss.encode_input(touched, "darkness_contact", calibration)
+    dw = ss.encode_input(touched, "darkness_warmth", calibration)
+    mk = ss.encode_input(touched, "masks", calibration)
+    assert np.array_equal(dc[..., [0, 2]], dw[..., [0, 2]])
+    assert np.array_equal(dc[..., 1], mk[..., 1])
     with pytest.raises(ValueError, match="input encoding 'colour'"):
         ss.encode_input(frame, "colour", calibration)
     with pytest.raises(ValueError, match="input encoding 'mask'"):

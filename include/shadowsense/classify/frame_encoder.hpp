@@ -38,6 +38,9 @@
 //      fitted ones (which would change what the network sees); the calibration gives the empty
 //      skin. Independent of the light level like darkness_warmth (no lighting normalisation,
 //      never dark);
+//      darkness_contact (a combination): darkness_warmth's image with the masks encoding's
+//      contact plane in the warmth slot (G): darkness, the segmenter's contact decision, skin.
+//      Light-independent likewise;
 //   1. lighting normalisation (classify/lighting_normalise.hpp) when
 //      params.lighting_normalise is set; the brightness factor is then never applied;
 //   2. otherwise the dark-frame rule decides whether the brightness factor applies:
@@ -388,6 +391,8 @@ private:
       darkness_warmth(frame, out);
     else if (input_encoding() == InputEncoding::masks)
       masks(frame, out);
+    else if (input_encoding() == InputEncoding::darkness_contact)
+      darkness_contact(frame, out);
     else
       skin_relative(frame, out);
   }
@@ -487,6 +492,36 @@ private:
   void masks(const cv::Mat& frame, cv::Mat& out) {
     check_float_frame(frame);
     model_for(frame.size());
+    segment(frame);
+    out.create(frame.rows, frame.cols, CV_32FC3);
+    const int b = config_.input_order == ChannelOrder::rgb ? 2 : 0, r = 2 - b;
+    for (int y = 0; y < frame.rows; ++y) {
+      const unsigned char* shadow = segmentation_.shadow_mask.ptr<unsigned char>(y);
+      const unsigned char* contact = segmentation_.contact_mask.ptr<unsigned char>(y);
+      const unsigned char* skin = skin_.ptr<unsigned char>(y);
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < frame.cols; ++x, d += 3) {
+        d[r] = shadow[x] ? 1.0f : 0.0f;
+        d[1] = contact[x] ? 1.0f : 0.0f;
+        d[b] = skin[x] ? 1.0f : 0.0f;
+      }
+    }
+  }
+
+  // darkness_warmth's image, the contact mask in the warmth slot (header comment).
+  void darkness_contact(const cv::Mat& frame, cv::Mat& out) {
+    darkness_warmth(frame, out);
+    segment(frame);
+    for (int y = 0; y < frame.rows; ++y) {
+      const unsigned char* contact = segmentation_.contact_mask.ptr<unsigned char>(y);
+      float* d = out.ptr<float>(y);
+      for (int x = 0; x < frame.cols; ++x) d[3 * x + 1] = contact[x] ? 1.0f : 0.0f;
+    }
+  }
+
+  // segmentation_ of the frame by the masks encoding's segmenter (header comment); the frame
+  // has passed check_float_frame.
+  void segment(const cv::Mat& frame) {
     const bool rgb = config_.input_order == ChannelOrder::rgb;
     const cv::Mat* bgr = &frame;
     if (frame.type() == CV_32FC3) {
@@ -508,19 +543,6 @@ private:
       segmenter_size_ = frame.size();
     }
     segmenter_->segment(*bgr, segmentation_);
-    out.create(frame.rows, frame.cols, CV_32FC3);
-    const int b = rgb ? 2 : 0, r = 2 - b;
-    for (int y = 0; y < frame.rows; ++y) {
-      const unsigned char* shadow = segmentation_.shadow_mask.ptr<unsigned char>(y);
-      const unsigned char* contact = segmentation_.contact_mask.ptr<unsigned char>(y);
-      const unsigned char* skin = skin_.ptr<unsigned char>(y);
-      float* d = out.ptr<float>(y);
-      for (int x = 0; x < frame.cols; ++x, d += 3) {
-        d[r] = shadow[x] ? 1.0f : 0.0f;
-        d[1] = contact[x] ? 1.0f : 0.0f;
-        d[b] = skin[x] ? 1.0f : 0.0f;
-      }
-    }
   }
 
   // min(q, 1) on the skin, 0 off it.

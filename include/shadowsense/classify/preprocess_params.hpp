@@ -21,6 +21,9 @@
 //                  contact masks (after the mask blur and threshold) beside the skin mask, as
 //                  0 / 1; independent of the light level like darkness_warmth. Needs a
 //                  calibration with an empty-skin model.
+//   darkness_contact a combination: darkness_warmth's darkness map, the masks encoding's contact
+//                  mask in place of warmth, and the skin mask; light-independent. Needs a
+//                  calibration with an empty-skin model.
 //   to_string(e) / parse_input_encoding(name) -> optional: the names above.
 //
 // PreprocessParams
@@ -34,8 +37,9 @@
 //                         apply the brightness factor: the normalisation replaces it)
 //   lighting_target       the channel mean after normalisation, in (0, 1]
 //   input_encoding        InputEncoding above (0 colour, 1 skin_relative, 2 darkness_warmth,
-//                         3 masks); a light-independent one (light_independent: darkness_warmth,
-//                         masks) with lighting_normalise is refused
+//                         3 masks, 4 darkness_contact); a light-independent one
+//                         (light_independent: all but colour and skin_relative) with
+//                         lighting_normalise is refused
 //   dark_luminance_threshold
 //                         the dark-frame rule: a frame is dark (gets the brightness factor)
 //                         exactly when the mean of 0.2989 R + 0.587 G + 0.114 B over the whole
@@ -74,26 +78,30 @@ enum class InputEncoding : std::uint32_t {
   colour = 0,
   skin_relative = 1,
   darkness_warmth = 2,
-  masks = 3
+  masks = 3,
+  darkness_contact = 4
 };
 
 inline constexpr const char* to_string(InputEncoding e) {
-  return e == InputEncoding::colour            ? "colour"
-         : e == InputEncoding::skin_relative   ? "skin_relative"
-         : e == InputEncoding::darkness_warmth ? "darkness_warmth"
-         : e == InputEncoding::masks           ? "masks"
-                                               : "unknown";
+  return e == InputEncoding::colour             ? "colour"
+         : e == InputEncoding::skin_relative    ? "skin_relative"
+         : e == InputEncoding::darkness_warmth  ? "darkness_warmth"
+         : e == InputEncoding::masks            ? "masks"
+         : e == InputEncoding::darkness_contact ? "darkness_contact"
+                                                : "unknown";
 }
 inline std::optional<InputEncoding> parse_input_encoding(std::string_view name) {
   if (name == "colour") return InputEncoding::colour;
   if (name == "skin_relative") return InputEncoding::skin_relative;
   if (name == "darkness_warmth") return InputEncoding::darkness_warmth;
   if (name == "masks") return InputEncoding::masks;
+  if (name == "darkness_contact") return InputEncoding::darkness_contact;
   return std::nullopt;
 }
 // True when the encoding has the light level divided out: no lighting normalisation, never dark.
 inline constexpr bool light_independent(InputEncoding e) {
-  return e == InputEncoding::darkness_warmth || e == InputEncoding::masks;
+  return e == InputEncoding::darkness_warmth || e == InputEncoding::masks ||
+         e == InputEncoding::darkness_contact;
 }
 // True when frames can only be encoded with a calibration's empty-skin model.
 inline constexpr bool needs_calibration(InputEncoding e) {
@@ -166,11 +174,12 @@ struct PreprocessParams {
     detail::require<E>(input_encoding == InputEncoding::colour ||
                            input_encoding == InputEncoding::skin_relative ||
                            input_encoding == InputEncoding::darkness_warmth ||
-                           input_encoding == InputEncoding::masks,
+                           input_encoding == InputEncoding::masks ||
+                           input_encoding == InputEncoding::darkness_contact,
                        "preprocessing: input encoding code " +
                            std::to_string(static_cast<std::uint32_t>(input_encoding)) +
-                           ", expected 0 (colour), 1 (skin_relative), 2 (darkness_warmth) or 3 "
-                           "(masks)");
+                           ", expected 0 (colour), 1 (skin_relative), 2 (darkness_warmth), 3 "
+                           "(masks) or 4 (darkness_contact)");
     detail::require<E>(!(light_independent(input_encoding) && lighting_normalise),
                        std::string("preprocessing: the ") + to_string(input_encoding) +
                            " input encoding is already independent of the light level and takes "

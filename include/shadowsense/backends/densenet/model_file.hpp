@@ -753,7 +753,7 @@ inline ModelFile ModelFile::from_bytes(std::span<const std::uint8_t> bytes) {
     p.input_encoding = static_cast<InputEncoding>(
         r.count("input encoding (version 4 records a calibrated one; colour models are version 2 "
                 "or 3)",
-                1, static_cast<std::uint32_t>(InputEncoding::masks)));
+                1, static_cast<std::uint32_t>(InputEncoding::darkness_contact)));
   p.validate<ModelFileError>();
   // class names
   r.section = "class names";
