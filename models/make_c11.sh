@@ -1,21 +1,9 @@
 #!/bin/sh
-# Reproduces models/candidates/c11.ssm, candidate C11 of issue 21 ("an input the renderer cannot
-# hide behind"): C4's and C7's data (models/make_c4.sh: C2's users, seeds, frames, scales, real
-# rps hands, each session with its empty-skin calibration) and training budget (architecture,
-# epochs, augmentation, seed), with the classifier's input encoded masks
-# (docs/input_encodings.md): the segmenter's shadow and contact masks beside the skin mask,
-# computed by the library itself through its Python module (BUILD_DIR/python, built with the
-# project). Light-independent like C7's darkness_warmth: no lighting normalisation, contrast 1.
-# docs/validation_protocol.md, "Issue 21, encodings: masks". About 45 minutes of one core.
+# Reproduces models/candidates/c11.ssm, candidate C11 of issue 21: C7's data and budget with the
+# input encoded masks (the segmenter's shadow and contact masks beside the skin mask).
+# models/segmenter_encoding_recipe.sh says the rest; docs/validation_protocol.md, "Issue 21,
+# encodings: masks". About 45 minutes of one core.
 #   sh models/make_c11.sh [BUILD_DIR] [WORK_DIR] [OUT] [HANDS_DIR]
-set -e
 SRC=$(cd "$(dirname "$0")/.." && pwd)
-BUILD=$(cd "${1:-build}" && pwd)
-HANDS=${4:-$SRC/data/hands/rps}
-[ -d "$BUILD/python/shadowsense" ] || { echo "make_c11.sh: $BUILD/python/shadowsense not built" >&2; exit 2; }
-export LIGHTING=
-export PYTHONPATH="$BUILD/python${PYTHONPATH:+:$PYTHONPATH}"
-exec sh "$SRC/models/c0_recipe.sh" "$BUILD" "${2:-/tmp/shadowsense-c11}" \
-  "${3:-$SRC/models/candidates/c11.ssm}" \
-  "--scale-range 0.6,2 --hands $HANDS --hands-split train --real-hand-probability 0.5 --empty-skin" \
-  "--input-encoding masks --contrast 1"
+exec sh "$SRC/models/segmenter_encoding_recipe.sh" masks "${1:-build}" \
+  "${2:-/tmp/shadowsense-c11}" "${3:-$SRC/models/candidates/c11.ssm}" ${4:+"$4"}
