@@ -52,3 +52,12 @@ cal=$(ls "$work/skin/empty_skin/"*.calib | head -n 1)
 status=0
 "$bin/ss_eval_classify" --score "$work/skin.ssm" --data "$work/skin" 2>"$work/err.txt" || status=$?
 test "$status" -eq 2 && grep -q "needs --calibration FILE" "$work/err.txt"
+# An encoding the library's own segmenter makes (darkness_contact: train.py encodes through the
+# Python module's InputEncoder), trained on the same folder, loaded (the embedded self-test) and
+# scored in C++ with each session's calibration.
+py="$bin/../python"
+[ -d "$py/shadowsense" ] || { echo "train_smoke: $py/shadowsense not built" >&2; exit 1; }
+PYTHONPATH="$py" /usr/bin/python3 "$root/tools/train.py" "$work/skin" -o "$work/contact.ssm" \
+  --mode scratch --growth-rate 4 --block-config 2 --init-features 8 --resize 80 44 --epochs 1 \
+  --input-encoding darkness_contact --contrast 1 --classes nothing,hug,palm,point,punch,two_hands
+"$bin/ss_eval_classify" --score "$work/contact.ssm" --data "$work/skin" --session-calibrations

@@ -47,3 +47,20 @@ def test_the_other_calibrated_encodings_and_errors(sequence):
         ss.encode_input(frame, "mask", calibration)
     with pytest.raises(ValueError, match="expected a non-empty C-contiguous HxWx3 uint8"):
         ss.encode_input(frame.astype(np.float32), "masks", calibration)
+
+
+def test_input_encoder_equals_encode_input_over_a_sequence(sequence):
+    """One InputEncoder reused over frames (and a frame of another size) gives exactly what a
+    new encoder per call gives: nothing of one frame leaks into the next."""
+    calibration = ss.load_calibration(sequence.calibration_path)
+    for encoding in ("skin_relative", "darkness_warmth", "masks", "darkness_contact"):
+        encoder = ss.InputEncoder(encoding, calibration)
+        assert encoder.encoding == encoding
+        frames = list(sequence.images) + [np.ascontiguousarray(sequence.images[-1][::2, ::2])]
+        frames.append(sequence.images[0])  # back to the first size after the small one
+        for frame in frames:
+            assert np.array_equal(encoder.encode(frame), ss.encode_input(frame, encoding, calibration))
+    with pytest.raises(ValueError, match="input encoding 'colour'"):
+        ss.InputEncoder("colour", calibration)
+    with pytest.raises(ValueError, match="InputEncoder.encode: the frame has dtype float32"):
+        ss.InputEncoder("masks", calibration).encode(sequence.images[0].astype(np.float32))
