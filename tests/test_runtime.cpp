@@ -12,6 +12,7 @@
 #include <doctest/doctest.h>
 
 #include "common/files.hpp"
+#include "fixture_scenes.hpp"
 
 #include <algorithm>
 #include <filesystem>
@@ -36,32 +37,11 @@ const SimCalibration& calibration() {
   return c;
 }
 
-// 24 frames: empty skin, a palm coming down, touching and sliding, lifted, empty again, a fist.
-std::vector<cv::Mat> sequence() {
-  std::vector<cv::Mat> out;
-  sim::User user;
-  auto hand = [&](sim::HandShape shape, double x, double height) {
-    sim::Scene s;
-    sim::HandPose h;
-    h.shape = shape;
-    h.position_cm = {x, 0};
-    h.height_cm = height;
-    h.rotation_deg = -90;
-    h.arm_elevation_deg = shape == sim::HandShape::fist ? 55 : 35;
-    sim::add_hand(s.parts, user, h);
-    return s;
-  };
-  std::vector<sim::Scene> script(3);
-  for (double h : {8.0, 3.0, 0.0, 0.0}) script.push_back(hand(sim::HandShape::open, -10, h));
-  for (int k = 1; k <= 6; ++k) script.push_back(hand(sim::HandShape::open, -10 + 3 * k, 0));
-  for (double h : {3.0, 12.0}) script.push_back(hand(sim::HandShape::open, 8, h));
-  for (int k = 0; k < 3; ++k) script.emplace_back();
-  for (double h : {4.0, 0.0, 0.0, 0.0, 6.0}) script.push_back(hand(sim::HandShape::fist, 5, h));
-  script.emplace_back();
-  for (std::size_t i = 0; i < script.size(); ++i)
-    out.push_back(
-        renderer().render(script[i], sim::preset(sim::Lighting::daylight), 300 + i).image);
-  return out;
+// 24 frames: empty skin, a palm coming down, touching and sliding, lifted, empty again, a fist
+// (the scripted sequence the Python tests compare against: python/tests/fixture_scenes.hpp).
+const std::vector<cv::Mat>& sequence() {
+  static const std::vector<cv::Mat> frames = python_fixture::touch_sequence().frames;
+  return frames;
 }
 
 const ModelFile& model() {
