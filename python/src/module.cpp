@@ -748,11 +748,12 @@ struct PyInputEncoder {
   ss::ThreadOwner owner;
 };
 
+// what: the caller's name for the error message (encode_input or InputEncoder).
 PyInputEncoder make_input_encoder(const std::string& encoding,
-                                  const ss::SegmenterCalibration& calibration) {
+                                  const ss::SegmenterCalibration& calibration, const char* what) {
   const std::optional<ss::InputEncoding> e = ss::parse_input_encoding(encoding);
   if (!e || *e == ss::InputEncoding::colour)
-    throw py::value_error("encode_input: input encoding '" + encoding +
+    throw py::value_error(std::string(what) + ": input encoding '" + encoding +
                           "', expected skin_relative, darkness_warmth, masks or "
                           "darkness_contact (colour is the frame itself)");
   ss::PreprocessParams p;
@@ -797,7 +798,10 @@ PYBIND11_MODULE(_shadowsense, m) {
       "B G R slots, the same values as encode_input; the empty-skin model is resized once per\n"
       "frame size, not per call (what makes it faster than encode_input over many frames).\n"
       "Threading: one instance per thread (ConcurrentUseError otherwise).")
-      .def(py::init(&make_input_encoder), py::arg("encoding"), py::arg("calibration"))
+      .def(py::init([](const std::string& encoding, const ss::SegmenterCalibration& calibration) {
+             return make_input_encoder(encoding, calibration, "InputEncoder");
+           }),
+           py::arg("encoding"), py::arg("calibration"))
       .def(
           "encode",
           [](PyInputEncoder& self, const py::array& frame) {
@@ -812,7 +816,7 @@ PYBIND11_MODULE(_shadowsense, m) {
       "encode_input",
       [](const py::array& frame, const std::string& encoding,
          const ss::SegmenterCalibration& calibration) {
-        PyInputEncoder e = make_input_encoder(encoding, calibration);
+        PyInputEncoder e = make_input_encoder(encoding, calibration, "encode_input");
         return encode_with(e.encoder, frame, "encode_input");
       },
       py::arg("frame"), py::arg("encoding"), py::arg("calibration"),
