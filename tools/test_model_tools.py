@@ -139,6 +139,25 @@ class TrainOnAPlainTree(unittest.TestCase):
             shutil.rmtree(work)
 
 
+class LearningRateSchedule(unittest.TestCase):
+    """--lr-schedule: constant is the paper's recipe; cosine starts at --lr and halves by the
+    middle epoch."""
+
+    def test_values(self):
+        import train
+        self.assertEqual([train.epoch_lr(1e-3, "constant", e, 4) for e in (1, 4)], [1e-3, 1e-3])
+        self.assertEqual(train.epoch_lr(1e-3, "cosine", 1, 4), 1e-3)
+        self.assertAlmostEqual(train.epoch_lr(1e-3, "cosine", 3, 4), 0.5e-3, delta=1e-15)
+        last = train.epoch_lr(1e-3, "cosine", 4, 4)
+        self.assertAlmostEqual(last, 1e-3 * (1 - 2 ** -0.5) / 2, delta=1e-15)
+        self.assertGreater(last, 0.0)
+
+    def test_unknown_schedule_exits_2(self):
+        r = run("train.py", "unused", "-o", "unused.ssm", "--lr-schedule", "step")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("--lr-schedule", r.stderr)
+
+
 class SkinRelativeEncoding(unittest.TestCase):
     """The skin_relative encoding and the calibration file on the Python side (the C++ side and
     the agreement of the two: tests/test_frame_encoder.cpp)."""

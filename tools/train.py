@@ -4,7 +4,9 @@ library's model file (docs/model_format.md).
 
 Recipe: Adam (lr 1e-3, betas 0.9/0.999, eps 1e-8, weight decay 0), negative log-likelihood on
 log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is kept (ties:
-lower validation loss). Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
+lower validation loss). --lr-schedule cosine (not the paper's) decays the learning rate from --lr
+towards 0 over the epochs (half a cosine, per epoch: epoch e of E trains at
+lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
 bilinear resize without antialias, centre crop, adjust_contrast, adjust_brightness for dark
 images, Normalize), optionally preceded by the lighting normalisation of
 include/shadowsense/classify/lighting_normalise.hpp (--lighting-normalise), and by the input
@@ -56,6 +58,7 @@ so the C++ Classifier encodes frames the same way without flags. The output (and
 """
 import argparse
 import io
+import math
 import os
 import random
 import struct
@@ -491,11 +494,20 @@ def evaluate(model, x, y, dark, pre, normalised, batch=64):
     return loss / len(y), correct / len(y)
 
 
+def epoch_lr(lr, schedule, epoch, epochs):
+    """The learning rate of epoch `epoch` (1-based) of `epochs` under `schedule`."""
+    if schedule == "constant":
+        return lr
+    return lr * (1.0 + math.cos(math.pi * (epoch - 1) / epochs)) / 2.0
+
+
 def train_loop(model, params, forward, n_train, val_fn, args, gen):
     opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999), eps=1e-8, weight_decay=0)
     best = None
     for epoch in range(1, args.epochs + 1):
         t0 = time.time()
+        for group in opt.param_groups:
+            group["lr"] = epoch_lr(args.lr, args.lr_schedule, epoch, args.epochs)
         perm = torch.randperm(n_train, generator=gen)
         total, correct, seen = 0.0, 0, 0
         for i in range(0, n_train, args.batch_size):
@@ -562,6 +574,9 @@ def main(argv=None):
     ap.add_argument("--epochs", type=int, default=20)
     ap.add_argument("--batch-size", type=int, default=16)
     ap.add_argument("--lr", type=float, default=1e-3)
+    ap.add_argument("--lr-schedule", choices=["constant", "cosine"], default="constant",
+                    help="constant (the paper's recipe) or cosine: decay --lr to 0 over the "
+                         "epochs")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
