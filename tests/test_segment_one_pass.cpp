@@ -7,7 +7,8 @@
 // itself finds (whole-frame rule, MaskSmoother::apply, BlobFinder::find). Also for the other
 // mask_blur sizes (0, 3 and 7, which takes the multi-pass path), the paper's fixed colour ranges,
 // and the adaptive model over a sequence. Every available per-row kernel is checked on the
-// frames' rows against the portable one.
+// frames' rows against the portable one. Each blob's area, centroid and mean darkness are also
+// checked against their definition, cv::moments and cv::mean over the blob's box, bit for bit.
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/sense/segment_reference.hpp>
 #include <shadowsense/sense/segmenter.hpp>
@@ -16,6 +17,7 @@
 #include <doctest/doctest.h>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -56,6 +58,23 @@ void check_same_blobs(const std::vector<Blob>& a, const std::vector<Blob>& b) {
     CHECK(a[i].opacity == b[i].opacity);
     CHECK(a[i].touching == b[i].touching);
     CHECK(a[i].hover_height_cm == b[i].hover_height_cm);
+  }
+}
+
+// Area, centroid and mean darkness of each blob as the segmenter defines them:
+// cv::moments(mask(box), true) and cv::mean(darkness(box), mask(box)), bit for bit (the
+// segmenter sums them itself in one pass over the box).
+void check_blob_sums(const std::vector<Blob>& blobs, const cv::Mat& mask, const cv::Mat& darkness) {
+  for (std::size_t i = 0; i < blobs.size(); ++i) {
+    CAPTURE(i);
+    const Blob& b = blobs[i];
+    const cv::Moments m = cv::moments(mask(b.box), true);
+    CHECK(b.area == m.m00);
+    REQUIRE(m.m00 > 0);
+    CHECK(b.centroid == cv::Point2f(static_cast<float>(b.box.x + m.m10 / m.m00),
+                                    static_cast<float>(b.box.y + m.m01 / m.m00)));
+    if (!darkness.empty())
+      CHECK(b.darkness == static_cast<float>(cv::mean(darkness(b.box), mask(b.box))[0]));
   }
 }
 
@@ -103,6 +122,10 @@ int check_frame(Segmenter& one, BasicSegmenter<WholeFrameOnly>& multi, const cv:
   CHECK(a.dropped_contact_blobs == b.dropped_contact_blobs);
   CHECK(a.contact_point == b.contact_point);
   const SegmenterCalibration& c = one.config().calibration;
+  const cv::Mat no_darkness;
+  const cv::Mat& darkness = c.mode == SegmentMode::relative ? one.darkness() : no_darkness;
+  check_blob_sums(a.shadows, a.shadow_mask, darkness);
+  check_blob_sums(a.contacts, a.contact_mask, darkness);
   if (c.mode == SegmentMode::relative) {
     const cv::Vec3f ref = one.last_reference();
     if (!inverse_profile.empty())

@@ -480,14 +480,14 @@ private:
     for (const BlobFinder::Group& g : finder.groups()) {
       Blob b;
       b.box = g.box;
-      const cv::Moments m = cv::moments(mask(g.box), true);
+      const BoxSums m = box_sums(mask, g.box);
       b.area = m.m00;
       b.centroid = m.m00 > 0
                        ? cv::Point2f(static_cast<float>(g.box.x + m.m10 / m.m00),
                                      static_cast<float>(g.box.y + m.m01 / m.m00))
                        : cv::Point2f(g.box.x + g.box.width * 0.5f, g.box.y + g.box.height * 0.5f);
       if (!darkness_.empty()) {
-        b.darkness = static_cast<float>(cv::mean(darkness_(g.box), mask(g.box))[0]);
+        b.darkness = static_cast<float>(m.darkness * (m.m00 > 0 ? 1.0 / m.m00 : 0.0));
         b.edge_width = edge_width(g, b.darkness, finder);
       }
       blobs.push_back(b);
@@ -497,6 +497,35 @@ private:
                               : (a.box.x != b.box.x ? a.box.x < b.box.x : a.box.y < b.box.y);
     });
     return finder.dropped();
+  }
+
+  // The set pixels of mask within box: their count, the sums of their x and y (relative to the
+  // box) and, with a darkness plane, the sum of their darkness in double in row order. These
+  // are the values cv::moments(mask(box), true) (m00, m10, m01: integer sums, exact) and
+  // cv::mean(darkness(box), mask(box)) (sum * (1 / count)) give, bit for bit, in one pass
+  // instead of their per-tile calls, which took about a third of segment() on generator frames.
+  struct BoxSums {
+    double m00 = 0, m10 = 0, m01 = 0, darkness = 0;
+  };
+  BoxSums box_sums(const cv::Mat& mask, cv::Rect box) const {
+    std::int64_t n = 0, sx = 0, sy = 0;
+    double dark = 0;
+    const bool with_darkness = !darkness_.empty();
+    for (int y = 0; y < box.height; ++y) {
+      const uchar* m = mask.ptr<uchar>(box.y + y) + box.x;
+      const float* d = with_darkness ? darkness_.ptr<float>(box.y + y) + box.x : nullptr;
+      std::int64_t row_n = 0, row_x = 0;
+      for (int x = 0; x < box.width; ++x)
+        if (m[x]) {
+          ++row_n;
+          row_x += x;
+          if (with_darkness) dark += static_cast<double>(d[x]);
+        }
+      n += row_n;
+      sx += row_x;
+      sy += row_n * y;
+    }
+    return {static_cast<double>(n), static_cast<double>(sx), static_cast<double>(sy), dark};
   }
 
   // 95th percentile of the darkness over a blob's mask, over twice the frame's shadow threshold.
