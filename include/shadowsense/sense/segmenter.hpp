@@ -503,7 +503,8 @@ private:
   // box) and, with a darkness plane, the sum of their darkness in double in row order. These
   // are the values cv::moments(mask(box), true) (m00, m10, m01: integer sums, exact) and
   // cv::mean(darkness(box), mask(box)) (sum * (1 / count)) give, bit for bit, in one pass
-  // instead of their per-tile calls, which took about a third of segment() on generator frames.
+  // instead of their per-tile calls (a third of segment() on frames with large shadows; see
+  // docs/densenet.md, "Blob sums in one pass").
   struct BoxSums {
     double m00 = 0, m10 = 0, m01 = 0, darkness = 0;
   };
