@@ -6,10 +6,11 @@ Recipe: Adam (lr 1e-3, betas 0.9/0.999, eps 1e-8, weight decay 0), negative log-
 log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is kept (ties:
 lower validation loss). --lr-schedule cosine (not the paper's) decays the learning rate from --lr
 towards 0 over the epochs (half a cosine, per epoch: epoch e of E trains at
-lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. Preprocessing is the C++ Preprocessor's tensor path exactly (ToTensor,
-bilinear resize without antialias, centre crop, adjust_contrast, adjust_brightness for dark
-images, Normalize), optionally preceded by the lighting normalisation of
-include/shadowsense/classify/lighting_normalise.hpp (--lighting-normalise), and by the input
+lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. Preprocessing is the
+C++ Preprocessor's tensor path exactly (ToTensor, bilinear resize without antialias, centre crop,
+adjust_contrast, adjust_brightness for dark images, Normalize), optionally preceded by the
+lighting normalisation of include/shadowsense/classify/lighting_normalise.hpp
+(--lighting-normalise), and by the input
 encoding of include/shadowsense/classify/frame_encoder.hpp (--input-encoding):
   colour          the frame as it is (the default; every model before format version 4)
   skin_relative   the frame over the calibration's empty-skin model, 0 off the skin, clipped
@@ -430,7 +431,8 @@ _ENCODERS = {}
 def input_encoder(encoding, calibration):
     """One library InputEncoder per session calibration and encoding, reused over its frames
     (the same values as a new encoder per frame, 2.5-10x faster by encoding: the empty-skin
-    model, and the masks' segmenter, are prepared once). The calibration is kept in the entry so its id is never reused."""
+    model, and the masks' segmenter, are prepared once). The calibration is kept in the entry so
+    its id is never reused."""
     key = (id(calibration), encoding)
     if key not in _ENCODERS:
         _ENCODERS[key] = (calibration, library().InputEncoder(encoding, calibration))
