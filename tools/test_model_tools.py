@@ -158,6 +158,44 @@ class LearningRateSchedule(unittest.TestCase):
         self.assertIn("--lr-schedule", r.stderr)
 
 
+class WeightAveraging(unittest.TestCase):
+    """--swa-from: the running mean of the parameters, and BatchNorm statistics recomputed as
+    the plain mean over the batches given."""
+
+    def test_running_mean_of_parameters(self):
+        import torch
+        import train
+        lin = torch.nn.Linear(2, 1)
+        avg, n = None, 0
+        for v in (1.0, 2.0, 6.0):
+            with torch.no_grad():
+                lin.weight.fill_(v)
+                lin.bias.fill_(-v)
+            avg, n = train.average_into(avg, lin, n), n + 1
+        self.assertEqual(n, 3)
+        self.assertEqual(avg["weight"].tolist(), [[3.0, 3.0]])
+        self.assertEqual(avg["bias"].tolist(), [-3.0])
+
+    def test_batch_norm_statistics_are_the_mean_over_the_batches(self):
+        import torch
+        import train
+        net = torch.nn.Sequential(torch.nn.Conv2d(1, 1, 1, bias=False), torch.nn.BatchNorm2d(1))
+        with torch.no_grad():
+            net[0].weight.fill_(2.0)
+        net[1].running_mean.fill_(100.0)  # stale statistics, to be replaced
+        batches = [torch.full((2, 1, 2, 2), v) for v in (1.0, 3.0, 8.0)]
+        train.recompute_batch_norm(net, batches)
+        self.assertAlmostEqual(net[1].running_mean.item(), 2.0 * 4.0, places=5)
+        self.assertEqual(net[1].momentum, 0.1)  # restored
+        self.assertTrue(net[1].training)
+
+    def test_out_of_range_exits_2(self):
+        r = run("train.py", "unused", "-o", "unused.ssm", "--epochs", "4", "--swa-from", "5")
+        self.assertEqual(r.returncode, 2)
+        self.assertIn("--swa-from 5", r.stderr)
+        self.assertNotIn("Traceback", r.stderr)
+
+
 class SkinRelativeEncoding(unittest.TestCase):
     """The skin_relative encoding and the calibration file on the Python side (the C++ side and
     the agreement of the two: tests/test_frame_encoder.cpp)."""

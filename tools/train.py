@@ -6,7 +6,10 @@ Recipe: Adam (lr 1e-3, betas 0.9/0.999, eps 1e-8, weight decay 0), negative log-
 log-softmax, batch 16, 20 epochs; the epoch with the best validation accuracy is kept (ties:
 lower validation loss). --lr-schedule cosine (not the paper's) decays the learning rate from --lr
 towards 0 over the epochs (half a cosine, per epoch: epoch e of E trains at
-lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. Preprocessing is the
+lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. --swa-from E (not
+the paper's) keeps the mean of the weights after epochs E..last instead of the best epoch
+(stochastic weight averaging, Izmailov et al. 2018), with the BatchNorm statistics recomputed
+over the training inputs; the validation split then only reports. Preprocessing is the
 C++ Preprocessor's tensor path exactly (ToTensor, bilinear resize without antialias, centre crop,
 adjust_contrast, adjust_brightness for dark images, Normalize), optionally preceded by the
 lighting normalisation of include/shadowsense/classify/lighting_normalise.hpp
@@ -503,9 +506,40 @@ def epoch_lr(lr, schedule, epoch, epochs):
     return lr * (1.0 + math.cos(math.pi * (epoch - 1) / epochs)) / 2.0
 
 
-def train_loop(model, params, forward, n_train, val_fn, args, gen):
+def average_into(avg, model, n):
+    """Running mean of the parameters: avg (a dict name -> tensor, or None) holds the mean of n
+    earlier snapshots; returns the mean with model's current parameters added."""
+    cur = {k: p.detach().clone() for k, p in model.named_parameters()}
+    if avg is None:
+        return cur
+    return {k: avg[k] + (cur[k] - avg[k]) / (n + 1) for k in avg}
+
+
+def recompute_batch_norm(model, batches):
+    """BatchNorm running statistics made again for weights they were not collected with (an
+    average of snapshots): reset, then the plain mean over `batches` (an iterable of inputs; the
+    same size each gives the mean over all their samples), the network in training mode."""
+    norms = [m for m in model.modules() if isinstance(m, torch.nn.modules.batchnorm._BatchNorm)]
+    saved = [m.momentum for m in norms]
+    for m in norms:
+        m.reset_running_stats()
+        m.momentum = None  # cumulative average
+    model.train()
+    with torch.no_grad():
+        for x in batches:
+            model(x)
+    for m, mom in zip(norms, saved):
+        m.momentum = mom
+
+
+def train_loop(model, params, forward, n_train, val_fn, args, gen, bn_batches=None):
+    """Trains; keeps the best validation epoch, or with args.swa_from = E > 0 the mean of the
+    parameters after epochs E..last (stochastic weight averaging) with the BatchNorm statistics
+    recomputed over bn_batches() (an iterable of training inputs)."""
     opt = torch.optim.Adam(params, lr=args.lr, betas=(0.9, 0.999), eps=1e-8, weight_decay=0)
     best = None
+    swa_from = getattr(args, "swa_from", 0)
+    avg, n_avg = None, 0
     for epoch in range(1, args.epochs + 1):
         t0 = time.time()
         for group in opt.param_groups:
@@ -523,6 +557,8 @@ def train_loop(model, params, forward, n_train, val_fn, args, gen):
             total += loss.item() * len(idx)
             correct += (out.argmax(1) == y).sum().item()
             seen += len(idx)
+        if swa_from and epoch >= swa_from:
+            avg, n_avg = average_into(avg, model, n_avg), n_avg + 1
         vloss, vacc = val_fn()
         better = best is None or vacc > best[1] or (vacc == best[1] and vloss < best[2])
         if better:
@@ -530,6 +566,16 @@ def train_loop(model, params, forward, n_train, val_fn, args, gen):
         print(f"epoch {epoch:2d}/{args.epochs}  train loss {total / seen:.4f}  train acc "
               f"{correct / seen:.4f}  val loss {vloss:.4f}  val acc {vacc:.4f}  "
               f"({time.time() - t0:.1f} s){'  best' if better else ''}", flush=True)
+    if swa_from:
+        with torch.no_grad():
+            for k, p in model.named_parameters():
+                p.copy_(avg[k])
+        if bn_batches is not None:
+            recompute_batch_norm(model, bn_batches())
+        vloss, vacc = val_fn()
+        print(f"kept the mean of epochs {swa_from}-{args.epochs}: val acc {vacc:.4f}, "
+              f"val loss {vloss:.4f}", flush=True)
+        return (args.epochs, vacc, vloss, None)
     model.load_state_dict(best[3])
     print(f"best epoch {best[0]}: val acc {best[1]:.4f}, val loss {best[2]:.4f}", flush=True)
     return best
@@ -579,6 +625,10 @@ def main(argv=None):
     ap.add_argument("--lr-schedule", choices=["constant", "cosine"], default="constant",
                     help="constant (the paper's recipe) or cosine: decay --lr to 0 over the "
                          "epochs")
+    ap.add_argument("--swa-from", type=int, default=0, metavar="EPOCH",
+                    help="keep the mean of the weights after epochs EPOCH..last (stochastic "
+                         "weight averaging, BatchNorm statistics recomputed) instead of the best "
+                         "validation epoch; 0 (default): off")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
@@ -592,6 +642,8 @@ def main(argv=None):
                         ("--threads", args.threads, 1)):
         if v < lo:
             ap.error(f"{name} {v}: expected at least {lo}")
+    if not 0 <= args.swa_from <= args.epochs:
+        ap.error(f"--swa-from {args.swa_from}: expected 0 (off) or an epoch in 1..{args.epochs}")
     if not (d2m.finite(args.lr) and args.lr > 0):
         ap.error(f"--lr {args.lr}: expected a finite value > 0")
     for name, v in (("--holdout", args.holdout), ("--val-fraction", args.val_fraction)):
@@ -690,7 +742,18 @@ def main(argv=None):
         def val_fn():
             return evaluate(model, xv, yv, dv, pre, args.lighting_normalise)
 
-        train_loop(model, model.parameters(), forward, len(yt), val_fn, args, gen)
+        def bn_batches():  # the training inputs as training sees them (augmented)
+            order = torch.randperm(len(yt), generator=gen)
+            for i in range(0, len(yt), args.batch_size):
+                idx = order[i:i + args.batch_size]
+                x = xt[idx]
+                if args.augment:
+                    x = augment(x, gen)
+                if args.augment_geometry:
+                    x = augment_geometry(x, gen)
+                yield photometric(x, dt[idx], pre, args.lighting_normalise)
+
+        train_loop(model, model.parameters(), forward, len(yt), val_fn, args, gen, bn_batches)
 
     model.eval()
     st_gen = torch.Generator().manual_seed(args.seed + 1)
