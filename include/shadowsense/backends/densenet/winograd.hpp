@@ -306,16 +306,36 @@ __attribute__((target("avx2,fma"))) inline void winograd4_bt_avx2(const __m256 (
   y[5] = _mm256_fmadd_ps(four, x[1], _mm256_fnmadd_ps(five, x[3], x[5]));
 }
 
+// Stores lanes 0..n-1 (n <= 8) of v at dst, in at most three plain stores. Not vmaskmovps: its
+// store form is microcoded on AMD cores (Zen 3 here), and the masked steps' 36 of them per
+// channel took about a quarter of winograd_input4_avx2's time in a profile of the shipped model.
+__attribute__((target("avx2,fma"))) inline void store_first_lanes_avx2(float* dst, __m256 v,
+                                                                       int n) {
+  if (n >= 8) return _mm256_storeu_ps(dst, v);
+  __m128 part = _mm256_castps256_ps128(v);
+  if (n & 4) {
+    _mm_storeu_ps(dst, part);
+    part = _mm256_extractf128_ps(v, 1);
+    dst += 4;
+  }
+  if (n & 2) {
+    _mm_storel_pi(reinterpret_cast<__m64*>(dst), part);
+    part = _mm_movehl_ps(part, part);
+    dst += 2;
+  }
+  if (n & 1) _mm_store_ss(dst, part);
+}
+
 // One step of F(4x4)'s input transform on AVX2, up to 8 tiles, as winograd4_step_avx512: B^T
 // down the six patch rows on whole vectors of consecutive columns into t, then per transformed
 // row the columns 4j + k of the tiles by a transpose (each 128-bit lane holds one tile's four
 // columns: two lane permutes put tiles j and j + 4 in one register, then the 4 x 4 transpose
 // within lanes) and a one-tile shift for k = 4, 5, and B across them. Only the nv <= 5 column
 // vectors the step's tiles read are transformed; t (32-byte aligned) keeps the caller's values
-// beyond nv. Masked: only the lanes of `out` are stored.
-template <bool Masked>
+// beyond nv. Partial: only the first `lanes` tiles are stored.
+template <bool Partial>
 __attribute__((target("avx2,fma"))) inline void
-winograd4_step_avx2(const float* __restrict s, int pw, int nv, __m256i out, float* __restrict d,
+winograd4_step_avx2(const float* __restrict s, int pw, int nv, int lanes, float* __restrict d,
                     std::size_t xs, float (&t)[6][40]) {
   for (int v = 0; v < nv; ++v) {
     __m256 x[6], y[6];
@@ -344,8 +364,8 @@ winograd4_step_avx2(const float* __restrict s, int pw, int nv, __m256i out, floa
     winograd4_bt_avx2(x, y);
     for (int q = 0; q < 6; ++q) {
       float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
-      if constexpr (Masked)
-        _mm256_maskstore_ps(dst, out, y[q]);
+      if constexpr (Partial)
+        store_first_lanes_avx2(dst, y[q], lanes);
       else
         _mm256_storeu_ps(dst, y[q]);
     }
@@ -356,7 +376,7 @@ winograd4_step_avx2(const float* __restrict s, int pw, int nv, __m256i out, floa
 // half the width; the compiler's version of the loops, winograd_input4_avx2_loops, was a
 // quarter of the shipped model's forward pass). A step of fewer tiles computes garbage lanes
 // from the floats beyond its patches (within winograd_read_slack) and stores whole vectors where
-// the row has room; only a step at the end of a row masks its stores.
+// the row has room; only a step at the end of a row stores part of its vectors.
 __attribute__((target("avx2,fma"))) inline void
 winograd_input4_avx2(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
                      int room, float* __restrict d, std::size_t dc, std::size_t xs) {
@@ -365,13 +385,11 @@ winograd_input4_avx2(const float* __restrict s, std::size_t plane, int channels,
     const int nv = (4 * std::min(8, run - j) + 2 + 7) / 8; // column vectors the tiles read
     if (room - j >= 8)
       for (int ch = 0; ch < channels; ++ch)
-        winograd4_step_avx2<false>(s + ch * plane + 4 * j, pw, nv, _mm256_setzero_si256(),
-                                   d + ch * dc + j, xs, t);
+        winograd4_step_avx2<false>(s + ch * plane + 4 * j, pw, nv, 8, d + ch * dc + j, xs, t);
     else {
-      const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-      const __m256i out = _mm256_cmpgt_epi32(_mm256_set1_epi32(run - j), lane);
+      const int lanes = std::min(8, run - j);
       for (int ch = 0; ch < channels; ++ch)
-        winograd4_step_avx2<true>(s + ch * plane + 4 * j, pw, nv, out, d + ch * dc + j, xs, t);
+        winograd4_step_avx2<true>(s + ch * plane + 4 * j, pw, nv, lanes, d + ch * dc + j, xs, t);
     }
   }
 }
