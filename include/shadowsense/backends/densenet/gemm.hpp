@@ -148,7 +148,7 @@ inline VectorOps select_vector_ops(GemmKernelKind kind) {
             &pack_affine_relu_avx512};
   case GemmKernelKind::avx2:
     return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2,
-            &pack_affine_relu_with<&affine_relu_avx2>};
+            &pack_affine_relu_avx2};
 #endif
 #if SHADOWSENSE_NEON_KERNELS
   case GemmKernelKind::neon:
