@@ -280,9 +280,10 @@ SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
 
 // The 1x1 convolution's input panel on AVX2 in one call (as pack_affine_relu_avx512): one call
 // of affine_relu per channel, each with its vectorisation prologue, took 3.6% of the shipped
-// model's forward pass in a profile, this function 2.5%. The same values as affine_relu_avx2 (one FMA, then relu as max(0, v):
-// NaN and -0 kept, as v < 0 ? 0 : v keeps them). Columns cols..nr-1 are zeroed with the load
-// mask; a vmaskmovps load costs little (its store form is the slow one on AMD cores).
+// model's forward pass in a profile, this function 2.5%. The same values as affine_relu_avx2 (one
+// FMA, then relu as max(0, v): NaN and -0 kept, as v < 0 ? 0 : v keeps them). Columns cols..nr-1
+// are zeroed with the load mask; a vmaskmovps load costs little (its store form is the slow one on
+// AMD cores).
 __attribute__((target("avx2,fma"))) inline void
 pack_affine_relu_avx2(const float* __restrict s, std::size_t stride, int channels,
                       const float* __restrict sc, const float* __restrict sh, float* __restrict d,
