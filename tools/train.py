@@ -730,28 +730,25 @@ def main(argv=None):
 
         train_loop(head, head.parameters(), forward, len(yt), val_fn, args, gen)
     else:
-        def forward(idx):
-            model.train()
+        def training_inputs(idx):  # the network's input for training samples idx (augmented)
             x = xt[idx]
             if args.augment:
                 x = augment(x, gen)
             if args.augment_geometry:
                 x = augment_geometry(x, gen)
-            return model(photometric(x, dt[idx], pre, args.lighting_normalise)), yt[idx]
+            return photometric(x, dt[idx], pre, args.lighting_normalise)
+
+        def forward(idx):
+            model.train()
+            return model(training_inputs(idx)), yt[idx]
 
         def val_fn():
             return evaluate(model, xv, yv, dv, pre, args.lighting_normalise)
 
-        def bn_batches():  # the training inputs as training sees them (augmented)
+        def bn_batches():  # the training inputs as training sees them
             order = torch.randperm(len(yt), generator=gen)
             for i in range(0, len(yt), args.batch_size):
-                idx = order[i:i + args.batch_size]
-                x = xt[idx]
-                if args.augment:
-                    x = augment(x, gen)
-                if args.augment_geometry:
-                    x = augment_geometry(x, gen)
-                yield photometric(x, dt[idx], pre, args.lighting_normalise)
+                yield training_inputs(order[i:i + args.batch_size])
 
         train_loop(model, model.parameters(), forward, len(yt), val_fn, args, gen, bn_batches)
 
