@@ -6,7 +6,8 @@
 # torchvision's logits, at the same tolerances as on x86. The segmenter's per-row kernels
 # (tests/test_segment_kernels.cpp: NEON against portable, byte for byte and float for float) and
 # tests/test_int8.cpp (the int8 GEMM kernels against their reference, exactly, and the int8
-# forward) are built into the same program. Only this subset runs under
+# forward) and tests/test_channel_sums.cpp (the lighting normalisation's byte sums, NEON against
+# a plain loop) are built into the same program. Only this subset runs under
 # emulation (the other tests need OpenCV/Eigen for aarch64 and are covered natively on x86).
 # Built at -O2 and again at -O3 (the portable kernel must vectorise and be right at both).
 set -euo pipefail
@@ -38,7 +39,8 @@ for opt in O2 O3; do
     -I"$root/include" -I"$out/include" \
     -DSHADOWSENSE_TEST_DATA_DIR="\"$root/tests/data\"" \
     "$root/tests/test_gemm.cpp" "$root/tests/test_segment_kernels.cpp" \
-    "$root/tests/test_int8.cpp" "$root/tests/doctest_main.cpp" -o "$exe"
+    "$root/tests/test_int8.cpp" "$root/tests/test_channel_sums.cpp" \
+    "$root/tests/doctest_main.cpp" -o "$exe"
   echo "== aarch64 -$opt: running under qemu-aarch64 =="
   QEMU_LD_PREFIX=/usr/aarch64-linux-gnu qemu-aarch64 "$exe" --success=false
 done
