@@ -138,23 +138,32 @@ float sum_of(const std::vector<float>& v) {
 
 Probe probe(std::pair<int, int> cpus) {
   Probe p;
-  // Round trip: side 0 writes 2i + 1 and waits for 2i + 2, side 1 answers.
-  constexpr int trips = 20000;
+  // Round trip: side 0 writes 2i + 1 and waits for 2i + 2, side 1 answers; up to 20000 trips
+  // or 20 ms, whichever comes first (a partner descheduled by a busy machine must not stretch
+  // the probe), then side 0 writes -1 and side 1 stops.
+  constexpr int max_trips = 20000;
+  constexpr double max_ms = 20.0;
   alignas(64) std::atomic<int> line{0};
   on_two_cpus(cpus, [&](int side) {
-    const auto t0 = Clock::now();
-    for (int i = 0; i < trips; ++i) {
-      if (side == 0) {
+    if (side == 0) {
+      const auto t0 = Clock::now();
+      int i = 0;
+      for (; i < max_trips && ((i & 255) != 0 || ms_since(t0) < max_ms); ++i) {
         line.store(2 * i + 1, std::memory_order_release);
         while (line.load(std::memory_order_acquire) != 2 * i + 2) {
         }
-      } else {
-        while (line.load(std::memory_order_acquire) != 2 * i + 1) {
-        }
-        line.store(2 * i + 2, std::memory_order_release);
       }
+      p.round_trip_ns = ms_since(t0) * 1e6 / std::max(i, 1);
+      line.store(-1, std::memory_order_release);
+      return;
     }
-    if (side == 0) p.round_trip_ns = ms_since(t0) * 1e6 / trips;
+    for (int i = 0;; ++i) {
+      int v = 0;
+      while ((v = line.load(std::memory_order_acquire)) != 2 * i + 1 && v != -1) {
+      }
+      if (v == -1) return;
+      line.store(2 * i + 2, std::memory_order_release);
+    }
   });
   // Bandwidth: in step r the writer (r % 2) fills the buffer, then the reader of that step
   // (the other side for remote steps, the writer itself for local ones) sums it.
