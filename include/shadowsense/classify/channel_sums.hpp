@@ -1,9 +1,9 @@
 // Per-channel sums of a row of interleaved 3-channel 8-bit pixels (B, G, R or R, G, B), exact:
 // the lighting normalisation's channel means (LightingNormaliser::channel_sums) read every byte
 // of the frame through this, once per frame. Three kernels with one contract:
-//   add_channel_sums_portable  plain C++: 16-bit lanes the compiler may vectorise (at -O3; GCC's
-//                              -O2, what Debian and CMake's RelWithDebInfo build with, leaves
-//                              them scalar)
+//   add_channel_sums_portable  plain C++: 16-bit lanes the compiler vectorises to its baseline
+//                              (SSE2 on x86-64 without -march; at GCC 12's -O2, what Debian and
+//                              CMake's RelWithDebInfo build with, only partly)
 //   add_channel_sums_avx2      x86-64 with AVX2, chosen at run time (a function-level target
 //                              attribute: no -march flag): per 32 pixels three loads, each
 //                              byte masked to its channel and summed by vpsadbw into 64 bits

@@ -72,9 +72,9 @@ struct LightingNormaliser {
     ChannelSums total{0, 0, 0};
     for (int y = 0; y < image.rows; ++y) {
       const unsigned char* s = image.ptr<unsigned char>(y);
-      for (int x = 0; x < image.cols; x += piece)
-        add_channel_sums(s + 3 * static_cast<std::size_t>(x), std::min(piece, image.cols - x),
-                         total);
+      for (long long x = 0; x < image.cols; x += piece)
+        add_channel_sums(s + 3 * static_cast<std::size_t>(x),
+                         static_cast<int>(std::min<long long>(piece, image.cols - x)), total);
     }
     return total;
   }
