@@ -35,31 +35,12 @@
 // No state; callable from any thread.
 #pragma once
 
+#include <shadowsense/core/strict_fp.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <array>
 #include <cstddef>
 #include <cstdint>
-
-// Float kernels whose results must not depend on the compiler's choice to fuse a multiply and
-// an add (GNU mode fuses by default where the target has FMA, e.g. aarch64 or -march=native):
-// every path, and the reference, rounds after each operation.
-#if defined(__clang__)
-#define SHADOWSENSE_STRICT_FP
-#define SHADOWSENSE_STRICT_FP_BODY _Pragma("clang fp contract(off)")
-#elif defined(__GNUC__)
-#define SHADOWSENSE_STRICT_FP __attribute__((optimize("fp-contract=off")))
-#define SHADOWSENSE_STRICT_FP_BODY
-#else
-#define SHADOWSENSE_STRICT_FP
-#define SHADOWSENSE_STRICT_FP_BODY
-#endif
-
-#if defined(__GNUC__) || defined(__clang__)
-#define SHADOWSENSE_ALWAYS_INLINE inline __attribute__((always_inline))
-#else
-#define SHADOWSENSE_ALWAYS_INLINE inline
-#endif
 
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
