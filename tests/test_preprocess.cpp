@@ -2,6 +2,7 @@
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/core/strict_fp.hpp>
 
 #include <doctest/doctest.h>
 
@@ -229,4 +230,66 @@ TEST_CASE("run_in_range: run() on a float image in 0..1 without the range check"
                        InvalidArgument);
   CHECK_THROWS_WITH_AS(pre.run_in_range(cv::Mat(), false, t), doctest::Contains("image is empty"),
                        InvalidArgument);
+}
+
+namespace {
+// crop_normalise written out value by value as torchvision's steps (std::clamp, the blend
+// computed per value, the mean summed in double in pixel order), every operation rounded on
+// its own: what the Preprocessor's row loops (SSE body, plain tail) must give bit for bit.
+SHADOWSENSE_STRICT_FP Tensor normalise_by_value(const cv::Mat& bgr, const PreprocessParams& p,
+                                                bool dark) {
+  SHADOWSENSE_STRICT_FP_BODY
+  double sum = 0;
+  for (int y = 0; y < bgr.rows; ++y)
+    for (int x = 0; x < bgr.cols; ++x) {
+      const cv::Vec3f v = bgr.at<cv::Vec3f>(y, x);
+      sum += 0.2989f * v[2] + 0.587f * v[1] + 0.114f * v[0];
+    }
+  const float mean_gray = static_cast<float>(sum / (double(bgr.rows) * bgr.cols));
+  Tensor out(1, 3, bgr.rows, bgr.cols);
+  for (int c = 0; c < 3; ++c) // RGB; the network order is RGB (the default)
+    for (int y = 0; y < bgr.rows; ++y)
+      for (int x = 0; x < bgr.cols; ++x) {
+        const float s = bgr.at<cv::Vec3f>(y, x)[2 - c];
+        float v =
+            std::clamp(p.contrast_factor * s + (1.0f - p.contrast_factor) * mean_gray, 0.0f, 1.0f);
+        if (dark) v = std::clamp(p.dark_brightness_factor * v, 0.0f, 1.0f);
+        out(0, c, y, x) =
+            (v - p.mean[static_cast<std::size_t>(c)]) / p.std[static_cast<std::size_t>(c)];
+      }
+  return out;
+}
+} // namespace
+
+TEST_CASE("contrast, brightness and Normalize: the row loops equal a value-by-value loop bit for "
+          "bit") {
+  // Widths around the 4-value steps (tails of 0-3 values), pixels at and beyond both clamp
+  // bounds (0, 1, values a contrast factor of 3 pushes out of 0..1), three contrast factors,
+  // plain and dark.
+  cv::theRNG().state = 5;
+  std::size_t values = 0, differ = 0;
+  for (const int w : {1, 2, 3, 4, 5, 7, 8, 9, 13, 31, 160})
+    for (const float contrast : {1.0f, 3.0f, 0.5f})
+      for (const bool dark : {false, true}) {
+        cv::Mat f(5, w, CV_32FC3);
+        cv::randu(f, cv::Scalar::all(0.0), cv::Scalar::all(1.0));
+        f.at<cv::Vec3f>(0, 0) = cv::Vec3f(0.0f, 1.0f, 0.0f);
+        f.at<cv::Vec3f>(4, w - 1) = cv::Vec3f(1.0f, 0.0f, 1.0f);
+        PreprocessParams p;
+        p.resize_width = w;
+        p.resize_height = 5;
+        p.crop_width = p.crop_height = 0;
+        p.contrast_factor = contrast;
+        Preprocessor pre({.params = p});
+        Tensor got;
+        pre.run_in_range(f, dark, got);
+        const Tensor want = normalise_by_value(f, p, dark);
+        REQUIRE(got.shape_string() == want.shape_string());
+        for (std::size_t i = 0; i < got.size(); ++i) {
+          ++values;
+          differ += std::memcmp(&got.data()[i], &want.data()[i], sizeof(float)) != 0;
+        }
+      }
+  CHECK(values == 3 * 5 * std::size_t{1 + 2 + 3 + 4 + 5 + 7 + 8 + 9 + 13 + 31 + 160} * 3 * 2);
+  CHECK(differ == 0);
 }

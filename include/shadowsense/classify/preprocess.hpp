@@ -37,11 +37,16 @@
 
 #include <shadowsense/classify/preprocess_params.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/core/strict_fp.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <algorithm>
 #include <array>
@@ -233,31 +238,76 @@ private:
     // adjust_contrast: mean of the float grayscale over the whole (cropped) image, or over the
     // part of it that comes from the contrast region.
     const cv::Rect m = mean_rect(*cur, view, offset);
+    const float mean_gray = gray_mean(view, m, ri, bi);
+    const float cf = p.contrast_factor;
+    const float blend = (1.0f - cf) * mean_gray;
+    const bool rgb_out = p.network_channel_order == ChannelOrder::rgb;
+    // Row by row: split the pixels into one contiguous float row per channel, then contrast,
+    // brightness and Normalize on the contiguous rows (normalise_row). Per value the same float
+    // operations in the same order as torchvision's steps, each rounded on its own.
+    planes_.resize(3 * static_cast<std::size_t>(w));
+    float* split[3] = {planes_.data(), planes_.data() + w, planes_.data() + 2 * w};
+    for (int y = 0; y < h; ++y) {
+      const float* s = view.ptr<float>(y);
+      for (int x = 0; x < w; ++x) {
+        split[0][x] = s[3 * x + ri];
+        split[1][x] = s[3 * x + 1];
+        split[2][x] = s[3 * x + bi];
+      }
+      for (int c = 0; c < 3; ++c) { // c: RGB channel index
+        const int dst = rgb_out ? c : 2 - c;
+        normalise_row(split[c], w, cf, blend, dark, p.dark_brightness_factor,
+                      p.mean[static_cast<std::size_t>(dst)], p.std[static_cast<std::size_t>(dst)],
+                      &out(0, dst, y, 0));
+      }
+    }
+  }
+
+  // adjust_contrast's mean: the float grayscale 0.2989 R + 0.587 G + 0.114 B of each pixel of
+  // rectangle m of view, summed in double in pixel order.
+  SHADOWSENSE_STRICT_FP static float gray_mean(const cv::Mat& view, cv::Rect m, int ri, int bi) {
+    SHADOWSENSE_STRICT_FP_BODY
     double gray_sum = 0;
     for (int y = m.y; y < m.y + m.height; ++y) {
       const float* s = view.ptr<float>(y);
       for (int x = m.x; x < m.x + m.width; ++x)
         gray_sum += 0.2989f * s[3 * x + ri] + 0.587f * s[3 * x + 1] + 0.114f * s[3 * x + bi];
     }
-    const float mean_gray = static_cast<float>(gray_sum / (double(m.height) * m.width));
-    const float cf = p.contrast_factor;
-    const bool brighten = dark;
-    const float bf = p.dark_brightness_factor;
-    const bool rgb_out = p.network_channel_order == ChannelOrder::rgb;
-    for (int c = 0; c < 3; ++c) { // c: RGB channel index
-      const int src = c == 0 ? ri : (c == 2 ? bi : 1);
-      const int dst = rgb_out ? c : 2 - c;
-      const float m = p.mean[static_cast<std::size_t>(dst)];
-      const float sd = p.std[static_cast<std::size_t>(dst)];
-      for (int y = 0; y < h; ++y) {
-        const float* s = view.ptr<float>(y);
-        float* d = &out(0, dst, y, 0);
-        for (int x = 0; x < w; ++x) {
-          float v = std::clamp(cf * s[3 * x + src] + (1.0f - cf) * mean_gray, 0.0f, 1.0f);
-          if (brighten) v = std::clamp(bf * v, 0.0f, 1.0f);
-          d[x] = (v - m) / sd;
-        }
-      }
+    return static_cast<float>(gray_sum / (double(m.height) * m.width));
+  }
+
+  // clamp(v, 0, 1) exactly as std::clamp gives it (NaN and -0 kept), as max then min: compilers
+  // turn this form into maxss / minss (fcsel on aarch64) where std::clamp stayed two branches.
+  static float unit_clamp(float v) { return std::min(std::max(v, 0.0f), 1.0f); }
+
+  // One channel's row: clamp(cf v + blend) (adjust_contrast), then clamp(bf v) when dark
+  // (adjust_brightness), then (v - mean) / sd (Normalize); each operation rounded on its own.
+  // Four values a step with SSE (every x86-64 CPU has it, so no run-time check; the same
+  // operations in the same order, max and min with the operand order that matches
+  // unit_clamp), the rest in plain C++. GCC left the plain loop scalar and branchy at -O2
+  // (pixels either side of a clamp's bound mispredict) and, for dark rows, even at -O3.
+  SHADOWSENSE_STRICT_FP static void normalise_row(const float* s, int w, float cf, float blend,
+                                                  bool dark, float bf, float mean, float sd,
+                                                  float* d) {
+    SHADOWSENSE_STRICT_FP_BODY
+    int x = 0;
+#if defined(__SSE2__)
+    const __m128 vcf = _mm_set1_ps(cf), vblend = _mm_set1_ps(blend), vbf = _mm_set1_ps(bf);
+    const __m128 vmean = _mm_set1_ps(mean), vsd = _mm_set1_ps(sd);
+    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f);
+    // _mm_max_ps(zero, v) is (0 > v ? 0 : v) = std::max(v, 0); _mm_min_ps(one, v) is
+    // (1 < v ? 1 : v) = std::min(v, 1).
+    for (; x + 4 <= w; x += 4) {
+      __m128 v = _mm_add_ps(_mm_mul_ps(vcf, _mm_loadu_ps(s + x)), vblend);
+      v = _mm_min_ps(one, _mm_max_ps(zero, v));
+      if (dark) v = _mm_min_ps(one, _mm_max_ps(zero, _mm_mul_ps(vbf, v)));
+      _mm_storeu_ps(d + x, _mm_div_ps(_mm_sub_ps(v, vmean), vsd));
+    }
+#endif
+    for (; x < w; ++x) {
+      float v = unit_clamp(cf * s[x] + blend);
+      if (dark) v = unit_clamp(bf * v);
+      d[x] = (v - mean) / sd;
     }
   }
 
@@ -319,16 +369,22 @@ private:
       const unsigned char* r1 = src.ptr<unsigned char>(yt_.i1[ky]);
       const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
       float* d = resized_.ptr<float>(y);
+      // The three channels written out (at -O2 GCC kept a loop over them, about twice as slow).
+      const float* t_0 = table[0].data();
+      const float* t_1 = table[1].data();
+      const float* t_2 = table[2].data();
+      auto tap = [&](const float* t, int a, int b, float w0, float w1) {
+        const float t0 = t[r0[a]] * w0 + t[r0[b]] * w1;
+        const float t1 = t[r1[a]] * w0 + t[r1[b]] * w1;
+        return t0 * h0 + t1 * h1;
+      };
       for (int x = 0; x < out_w; ++x) {
         const auto kx = static_cast<std::size_t>(x);
         const int a = 3 * xt_.i0[kx], b = 3 * xt_.i1[kx];
         const float w0 = xt_.w0[kx], w1 = xt_.w1[kx];
-        for (int c = 0; c < 3; ++c) {
-          const auto& t = table[static_cast<std::size_t>(c)];
-          const float t0 = t[r0[a + c]] * w0 + t[r0[b + c]] * w1;
-          const float t1 = t[r1[a + c]] * w0 + t[r1[b + c]] * w1;
-          d[3 * x + c] = t0 * h0 + t1 * h1;
-        }
+        d[3 * x] = tap(t_0, a, b, w0, w1);
+        d[3 * x + 1] = tap(t_1, a + 1, b + 1, w0, w1);
+        d[3 * x + 2] = tap(t_2, a + 2, b + 2, w0, w1);
       }
     }
   }
@@ -343,8 +399,9 @@ private:
 
   Config config_;
   cv::Mat float_, resized_;
-  cv::Rect region_{};     // set_contrast_region; empty = the whole image
-  cv::Size input_size_{}; // the image passed to the current run, before the resize
+  std::vector<float> planes_; // crop_normalise: one row of each channel, contiguous
+  cv::Rect region_{};         // set_contrast_region; empty = the whole image
+  cv::Size input_size_{};     // the image passed to the current run, before the resize
   Taps xt_, yt_;
 };
 
