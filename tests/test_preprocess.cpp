@@ -2,7 +2,7 @@
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/classify/preprocess.hpp>
-#include <shadowsense/core/strict_fp.hpp>
+#include <shadowsense/core/codegen.hpp>
 
 #include <doctest/doctest.h>
 

@@ -36,8 +36,8 @@
 #pragma once
 
 #include <shadowsense/classify/preprocess_params.hpp>
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/error.hpp>
-#include <shadowsense/core/strict_fp.hpp>
 #include <shadowsense/core/tensor.hpp>
 #include <shadowsense/core/version.hpp>
 

@@ -35,7 +35,7 @@
 // No state; callable from any thread.
 #pragma once
 
-#include <shadowsense/core/strict_fp.hpp>
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <array>

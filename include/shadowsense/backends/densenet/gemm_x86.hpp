@@ -28,6 +28,7 @@
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm_portable.hpp>
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <cstddef>
@@ -276,7 +277,7 @@ __attribute__((target("avx512f"))) inline void pool_affine_relu_avx512(const flo
     d[j] = ((a + b) + (c + e)) * 0.25f;
   }
 }
-SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))))
+SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))) SHADOWSENSE_VECTORISE)
 
 // The 1x1 convolution's input panel on AVX2 in one call (as pack_affine_relu_avx512): one call
 // of affine_relu per channel, each with its vectorisation prologue, took 3.6% of the shipped

@@ -63,6 +63,7 @@
 #pragma once
 
 #include <shadowsense/backends/densenet/gemm.hpp>
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/version.hpp>
 
 #include <algorithm>
@@ -285,14 +286,16 @@ inline void winograd4_at(float x0, float x1, float x2, float x3, float x4, float
     for (int k = 0; k < n % 4; ++k) d[4 * quads + k] = y[k * winograd_max_run + quads];            \
   }
 
-SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, )
+SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, SHADOWSENSE_VECTORISE)
 #if SHADOWSENSE_X86_KERNELS
-SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx512_loops, __attribute__((target("avx512f"))))
-SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx2_loops, __attribute__((target("avx2,fma"))))
+SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx512_loops,
+                                __attribute__((target("avx512f"))) SHADOWSENSE_VECTORISE)
+SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx2_loops,
+                                __attribute__((target("avx2,fma"))) SHADOWSENSE_VECTORISE)
 
 // F(4x4)'s y = B^T x on six vectors of 8 tiles (winograd4_bt_avx512 at AVX2's width).
-__attribute__((target("avx2,fma"))) inline void winograd4_bt_avx2(const __m256 (&x)[6],
-                                                                  __m256 (&y)[6]) {
+__attribute__((target("avx2,fma"))) SHADOWSENSE_ALWAYS_INLINE void
+winograd4_bt_avx2(const __m256 (&x)[6], __m256 (&y)[6]) {
   const __m256 four = _mm256_set1_ps(4.0f), five = _mm256_set1_ps(5.0f);
   const __m256 a = _mm256_fnmadd_ps(four, x[2], x[4]); // x4 - 4 x2
   const __m256 b = _mm256_fnmadd_ps(four, x[1], x[3]); // x3 - 4 x1
@@ -333,15 +336,20 @@ __attribute__((target("avx2,fma"))) inline void store_first_lanes_avx2(float* ds
 // within lanes) and a one-tile shift for k = 4, 5, and B across them. Only the nv <= 5 column
 // vectors the step's tiles read are transformed; t (32-byte aligned) keeps the caller's values
 // beyond nv. Partial: only the first `lanes` tiles are stored.
+// The fixed loops over the six rows are unrolled by pragma and the step always inlined: GCC
+// does both at -O3 only, and at -O2 the x and y arrays lived on the stack (the input
+// transform took 1.35x its -O3 time).
 template <bool Partial>
-__attribute__((target("avx2,fma"))) inline void
+__attribute__((target("avx2,fma"))) SHADOWSENSE_ALWAYS_INLINE void
 winograd4_step_avx2(const float* __restrict s, int pw, int nv, int lanes, float* __restrict d,
                     std::size_t xs, float (&t)[6][40]) {
   for (int v = 0; v < nv; ++v) {
     __m256 x[6], y[6];
+    SHADOWSENSE_UNROLL(6)
     for (int k = 0; k < 6; ++k)
       x[k] = _mm256_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 8 * v);
     winograd4_bt_avx2(x, y);
+    SHADOWSENSE_UNROLL(6)
     for (int p = 0; p < 6; ++p) _mm256_store_ps(t[p] + 8 * v, y[p]);
   }
   const __m256i next = _mm256_setr_epi32(1, 2, 3, 4, 5, 6, 7, 0); // lane j <- lane j + 1
@@ -362,6 +370,7 @@ winograd4_step_avx2(const float* __restrict s, int pw, int nv, int lanes, float*
     x[4] = _mm256_blend_ps(_mm256_permutevar8x32_ps(x[0], next), _mm256_set1_ps(r[32]), 0x80);
     x[5] = _mm256_blend_ps(_mm256_permutevar8x32_ps(x[1], next), _mm256_set1_ps(r[33]), 0x80);
     winograd4_bt_avx2(x, y);
+    SHADOWSENSE_UNROLL(6)
     for (int q = 0; q < 6; ++q) {
       float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
       if constexpr (Partial)
