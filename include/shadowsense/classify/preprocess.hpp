@@ -369,7 +369,8 @@ private:
       const unsigned char* r1 = src.ptr<unsigned char>(yt_.i1[ky]);
       const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
       float* d = resized_.ptr<float>(y);
-      // The three channels written out (at -O2 GCC kept a loop over them, about twice as slow).
+      // The three channels written out: at -O2 GCC kept a loop over them (a profile gave the
+      // resize 0.13 ms at -O2 against 0.07 ms at -O3; the timed gain is the encoder's as a whole).
       const float* t_0 = table[0].data();
       const float* t_1 = table[1].data();
       const float* t_2 = table[2].data();
