@@ -196,6 +196,86 @@ class WeightAveraging(unittest.TestCase):
         self.assertNotIn("Traceback", r.stderr)
 
 
+class Distillation(unittest.TestCase):
+    """--teacher: the loss against values worked by hand, a teacher with the student's input is
+    used, one with another input or other classes is refused (exit 2, no traceback)."""
+
+    def test_loss_by_hand(self):
+        import math
+        import torch
+        import train
+        logits = torch.tensor([[2.0, 0.0], [0.0, 1.0]])
+        y = torch.tensor([0, 0])
+        teacher = torch.tensor([[0.75, 0.25], [0.5, 0.5]])
+        nll = (math.log(1 + math.exp(-2.0)) + math.log(1 + math.exp(1.0))) / 2
+        self.assertAlmostEqual(train.distillation_loss(logits, y, teacher, 0.0, 2.0).item(), nll,
+                               places=6)
+        kl = 0.0  # KL(teacher || softmax(logits / 2)), summed over classes, mean over rows
+        for row, t in zip(((1.0, 0.0), (0.0, 0.5)), teacher.tolist()):
+            z = math.log(sum(math.exp(v) for v in row))
+            kl += sum(ti * (math.log(ti) - (v - z)) for ti, v in zip(t, row))
+        kl /= 2
+        self.assertAlmostEqual(train.distillation_loss(logits, y, teacher, 1.0, 2.0).item(),
+                               4.0 * kl, places=6)
+        self.assertAlmostEqual(train.distillation_loss(logits, y, teacher, 0.25, 2.0).item(),
+                               0.75 * nll + 0.25 * 4.0 * kl, places=6)
+
+    def test_teachers_mean_at_the_temperature(self):
+        import torch
+        import train
+        a, b = torch.nn.Linear(1, 2), torch.nn.Linear(1, 2)
+        with torch.no_grad():
+            a.weight.copy_(torch.tensor([[2.0], [0.0]]))
+            b.weight.copy_(torch.tensor([[0.0], [2.0]]))
+            a.bias.zero_()
+            b.bias.zero_()
+        p = train.teacher_probabilities([a, b], torch.tensor([[1.0]]), 2.0)
+        self.assertTrue(torch.allclose(p, torch.tensor([[0.5, 0.5]]), atol=1e-7))
+        p = train.teacher_probabilities([a], torch.tensor([[1.0]]), 2.0)
+        self.assertAlmostEqual(p[0, 0].item(), 1 / (1 + torch.exp(torch.tensor(-1.0)).item()),
+                               places=6)
+
+    def test_teacher_with_the_students_input_or_refused(self):
+        from PIL import Image
+        work = tempfile.mkdtemp()
+        try:
+            tree = os.path.join(work, "tree")
+            for k, cls in enumerate(("dim", "lit")):
+                os.makedirs(os.path.join(tree, cls))
+                for i in range(4):
+                    v = 40 + 150 * k + i
+                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(tree, cls, f"{i}.png"))
+            tiny = ["--growth-rate", "2", "--block-config", "1", "--init-features", "4",
+                    "--epochs", "1"]
+            teacher = os.path.join(work, "t.ssm")
+            r = run("train.py", tree, "-o", teacher, "--resize", "32", "24", *tiny)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            r = run("train.py", tree, "-o", os.path.join(work, "s.ssm"), "--resize", "32", "24",
+                    "--teacher", teacher, "--teacher", teacher, *tiny)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            self.assertTrue(os.path.isfile(os.path.join(work, "s.ssm")))
+            for extra, what in ((["--resize", "32", "16"], "resize_height"),
+                                (["--resize", "32", "24", "--lighting-normalise"],
+                                 "lighting_normalise"),
+                                (["--resize", "32", "24", "--classes", "lit,dim"], "classes")):
+                r = run("train.py", tree, "-o", os.path.join(work, "x.ssm"), "--teacher", teacher,
+                        *extra, *tiny)
+                self.assertEqual(r.returncode, 2, what)
+                self.assertIn(what, r.stderr)
+                self.assertNotIn("Traceback", r.stderr)
+            r = run("train.py", tree, "-o", os.path.join(work, "x.ssm"), "--teacher", tree, *tiny)
+            self.assertEqual(r.returncode, 2)
+            self.assertIn("--teacher", r.stderr)
+            self.assertNotIn("Traceback", r.stderr)
+            for bad in (["--distill-weight", "1.5"], ["--distill-temperature", "0"]):
+                r = run("train.py", tree, "-o", os.path.join(work, "x.ssm"), *bad)
+                self.assertEqual(r.returncode, 2, bad)
+                self.assertIn(bad[0], r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(work, "x.ssm")))
+        finally:
+            shutil.rmtree(work)
+
+
 class SkinRelativeEncoding(unittest.TestCase):
     """The skin_relative encoding and the calibration file on the Python side (the C++ side and
     the agreement of the two: tests/test_frame_encoder.cpp)."""

@@ -9,7 +9,13 @@ towards 0 over the epochs (half a cosine, per epoch: epoch e of E trains at
 lr * (1 + cos(pi * (e - 1) / E)) / 2), so the last epochs make small steps. --swa-from E (not
 the paper's) keeps the mean of the weights after epochs E..last instead of the best epoch
 (stochastic weight averaging, Izmailov et al. 2018), with the BatchNorm statistics recomputed
-over the training inputs; the validation split then only reports. Preprocessing is the
+over the training inputs; the validation split then only reports. --teacher FILE (repeatable;
+not the paper's) adds knowledge distillation (Hinton et al. 2015): the loss is
+(1 - a) * NLL(labels) + a * T^2 * KL(teachers || student at temperature T), the teachers' target
+the mean of their softmax(logits / T) on the very input the student sees (same augmentation),
+a = --distill-weight, T = --distill-temperature; every teacher must be a model file with the
+student's classes and input (encoding, geometry, photometrics). Teachers use no random numbers,
+so the data order and augmentation are those of the same --seed without them. Preprocessing is the
 C++ Preprocessor's tensor path exactly (ToTensor, bilinear resize without antialias, centre crop,
 adjust_contrast, adjust_brightness for dark images, Normalize), optionally preceded by the
 lighting normalisation of include/shadowsense/classify/lighting_normalise.hpp
@@ -532,6 +538,61 @@ def recompute_batch_norm(model, batches):
         m.momentum = mom
 
 
+def distillation_loss(logits, y, teacher_probs, weight, temperature):
+    """(1 - weight) * NLL of the labels + weight * T^2 * KL(teacher_probs || softmax(logits / T))
+    (Hinton et al. 2015; T^2 keeps the soft term's gradient scale independent of T). logits
+    N x C, y N labels, teacher_probs N x C (the teachers' mean softmax at T); batch means."""
+    hard = F.nll_loss(F.log_softmax(logits, dim=1), y)
+    soft = F.kl_div(F.log_softmax(logits / temperature, dim=1), teacher_probs,
+                    reduction="batchmean")
+    return (1.0 - weight) * hard + weight * temperature * temperature * soft
+
+
+def teacher_probabilities(teachers, x, temperature):
+    """The mean over the teachers (eval mode) of softmax(logits / T) on input x."""
+    with torch.no_grad():
+        return torch.stack([F.softmax(t(x) / temperature, dim=1) for t in teachers]).mean(0)
+
+
+# The model file's preprocessing fields that make a teacher's input differ from the student's.
+TEACHER_INPUT_FIELDS = ("resize_width", "resize_height", "crop_width", "crop_height", "contrast",
+                        "brightness", "mean", "std", "lighting_normalise", "dark_threshold",
+                        "input_encoding")
+
+
+def same_value(a, b):
+    """Equal strings / booleans, or numbers (or lists of them) within 1e-6 (the model file
+    stores float32)."""
+    if isinstance(a, (list, tuple)) and isinstance(b, (list, tuple)):
+        return len(a) == len(b) and all(same_value(u, v) for u, v in zip(a, b))
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        return abs(float(a) - float(b)) <= 1e-6
+    return a == b
+
+
+def load_teachers(paths, classes, pre, fail):
+    """The --teacher model files as DenseNets in eval mode; fail(message) when one cannot be
+    read or differs from the student in classes or input."""
+    teachers = []
+    for path in paths:
+        try:
+            arch, tpre, tclasses, _ = read_model_file(path)
+        except (OSError, SystemExit) as e:
+            fail(f"--teacher {path}: cannot be read ({e})")
+        if list(tclasses) != list(classes):
+            fail(f"--teacher {path}: classes {list(tclasses)}, the student's are {list(classes)}")
+        for k in TEACHER_INPUT_FIELDS:
+            a, b = tpre.get(k, "colour" if k == "input_encoding" else None), pre.get(k)
+            if not same_value(a, b):
+                fail(f"--teacher {path}: input differs from the student's in {k} ({a} vs {b})")
+        model = load_backbone(path)[0]
+        model.eval()
+        for p in model.parameters():
+            p.requires_grad_(False)
+        teachers.append(model)
+    return teachers
+
+
 def train_loop(model, params, forward, n_train, val_fn, args, gen, bn_batches=None):
     """Trains; keeps the best validation epoch, or with args.swa_from = E > 0 the mean of the
     parameters after epochs E..last (stochastic weight averaging) with the BatchNorm statistics
@@ -548,9 +609,13 @@ def train_loop(model, params, forward, n_train, val_fn, args, gen, bn_batches=No
         total, correct, seen = 0.0, 0, 0
         for i in range(0, n_train, args.batch_size):
             idx = perm[i:i + args.batch_size]
-            out, y = forward(idx)
+            out, y, *soft = forward(idx)  # soft: the teachers' targets when distilling
+            if soft:
+                loss = distillation_loss(out, y, soft[0], args.distill_weight,
+                                         args.distill_temperature)
             out = F.log_softmax(out, dim=1)
-            loss = F.nll_loss(out, y)
+            if not soft:
+                loss = F.nll_loss(out, y)
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -629,6 +694,12 @@ def main(argv=None):
                     help="keep the mean of the weights after epochs EPOCH..last (stochastic "
                          "weight averaging, BatchNorm statistics recomputed) instead of the best "
                          "validation epoch; 0 (default): off")
+    ap.add_argument("--teacher", action="append", default=[], metavar="FILE",
+                    help="distil from this model file (repeatable: the teachers' mean)")
+    ap.add_argument("--distill-weight", type=float, default=0.5,
+                    help="weight of the teachers' term with --teacher (0..1)")
+    ap.add_argument("--distill-temperature", type=float, default=2.0,
+                    help="softmax temperature of the teachers' term with --teacher (> 0)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--save-state-dict", help="also save the torch state_dict here")
@@ -644,6 +715,12 @@ def main(argv=None):
             ap.error(f"{name} {v}: expected at least {lo}")
     if not 0 <= args.swa_from <= args.epochs:
         ap.error(f"--swa-from {args.swa_from}: expected 0 (off) or an epoch in 1..{args.epochs}")
+    if not (d2m.finite(args.distill_weight) and 0 <= args.distill_weight <= 1):
+        ap.error(f"--distill-weight {args.distill_weight}: expected a value in [0, 1]")
+    if not (d2m.finite(args.distill_temperature) and args.distill_temperature > 0):
+        ap.error(f"--distill-temperature {args.distill_temperature}: expected a finite value > 0")
+    if args.teacher and args.mode != "scratch":
+        ap.error("--teacher is for --mode scratch")
     if not (d2m.finite(args.lr) and args.lr > 0):
         ap.error(f"--lr {args.lr}: expected a finite value > 0")
     for name, v in (("--holdout", args.holdout), ("--val-fraction", args.val_fraction)):
@@ -738,9 +815,15 @@ def main(argv=None):
                 x = augment_geometry(x, gen)
             return photometric(x, dt[idx], pre, args.lighting_normalise)
 
+        teachers = load_teachers(args.teacher, classes, pre, ap.error)
+
         def forward(idx):
             model.train()
-            return model(training_inputs(idx)), yt[idx]
+            x = training_inputs(idx)
+            if teachers:
+                return (model(x), yt[idx],
+                        teacher_probabilities(teachers, x, args.distill_temperature))
+            return model(x), yt[idx]
 
         def val_fn():
             return evaluate(model, xv, yv, dv, pre, args.lighting_normalise)
