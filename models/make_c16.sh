@@ -5,7 +5,7 @@
 # rps source's train split with probability 0.8 instead of 0.5. Aim: the averaged weights fit
 # the generator (C14: g 99.12 / hold 98.33% at 1x) on mostly real hand shapes, so that they do
 # not lose the real fists C14 lost (docs/validation_protocol.md, "Issue 21: candidate C16").
-# About 50 minutes of one core.
+# About 30 minutes of one core (28 measured).
 #   sh models/make_c16.sh [BUILD_DIR] [WORK_DIR] [OUT]
 set -e
 SRC=$(cd "$(dirname "$0")/.." && pwd)
