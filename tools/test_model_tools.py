@@ -34,6 +34,20 @@ def run(script, *args, **kw):
                           capture_output=True, text=True, **kw)
 
 
+def grey_tree(root, per_class, nested=False):
+    """A plain class-per-folder tree under root: classes dim and lit, per_class flat grey
+    40 x 30 images each (dim about 40, lit about 190; every other one in a sub-folder when
+    nested)."""
+    from PIL import Image
+    for k, cls in enumerate(("dim", "lit")):
+        for i in range(per_class):
+            sub = os.path.join(root, cls, "nested" if nested and i % 2 else "")
+            os.makedirs(sub, exist_ok=True)
+            v = 40 + 150 * k + i
+            Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(sub, f"{i}.png"))
+    return root
+
+
 class DenseNetToModel(unittest.TestCase):
     def setUp(self):
         self.dir = tempfile.mkdtemp()
@@ -112,16 +126,9 @@ class DenseNetToModel(unittest.TestCase):
 
 class TrainOnAPlainTree(unittest.TestCase):
     def test_class_per_folder_tree_and_no_temporary_files(self):
-        from PIL import Image
         work = tempfile.mkdtemp()
         try:
-            tree = os.path.join(work, "tree")
-            for k, cls in enumerate(("dim", "lit")):
-                for i in range(6):
-                    sub = os.path.join(tree, cls, "nested" if i % 2 else "")
-                    os.makedirs(sub, exist_ok=True)
-                    v = 40 + 150 * k + i
-                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(sub, f"{i}.png"))
+            tree = grey_tree(os.path.join(work, "tree"), 6, nested=True)
             out = os.path.join(work, "out")
             os.makedirs(out)
             r = run("train.py", tree, "-o", os.path.join(out, "m.ssm"), "--growth-rate", "2",
@@ -236,15 +243,9 @@ class Distillation(unittest.TestCase):
                                places=6)
 
     def test_teacher_with_the_students_input_or_refused(self):
-        from PIL import Image
         work = tempfile.mkdtemp()
         try:
-            tree = os.path.join(work, "tree")
-            for k, cls in enumerate(("dim", "lit")):
-                os.makedirs(os.path.join(tree, cls))
-                for i in range(4):
-                    v = 40 + 150 * k + i
-                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(tree, cls, f"{i}.png"))
+            tree = grey_tree(os.path.join(work, "tree"), 4)
             tiny = ["--growth-rate", "2", "--block-config", "1", "--init-features", "4",
                     "--epochs", "1"]
             teacher = os.path.join(work, "t.ssm")
@@ -382,17 +383,11 @@ class SkinRelativeEncoding(unittest.TestCase):
 
     def test_train_writes_version_4_and_needs_the_empty_skin(self):
         import numpy as np
-        from PIL import Image
         import calibration_file as cf
         import train
         work = tempfile.mkdtemp()
         try:
-            tree = os.path.join(work, "tree")
-            for k, cls in enumerate(("dim", "lit")):
-                os.makedirs(os.path.join(tree, cls))
-                for i in range(6):
-                    v = 40 + 150 * k + i
-                    Image.new("RGB", (40, 30), (v, v, v)).save(os.path.join(tree, cls, f"{i}.png"))
+            tree = grey_tree(os.path.join(work, "tree"), 6)
             cal = os.path.join(work, "c.calib")
             cf.write_calibration(cal, np.full((30, 40, 3), 0.9, np.float32))
             args = [tree, "--growth-rate", "2", "--block-config", "1", "--init-features", "4",
