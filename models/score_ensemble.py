@@ -17,6 +17,7 @@ import torch.nn.functional as F
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
 import dataset_reader  # noqa: E402
+import ss_version  # noqa: E402
 import train  # noqa: E402
 
 
@@ -52,9 +53,10 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sets", required=True, help="comma-separated gesture folders")
     ap.add_argument("models", nargs="+", help="model files (the same classes and input)")
+    ap.add_argument("--version", action="version", version=ss_version.line(ap.prog))
     args = ap.parse_args()
     torch.set_num_threads(1)
-    arch, pre, classes, _ = train.read_model_file(args.models[0])
+    _, pre, classes, _ = train.read_model_file(args.models[0])
     if pre.get("input_encoding", "colour") != "colour":
         ap.error(f"{args.models[0]}: input encoding {pre['input_encoding']}: colour models only")
     models = train.load_teachers(args.models, classes, pre, ap.error)

@@ -576,7 +576,7 @@ def load_teachers(paths, classes, pre, fail):
     teachers = []
     for path in paths:
         try:
-            arch, tpre, tclasses, _ = read_model_file(path)
+            _, tpre, tclasses, _ = read_model_file(path)
         except (OSError, SystemExit) as e:
             fail(f"--teacher {path}: cannot be read ({e})")
         if list(tclasses) != list(classes):
@@ -609,13 +609,10 @@ def train_loop(model, params, forward, n_train, val_fn, args, gen, bn_batches=No
         total, correct, seen = 0.0, 0, 0
         for i in range(0, n_train, args.batch_size):
             idx = perm[i:i + args.batch_size]
-            out, y, *soft = forward(idx)  # soft: the teachers' targets when distilling
-            if soft:
-                loss = distillation_loss(out, y, soft[0], args.distill_weight,
-                                         args.distill_temperature)
-            out = F.log_softmax(out, dim=1)
-            if not soft:
-                loss = F.nll_loss(out, y)
+            logits, y, *soft = forward(idx)  # soft: the teachers' targets when distilling
+            out = F.log_softmax(logits, dim=1)
+            loss = (distillation_loss(logits, y, soft[0], args.distill_weight,
+                                      args.distill_temperature) if soft else F.nll_loss(out, y))
             opt.zero_grad()
             loss.backward()
             opt.step()
