@@ -18,6 +18,8 @@ using namespace shadowsense;
 
 namespace {
 
+constexpr int kGuard = 40; // values past a row that a kernel must leave alone
+
 struct Row {
   std::vector<std::uint8_t> bgr, skin;
   std::vector<float> ipb, ipg, ipr;
@@ -63,7 +65,8 @@ Out run(const detail::SegmentKernels& k, const detail::RelativeRowParams& p, con
 
 std::vector<SegmentKernelKind> vector_kinds() {
   std::vector<SegmentKernelKind> kinds;
-  for (SegmentKernelKind k : {SegmentKernelKind::avx2, SegmentKernelKind::neon})
+  for (SegmentKernelKind k :
+       {SegmentKernelKind::avx512, SegmentKernelKind::avx2, SegmentKernelKind::neon})
     if (segment_cpu_has(k)) kinds.push_back(k);
   return kinds;
 }
@@ -153,8 +156,11 @@ TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written ou
           std::vector<std::uint8_t> pad(static_cast<std::size_t>(w + K - 1));
           for (auto& v : pad)
             v = static_cast<std::uint8_t>(coin(rng) ? 255 * coin(rng) : byte(rng));
-          h[static_cast<std::size_t>(t)].resize(static_cast<std::size_t>(w));
+          // kGuard values past the row: a kernel must not write them.
+          h[static_cast<std::size_t>(t)].assign(static_cast<std::size_t>(w + kGuard), 0xBEEF);
           (K == 3 ? k.hsum3 : k.hsum5)(pad.data(), w, h[static_cast<std::size_t>(t)].data());
+          for (int x = w; x < w + kGuard; ++x)
+            bad += h[static_cast<std::size_t>(t)][static_cast<std::size_t>(x)] != 0xBEEF;
           for (int x = 0; x < w; ++x) {
             int sum = 0;
             for (int j = 0; j < K; ++j)
@@ -165,9 +171,9 @@ TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written ou
         std::array<const std::uint16_t*, 5> rows{};
         for (int t = 0; t < K; ++t)
           rows[static_cast<std::size_t>(t)] = h[static_cast<std::size_t>(t)].data();
-        std::vector<std::uint8_t> mask(static_cast<std::size_t>(w), 7), marks(mask);
+        std::vector<std::uint8_t> mask(static_cast<std::size_t>(w + kGuard), 7), marks(mask);
         const bool any = (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask.data(), marks.data());
-        std::vector<std::uint8_t> mask_only(static_cast<std::size_t>(w), 7);
+        std::vector<std::uint8_t> mask_only(static_cast<std::size_t>(w + kGuard), 7);
         const bool any_only =
             (K == 3 ? k.vsum3 : k.vsum5)(rows.data(), w, mask_only.data(), nullptr);
         int lit_here = 0;
@@ -184,6 +190,10 @@ TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written ou
                  mask_only[ux] != mask[ux];
         }
         bad += any != (lit_here > 0) || any_only != any;
+        for (int x = w; x < w + kGuard; ++x) {
+          const auto ux = static_cast<std::size_t>(x);
+          bad += mask[ux] != 7 || marks[ux] != 7 || mask_only[ux] != 7;
+        }
       }
       CHECK(bad == 0);
       CHECK(set > 0);
@@ -196,10 +206,18 @@ TEST_CASE("segment_kernels: automatic picks the vector kernel the CPU runs; othe
   CHECK(segment_kernels().kind == (kinds.empty() ? SegmentKernelKind::portable : kinds.front()));
   CHECK(segment_cpu_has(SegmentKernelKind::portable));
   CHECK_FALSE(segment_cpu_has(SegmentKernelKind::automatic));
+  for (const SegmentKernelKind kind : kinds) CHECK(segment_kernels(kind).kind == kind);
+  CHECK(segment_kernels(SegmentKernelKind::portable).kind == SegmentKernelKind::portable);
 #if defined(__aarch64__)
   CHECK_FALSE(segment_cpu_has(SegmentKernelKind::avx2));
   CHECK_THROWS_AS(segment_kernels(SegmentKernelKind::avx2), InvalidArgument);
+  CHECK_FALSE(segment_cpu_has(SegmentKernelKind::avx512));
+  CHECK_THROWS_AS(segment_kernels(SegmentKernelKind::avx512), InvalidArgument);
 #else
+  // AVX-512 implies AVX2: a CPU with the first and not the second does not exist.
+  if (segment_cpu_has(SegmentKernelKind::avx512)) CHECK(segment_cpu_has(SegmentKernelKind::avx2));
+  if (!segment_cpu_has(SegmentKernelKind::avx512))
+    CHECK_THROWS_AS(segment_kernels(SegmentKernelKind::avx512), InvalidArgument);
   CHECK_FALSE(segment_cpu_has(SegmentKernelKind::neon));
   CHECK_THROWS_AS(segment_kernels(SegmentKernelKind::neon), InvalidArgument);
 #endif

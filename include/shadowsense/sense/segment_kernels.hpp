@@ -3,13 +3,12 @@
 // CPU runs. The kernels live apart, all with one contract (segment_kernels_portable.hpp) and the
 // same results, byte for byte and float for float:
 //   segment_kernels_portable.hpp  plain C++ (any CPU)
-//   segment_kernels_x86.hpp       AVX2 (x86-64), chosen at run time, no -march needed
+//   segment_kernels_x86.hpp       AVX-512 (F + BW + VL) and AVX2 (x86-64), chosen at run
+//                                 time, no -march needed
 //   segment_kernels_neon.hpp      Advanced SIMD (aarch64), compiled in there
-// No AVX-512 path: the pass is bound by memory at AVX2's width, and AVX-512 could not be run
-// where this was written (an AVX2 machine), so it would be untested.
 //
-// SegmentKernelKind: automatic picks avx2 on an x86 CPU that has it, neon on aarch64, else
-//   portable.
+// SegmentKernelKind: automatic picks avx512 on an x86 CPU that has AVX-512 F, BW and VL, else
+//   avx2 on one that has AVX2, neon on aarch64, else portable.
 // segment_cpu_has(kind): true when kind is compiled in and the CPU runs it (automatic: false).
 // segment_kernels(kind)
 //   requires: kind is automatic or segment_cpu_has(kind); throws InvalidArgument otherwise.
@@ -22,16 +21,20 @@
 #include <shadowsense/sense/segment_kernels_portable.hpp>
 #include <shadowsense/sense/segment_kernels_x86.hpp>
 
+#include <array>
+#include <cstddef>
 #include <string>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 
-enum class SegmentKernelKind { automatic, avx2, neon, portable };
+enum class SegmentKernelKind { automatic, avx2, neon, portable, avx512 };
 
 inline const char* segment_kernel_name(SegmentKernelKind k) {
   switch (k) {
   case SegmentKernelKind::avx2:
     return "avx2";
+  case SegmentKernelKind::avx512:
+    return "avx512";
   case SegmentKernelKind::neon:
     return "neon";
   case SegmentKernelKind::portable:
@@ -48,6 +51,9 @@ inline bool segment_cpu_has(SegmentKernelKind kind) {
 #if SHADOWSENSE_SEGMENT_X86
   case SegmentKernelKind::avx2:
     return __builtin_cpu_supports("avx2");
+  case SegmentKernelKind::avx512:
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+           __builtin_cpu_supports("avx512vl");
 #endif
 #if SHADOWSENSE_SEGMENT_NEON
   case SegmentKernelKind::neon:
@@ -79,6 +85,14 @@ inline SegmentKernels make_segment_kernels(SegmentKernelKind kind) {
             .vsum3 = vsum_row_avx2<3>,
             .vsum5 = vsum_row_avx2<5>,
             .reference_bins = reference_bins_avx2};
+  case SegmentKernelKind::avx512:
+    return {.kind = kind,
+            .relative_row = relative_row_avx512,
+            .hsum3 = hsum_row_avx512<3>,
+            .hsum5 = hsum_row_avx512<5>,
+            .vsum3 = vsum_row_avx512<3>,
+            .vsum5 = vsum_row_avx512<5>,
+            .reference_bins = reference_bins_avx512};
 #endif
 #if SHADOWSENSE_SEGMENT_NEON
   case SegmentKernelKind::neon: // NEON has no gather: the reference's samples stay portable
@@ -102,7 +116,8 @@ inline SegmentKernels make_segment_kernels(SegmentKernelKind kind) {
 }
 
 inline SegmentKernelKind best_segment_kernel() {
-  for (SegmentKernelKind k : {SegmentKernelKind::avx2, SegmentKernelKind::neon})
+  for (SegmentKernelKind k :
+       {SegmentKernelKind::avx512, SegmentKernelKind::avx2, SegmentKernelKind::neon})
     if (segment_cpu_has(k)) return k;
   return SegmentKernelKind::portable;
 }
@@ -118,9 +133,18 @@ segment_kernels(SegmentKernelKind kind = SegmentKernelKind::automatic) {
     SHADOWSENSE_THROW(InvalidArgument(std::string("segment_kernels: '") +
                                       segment_kernel_name(kind) +
                                       "' is not compiled in or not supported by this CPU"));
-  static const detail::SegmentKernels portable =
-      detail::make_segment_kernels(SegmentKernelKind::portable);
-  return kind == SegmentKernelKind::portable ? portable : best;
+  if (kind == best.kind) return best;
+  // Another kind the CPU runs (the portable kernels, or AVX2 where AVX-512 is picked): one
+  // table per kind, made on first use.
+  static const std::array<detail::SegmentKernels, 5> each = [] {
+    std::array<detail::SegmentKernels, 5> all{};
+    for (std::size_t k = 1; k < all.size(); ++k) {
+      const auto kk = static_cast<SegmentKernelKind>(k);
+      all[k] = detail::make_segment_kernels(segment_cpu_has(kk) ? kk : SegmentKernelKind::portable);
+    }
+    return all;
+  }();
+  return each[static_cast<std::size_t>(kind)];
 }
 
 SHADOWSENSE_NAMESPACE_END

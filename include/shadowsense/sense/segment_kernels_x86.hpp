@@ -1,9 +1,10 @@
-// The segmenter's per-row kernels for x86-64 with AVX2 (segment_kernels_portable.hpp has the
-// contracts; the results are the same bytes and floats). Each function carries a function-level
-// target attribute, so the library needs no -march flag; segment_kernels.hpp calls them only
-// after checking the CPU (__builtin_cpu_supports). AVX2 without FMA: the relative rule rounds
-// after every multiply and add, as the portable kernel does. Compiled only with GCC/Clang on x86
-// (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
+// The segmenter's per-row kernels for x86-64 with AVX2 and with AVX-512 (F + BW + VL)
+// (segment_kernels_portable.hpp has the contracts; the results are the same bytes and floats).
+// Each function carries a function-level target attribute, so the library needs no -march flag;
+// segment_kernels.hpp calls them only after checking the CPU (__builtin_cpu_supports). AVX2
+// without FMA; the AVX-512 target implies FMA, so its relative rule is compiled with contraction
+// off (SHADOWSENSE_STRICT_FP): both round after every multiply and add, as the portable kernel
+// does. Compiled only with GCC/Clang on x86 (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
 //
 // relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
 //   rest with the portable loop.
@@ -13,12 +14,18 @@
 //   RelWithDebInfo build with, they ran scalar and the segmenter took 5x longer), the rest with
 //   the portable loop body. The sums cannot overflow 16 bits (at most 16 * 16 * 255), so the
 //   lane arithmetic is exact.
+// relative_row_avx512: 16 pixels a step (the same byte shuffles; one 16-float vector per
+//   channel, compares into mask registers), the rest with the portable loop.
+// reference_bins_avx512: 16 samples a step (a 16-lane gather).
+// hsum_row_avx512<K>, vsum_row_avx512<K>: 32 lanes of 16 bits a step; the last partial step
+//   with masked loads and stores (a masked-out lane is never read, so nothing past the row is).
 // No state; callable from any thread.
 #pragma once
 
 #include <shadowsense/sense/segment_kernels_portable.hpp>
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
@@ -224,6 +231,166 @@ __attribute__((target("avx2"))) inline bool vsum_row_avx2(const std::uint16_t* c
   }
   return any != 0;
 }
+
+// ---- AVX-512 (F + BW + VL) ----------------------------------------------------------------
+
+#define SHADOWSENSE_AVX512 __attribute__((target("avx512f,avx512bw,avx512vl")))
+
+// GCC 12 warns "uninitialized" inside the plain forms of several AVX-512 intrinsics (their
+// unused merge source); the zero-masking forms with every lane selected are the same
+// instructions without it.
+constexpr __mmask16 kAll16 = 0xFFFF;
+constexpr __mmask32 kAll32 = 0xFFFFFFFF;
+
+SHADOWSENSE_AVX512 inline __m512 widen_bytes_avx512(__m128i v) {
+  return _mm512_maskz_cvtepi32_ps(kAll16, _mm512_maskz_cvtepu8_epi32(kAll16, v));
+}
+
+SHADOWSENSE_AVX512 SHADOWSENSE_STRICT_FP inline void
+relative_row_avx512(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
+                    const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
+                    float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+  SHADOWSENSE_STRICT_FP_BODY
+  const __m512 gb = _mm512_set1_ps(p.gb), gg = _mm512_set1_ps(p.gg), gr = _mm512_set1_ps(p.gr);
+  const __m512 third = _mm512_set1_ps(1.f / 3.f), one = _mm512_set1_ps(1.f);
+  const __m512 ts = _mm512_set1_ps(p.shadow), tc = _mm512_set1_ps(p.contact),
+               tw = _mm512_set1_ps(p.warmth);
+  __m128i split[3][3];
+  for (std::size_t c = 0; c < 3; ++c)
+    for (std::size_t j = 0; j < 3; ++j)
+      split[c][j] = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[c][j].data()));
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    const auto* src = reinterpret_cast<const __m128i*>(bgr + 3 * x);
+    const __m128i a0 = _mm_loadu_si128(src), a1 = _mm_loadu_si128(src + 1),
+                  a2 = _mm_loadu_si128(src + 2);
+    __m512 q[3]; // B, G, R over the model, before the frame's gains
+    for (std::size_t c = 0; c < 3; ++c) {
+      const __m128i bytes = _mm_or_si128(
+          _mm_or_si128(_mm_shuffle_epi8(a0, split[c][0]), _mm_shuffle_epi8(a1, split[c][1])),
+          _mm_shuffle_epi8(a2, split[c][2]));
+      const float* inv = c == 0 ? ipb : c == 1 ? ipg : ipr;
+      q[c] = _mm512_mul_ps(widen_bytes_avx512(bytes), _mm512_loadu_ps(inv + x));
+    }
+    const __m512 qb = _mm512_mul_ps(q[0], gb), qg = _mm512_mul_ps(q[1], gg),
+                 qr = _mm512_mul_ps(q[2], gr);
+    const __m128i s8 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
+    const __mmask16 on_skin = _mm_test_epi8_mask(s8, s8);
+    const __m512 d = _mm512_sub_ps(_mm512_maskz_mov_ps(on_skin, one),
+                                   _mm512_mul_ps(_mm512_add_ps(_mm512_add_ps(qb, qg), qr), third));
+    const __m512 wt = _mm512_sub_ps(qr, qb);
+    _mm512_storeu_ps(dk + x, d);
+    _mm512_storeu_ps(wm + x, wt);
+    const __mmask16 contact =
+        _mm512_cmp_ps_mask(d, tc, _CMP_GE_OQ) & _mm512_cmp_ps_mask(wt, tw, _CMP_GE_OQ);
+    const __mmask16 shadow = _mm512_cmp_ps_mask(d, ts, _CMP_GE_OQ);
+    const __m128i c = _mm_maskz_mov_epi8(contact, s8);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x),
+                     _mm_or_si128(_mm_maskz_mov_epi8(shadow, s8), c));
+  }
+  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+}
+
+// min(max(int(v * inv * 4), 0), 1023) for 16 samples, as 16 x 16 bits.
+SHADOWSENSE_AVX512 SHADOWSENSE_STRICT_FP inline __m256i quarter_bins_avx512(__m512i v,
+                                                                            const float* inv) {
+  SHADOWSENSE_STRICT_FP_BODY
+  const __m512 f =
+      _mm512_mul_ps(_mm512_mul_ps(_mm512_maskz_cvtepi32_ps(kAll16, v), _mm512_loadu_ps(inv)),
+                    _mm512_set1_ps(4.f));
+  const __m512i b = _mm512_maskz_min_epi32(
+      kAll16,
+      _mm512_maskz_max_epi32(kAll16, _mm512_maskz_cvttps_epi32(kAll16, f), _mm512_setzero_si512()),
+      _mm512_set1_epi32(1023));
+  return _mm512_maskz_cvtepi32_epi16(kAll16, b);
+}
+
+SHADOWSENSE_AVX512 inline void reference_bins_avx512(const std::uint8_t* frame, std::size_t step,
+                                                     const std::int32_t* ys, const std::int32_t* xs,
+                                                     const float* ib, const float* ig,
+                                                     const float* ir, int n, std::uint16_t* bb,
+                                                     std::uint16_t* bg, std::uint16_t* br) {
+  int i = 0;
+  // As reference_bins_avx2: 32-bit offsets from the byte before B, rows up to 32767 bytes.
+  if (step <= 0x7fffffffull / 65536) {
+    const __m512i vstep = _mm512_set1_epi32(static_cast<int>(step)), three = _mm512_set1_epi32(3),
+                  byte = _mm512_set1_epi32(255), minus_one = _mm512_set1_epi32(-1);
+    for (; i + 16 <= n; i += 16) {
+      const __m512i y = _mm512_loadu_si512(ys + i), x = _mm512_loadu_si512(xs + i);
+      const __m512i off = _mm512_add_epi32(
+          _mm512_add_epi32(_mm512_mullo_epi32(y, vstep), _mm512_mullo_epi32(x, three)), minus_one);
+      const __m512i px = _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), kAll16, off, frame, 1);
+      _mm256_storeu_si256(
+          reinterpret_cast<__m256i*>(bb + i),
+          quarter_bins_avx512(_mm512_and_si512(_mm512_maskz_srli_epi32(kAll16, px, 8), byte),
+                              ib + i));
+      _mm256_storeu_si256(
+          reinterpret_cast<__m256i*>(bg + i),
+          quarter_bins_avx512(_mm512_and_si512(_mm512_maskz_srli_epi32(kAll16, px, 16), byte),
+                              ig + i));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(br + i),
+                          quarter_bins_avx512(_mm512_maskz_srli_epi32(kAll16, px, 24), ir + i));
+    }
+  }
+  reference_bins_tail(frame, step, ys, xs, ib, ig, ir, i, n, bb, bg, br);
+}
+
+template <int K>
+SHADOWSENSE_AVX512 inline __m512i weighted_sum_avx512(const __m512i* v) {
+  // The shifts below hard-code these weights; a change to them must change this function.
+  static_assert(smoothing_weights<3> == std::array<std::uint16_t, 5>{1, 2, 1, 0, 0});
+  static_assert(smoothing_weights<5> == std::array<std::uint16_t, 5>{1, 4, 6, 4, 1});
+  if constexpr (K == 3) {
+    return _mm512_add_epi16(_mm512_add_epi16(v[0], v[2]), _mm512_maskz_slli_epi16(kAll32, v[1], 1));
+  } else {
+    const __m512i c = v[2];
+    return _mm512_add_epi16(
+        _mm512_add_epi16(_mm512_add_epi16(v[0], v[4]),
+                         _mm512_maskz_slli_epi16(kAll32, _mm512_add_epi16(v[1], v[3]), 2)),
+        _mm512_add_epi16(_mm512_maskz_slli_epi16(kAll32, c, 2),
+                         _mm512_maskz_slli_epi16(kAll32, c, 1)));
+  }
+}
+
+// The first n (0..32) of 32 lanes.
+inline std::uint32_t first_lanes32(int n) {
+  return n >= 32 ? ~std::uint32_t{0} : (std::uint32_t{1} << n) - 1;
+}
+
+template <int K>
+SHADOWSENSE_AVX512 inline void hsum_row_avx512(const std::uint8_t* pad, int w, std::uint16_t* out) {
+  for (int x = 0; x < w; x += 32) {
+    const __mmask32 m = first_lanes32(w - x);
+    __m512i v[K];
+#pragma GCC unroll 5
+    for (int t = 0; t < K; ++t)
+      v[t] = _mm512_maskz_cvtepu8_epi16(kAll32, _mm256_maskz_loadu_epi8(m, pad + x + t));
+    _mm512_mask_storeu_epi16(out + x, m, weighted_sum_avx512<K>(v));
+  }
+}
+
+template <int K>
+SHADOWSENSE_AVX512 inline bool vsum_row_avx512(const std::uint16_t* const* rows, int w,
+                                               std::uint8_t* mask, std::uint8_t* marks) {
+  const __m512i on = _mm512_set1_epi16(static_cast<short>(smoothing_on<K>));
+  const __m256i one = _mm256_set1_epi8(1);
+  __mmask32 any = 0;
+  for (int x = 0; x < w; x += 32) {
+    const __mmask32 m = first_lanes32(w - x);
+    __m512i r[K];
+#pragma GCC unroll 5
+    for (int t = 0; t < K; ++t) r[t] = _mm512_maskz_loadu_epi16(m, rows[t] + x);
+    // v >= on, unsigned; lanes past the row are 0 and never set (on > 0).
+    const __mmask32 ge = _mm512_cmpge_epu16_mask(weighted_sum_avx512<K>(r), on);
+    _mm256_mask_storeu_epi8(mask + x, m, _mm256_movm_epi8(ge));
+    if (marks) _mm256_mask_storeu_epi8(marks + x, m, _mm256_maskz_mov_epi8(ge, one));
+    any |= ge;
+  }
+  return any != 0;
+}
+
+#undef SHADOWSENSE_AVX512
 
 } // namespace detail
 SHADOWSENSE_NAMESPACE_END
