@@ -33,7 +33,9 @@ constexpr std::string_view usage =
     "default 300; 0 = sleep at once).\n"
     "CONV3X3: automatic (default), direct, winograd (F(2x2, 3x3)) or winograd4x4 (F(4x4, 3x3))\n"
     "  (DenseNet::Config::conv3x3).\n"
-    "KERNEL: automatic (default), avx512, avx2, neon, portable or reference (Config::kernel).\n";
+    "KERNEL: automatic (default), avx512, avx2, neon, portable or reference (Config::kernel);\n"
+    "  for a model with an int8 section, int8-vnni, int8-avx2, int8-neon or int8-reference\n"
+    "  picks the int8 kernel instead (Config::int8_kernel).\n";
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);
@@ -80,9 +82,18 @@ int main(int argc, char** argv) {
                                   "', expected automatic, direct, winograd or winograd4x4");
     }
     auto kernel = ss::GemmKernelKind::automatic;
+    auto int8_kernel = ss::detail::Int8KernelKind::automatic;
     if (argc == 10) {
       const std::string_view k = argv[9];
-      if (k == "avx512")
+      if (k == "int8-vnni")
+        int8_kernel = ss::detail::Int8KernelKind::vnni;
+      else if (k == "int8-avx2")
+        int8_kernel = ss::detail::Int8KernelKind::avx2;
+      else if (k == "int8-neon")
+        int8_kernel = ss::detail::Int8KernelKind::neon;
+      else if (k == "int8-reference")
+        int8_kernel = ss::detail::Int8KernelKind::reference;
+      else if (k == "avx512")
         kernel = ss::GemmKernelKind::avx512;
       else if (k == "avx2")
         kernel = ss::GemmKernelKind::avx2;
@@ -94,15 +105,16 @@ int main(int argc, char** argv) {
         kernel = ss::GemmKernelKind::reference;
       else if (k != "automatic")
         throw ss::InvalidArgument("KERNEL is '" + std::string(k) +
-                                  "', expected automatic, avx512, avx2, neon, portable or "
-                                  "reference");
+                                  "', expected automatic, avx512, avx2, neon, portable, "
+                                  "reference, int8-vnni, int8-avx2, int8-neon or int8-reference");
     }
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
     ss::DenseNet net(model, {.threads = threads,
                              .spin_us = spin_us,
                              .kernel = kernel,
                              .conv3x3 = conv3x3,
-                             .run_self_test = false});
+                             .run_self_test = false,
+                             .int8_kernel = int8_kernel});
     const ss::Tensor input = read_input(argv[2], h, w);
     for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
     std::vector<double> ms;

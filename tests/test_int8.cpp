@@ -69,7 +69,8 @@ TEST_CASE("int8 GEMM kernels equal the reference exactly") {
   REQUIRE(kinds.front() == detail::Int8KernelKind::reference);
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> wd(-127, 127), xd(0, 127);
-  // Shapes with every remainder of the 4 x 2 blocking, K below, at and above one register.
+  // Shapes with every remainder of the 4 x 2 and 4 x 4 blockings, K below, at and above one
+  // register.
   const int shapes[][3] = {{1, 1, 1},     {3, 1, 5},    {4, 2, 32},    {5, 3, 33},
                            {7, 5, 64},    {8, 9, 100},  {48, 31, 432}, {12, 17, 9},
                            {2, 64, 1152}, {13, 2, 300}, {4, 1, 31},    {9, 4, 200}};
@@ -106,7 +107,14 @@ TEST_CASE("int8 GEMM kernels equal the reference exactly") {
 TEST_CASE("int8 GEMM: the kernel this CPU picks") {
   const auto g = detail::select_int8_gemm(detail::Int8KernelKind::automatic);
 #if SHADOWSENSE_X86_KERNELS
-  if (__builtin_cpu_supports("avx2")) CHECK(std::string(g.name) == "int8-avx2");
+  if (detail::cpu_has_int8(detail::Int8KernelKind::vnni))
+    CHECK(std::string(g.name) == "int8-vnni");
+  else if (__builtin_cpu_supports("avx2"))
+    CHECK(std::string(g.name) == "int8-avx2");
+  else
+    CHECK(std::string(g.name) == "int8-reference");
+  if (!detail::cpu_has_int8(detail::Int8KernelKind::vnni))
+    CHECK_THROWS_AS(detail::select_int8_gemm(detail::Int8KernelKind::vnni), InvalidArgument);
 #endif
 #if SHADOWSENSE_NEON_KERNELS
   CHECK(std::string(g.name) == "int8-neon");

@@ -89,8 +89,8 @@ public:
     detail::MicroKernel micro_kernel{};
     detail::VectorOps vector_ops{};
     Precision precision = Precision::automatic;
-    // The int8 GEMM (gemm_int8.hpp; automatic: AVX2 or NEON where present, else the reference;
-    // every kind gives the same logits).
+    // The int8 GEMM (gemm_int8.hpp; automatic: VNNI, AVX2 or NEON where present, else the
+    // reference; every kind gives the same logits).
     detail::Int8KernelKind int8_kernel = detail::Int8KernelKind::automatic;
   };
 
