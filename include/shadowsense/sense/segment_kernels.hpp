@@ -13,7 +13,7 @@
 // segment_kernels(kind)
 //   requires: kind is automatic or segment_cpu_has(kind); throws InvalidArgument otherwise.
 //   ensures:  the kernels of that kind (automatic: the CPU check runs once per process).
-// No state but the cached automatic choice (a function-local static): any thread.
+// No state but the cached tables (function-local statics, made once): any thread.
 #pragma once
 
 #include <shadowsense/core/error.hpp>
