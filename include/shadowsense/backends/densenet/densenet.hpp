@@ -576,21 +576,29 @@ private:
     const std::size_t kp = static_cast<std::size_t>(q.kp);
     std::uint8_t* x = xq_.data();
     float v[block];
-    std::uint8_t codes[block];
     for (int p = p0; p < p1; ++p)
       std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
+    // Channels in groups of `group`: their codes go to a small tile first, then each pixel's
+    // `group` bytes are written together, so the pixel-major panel is written one run of bytes
+    // per pixel and group instead of one byte per pixel and channel.
+    constexpr int group = 16;
+    std::uint8_t tile[group][block];
     for (int b0 = p0; b0 < p1; b0 += block) {
       const int b1 = std::min(p1, b0 + block), nb = b1 - b0;
-      for (int c = 0; c < q.k; ++c) {
-        value(c, b0, b1, v);
-        bool bad = false;
-        for (int j = 0; j < nb; ++j) {
-          bad |= v[j] != v[j];
-          codes[j] = detail::int8_code(v[j], q.inv_in);
+      for (int c0 = 0; c0 < q.k; c0 += group) {
+        const int ng = std::min(group, q.k - c0);
+        for (int g = 0; g < ng; ++g) {
+          value(c0 + g, b0, b1, v);
+          bool bad = false;
+          for (int j = 0; j < nb; ++j) {
+            bad |= v[j] != v[j];
+            tile[g][j] = detail::int8_code(v[j], q.inv_in);
+          }
+          nan |= bad;
         }
-        nan |= bad;
-        std::uint8_t* d = x + static_cast<std::size_t>(b0) * kp + static_cast<std::size_t>(c);
-        for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * kp] = codes[j];
+        std::uint8_t* d = x + static_cast<std::size_t>(b0) * kp + static_cast<std::size_t>(c0);
+        for (int j = 0; j < nb; ++j, d += kp)
+          for (int g = 0; g < ng; ++g) d[g] = tile[g][j];
       }
     }
   }
@@ -650,21 +658,25 @@ private:
     const auto in = static_cast<std::size_t>(inner);
     std::uint8_t* q3 = q3_.data();
     over_pixels((bh + 2) * pw, [&](int p0, int p1, int t) { // padded positions
-      constexpr int block = 64;
-      std::uint8_t codes[block];
+      constexpr int block = 64, group = 16;                 // channels in groups, as pack_codes
+      std::uint8_t tile[group][block];
       bool nan = false;
       for (int b0 = p0; b0 < p1; b0 += block) {
         const int nb = std::min(p1, b0 + block) - b0;
-        for (int c = 0; c < inner; ++c) {
-          const float* s = bott + static_cast<std::size_t>(c) * plane + b0;
-          bool bad = false;
-          for (int j = 0; j < nb; ++j) {
-            bad |= s[j] != s[j];
-            codes[j] = detail::int8_code(s[j], q.inv_in);
+        for (int c0 = 0; c0 < inner; c0 += group) {
+          const int ng = std::min(group, inner - c0);
+          for (int g = 0; g < ng; ++g) {
+            const float* s = bott + static_cast<std::size_t>(c0 + g) * plane + b0;
+            bool bad = false;
+            for (int j = 0; j < nb; ++j) {
+              bad |= s[j] != s[j];
+              tile[g][j] = detail::int8_code(s[j], q.inv_in);
+            }
+            nan |= bad;
           }
-          nan |= bad;
-          std::uint8_t* d = q3 + static_cast<std::size_t>(b0) * in + static_cast<std::size_t>(c);
-          for (int j = 0; j < nb; ++j) d[static_cast<std::size_t>(j) * in] = codes[j];
+          std::uint8_t* d = q3 + static_cast<std::size_t>(b0) * in + static_cast<std::size_t>(c0);
+          for (int j = 0; j < nb; ++j, d += in)
+            for (int g = 0; g < ng; ++g) d[g] = tile[g][j];
         }
       }
       if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
