@@ -145,6 +145,49 @@ TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others 
 #endif
 }
 
+TEST_CASE("half-height kernels: the first mr / 2 rows bit for bit, the others untouched") {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
+  int tested = 0;
+  for (const auto& mk : kernels_under_test()) {
+    if (!mk.half_rows) continue;
+    const std::string name = mk.name;
+    CAPTURE(name);
+    ++tested;
+    REQUIRE_UNARY(mk.quarter != nullptr);
+    for (int K : {0, 1, 9, 300}) {
+      CAPTURE(K);
+      std::vector<float> a(static_cast<std::size_t>(K) * mk.mr + 1),
+          b(static_cast<std::size_t>(K) * mk.nr + 1);
+      for (auto& v : a) v = ud(rng);
+      for (auto& v : b) v = ud(rng);
+      std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), rows(full.size(), 7.0f),
+          quarter(full.size(), 7.0f);
+      mk.fn(K, a.data(), b.data(), full.data());
+      mk.half_rows(K, a.data(), b.data(), rows.data());
+      mk.quarter(K, a.data(), b.data(), quarter.data());
+      int bad = 0;
+      for (int r = 0; r < mk.mr; ++r)
+        for (int j = 0; j < mk.nr; ++j) {
+          const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
+          const bool in_rows = r < mk.mr / 2, in_cols = j < mk.nr / 2;
+          bad += rows[i] != (in_rows ? full[i] : 7.0f);
+          bad += quarter[i] != (in_rows && in_cols ? full[i] : 7.0f);
+        }
+      CHECK(bad == 0);
+    }
+    // The choice: the least work that covers the rows and columns in use.
+    CHECK_UNARY(detail::tile_kernel(mk, mk.mr, mk.nr) == mk.fn);
+    CHECK_UNARY(detail::tile_kernel(mk, mk.mr / 2 + 1, mk.nr / 2 + 1) == mk.fn);
+    CHECK_UNARY(detail::tile_kernel(mk, mk.mr / 2, mk.nr) == mk.half_rows);
+    CHECK_UNARY(detail::tile_kernel(mk, mk.mr, mk.nr / 2) == mk.half);
+    CHECK_UNARY(detail::tile_kernel(mk, 1, 1) == mk.quarter);
+  }
+#if SHADOWSENSE_X86_KERNELS
+  if (detail::cpu_has(GemmKernelKind::avx512)) CHECK(tested == 1);
+#endif
+}
+
 TEST_CASE("image_row_segments: the runs of a panel over image rows, exactly") {
   detail::TileSegments seg;
   // The bottleneck store: 55-wide rows into a grid padded by 1 (row stride 57, lead 57 + 1).

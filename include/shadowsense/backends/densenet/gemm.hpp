@@ -69,7 +69,21 @@ struct MicroKernel {
   // Optional: fn for the first nr / 2 columns only (out's other columns untouched), for a last
   // panel of at most nr / 2 columns.
   MicroKernelFn half = nullptr;
+  // Optional: fn and half for the first mr / 2 rows only (out's other rows untouched), for a
+  // last row panel of at most mr / 2 rows.
+  MicroKernelFn half_rows = nullptr;
+  MicroKernelFn quarter = nullptr;
 };
+
+// The kernel for a tile whose first `rows` rows and `cols` columns are used: the variant with
+// the least work that covers them (each gives those rows and columns the same values).
+inline MicroKernelFn tile_kernel(const MicroKernel& k, int rows, int cols) {
+  const bool few_rows = rows <= k.mr / 2, few_cols = cols <= k.nr / 2;
+  if (few_rows && few_cols && k.quarter) return k.quarter;
+  if (few_cols && k.half) return k.half;
+  if (few_rows && k.half_rows) return k.half_rows;
+  return k.fn;
+}
 
 // The element-wise loops of the forward pass, one set per kernel kind:
 //   affine_relu(s, d, n, sc, sh):  d[i] = relu(s[i] * sc + sh), i < n
@@ -169,7 +183,14 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
   switch (kind) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {kind, 8, 32, &micro_kernel_avx512, "avx512", &micro_kernel_avx512_half};
+    return {kind,
+            8,
+            32,
+            &micro_kernel_avx512,
+            "avx512",
+            &micro_kernel_avx512_half,
+            &micro_kernel_avx512_half_rows,
+            &micro_kernel_avx512_quarter};
   case GemmKernelKind::avx2:
     return {kind, 4, 24, &micro_kernel_avx2, "avx2+fma"};
 #endif
@@ -329,10 +350,10 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
       const int mp0 = m_panels * t / threads, mp1 = m_panels * (t + 1) / threads;
       for (int np = 0; np < n_panels; ++np) {
         const int n0 = np * nr, cols = std::min(nr, n - n0);
-        const MicroKernelFn fn = kernel.half && cols <= nr / 2 ? kernel.half : kernel.fn;
         for (int mp = mp0; mp < mp1; ++mp) {
-          fn(a.k, a.panel(mp), shared.data() + stride * np, s.tile.data());
           const int rows = std::min(mr, a.m - mp * mr);
+          tile_kernel(kernel, rows, cols)(a.k, a.panel(mp), shared.data() + stride * np,
+                                          s.tile.data());
           for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
         }
       }
@@ -345,8 +366,8 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
       kernel, a, n,
       [&](GemmScratch& s, int n0, int cols) { pack(s.panel.data(), n0, cols, s.index.data()); },
       [&](int mp, GemmScratch& s, int n0) {
-        const bool half = kernel.half && n - n0 <= kernel.nr / 2;
-        (half ? kernel.half : kernel.fn)(a.k, a.panel(mp), s.panel.data(), s.tile.data());
+        tile_kernel(kernel, a.m - mp * kernel.mr, n - n0)(a.k, a.panel(mp), s.panel.data(),
+                                                          s.tile.data());
       },
       store, pool, scratch);
 }
@@ -434,16 +455,21 @@ inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const f
                          relu,
                          std::min(kernel.mr, a.m - m0),
                          &s.segments};
-        const bool half = s.cols <= 16;
-        if (offsets) {
-          const OffsetRows rows{base + n0, offsets};
-          half ? micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d)
-               : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
-        } else {
-          const PackedRows rows{s.panel.data()};
-          half ? micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d)
-               : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
-        }
+        // The 8 x 16 kernel for a last panel of at most 16 columns, and 4 rows for a last row
+        // panel of at most 4 (12 or 36 output channels).
+        auto run = [&](const auto& rows) {
+          const bool half = s.cols <= 16, few = d.rows <= 4;
+          if (half)
+            few ? micro_kernel_avx512_fused<1, 4>(a.k, a.panel(mp), rows, d)
+                : micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d);
+          else
+            few ? micro_kernel_avx512_fused<2, 4>(a.k, a.panel(mp), rows, d)
+                : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
+        };
+        if (offsets)
+          run(OffsetRows{base + n0, offsets});
+        else
+          run(PackedRows{s.panel.data()});
       },
       [](int, int, int, const float*) {}, pool, scratch, /*free_prepare=*/offsets != nullptr);
 }

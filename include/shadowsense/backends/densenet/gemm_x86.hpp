@@ -13,7 +13,12 @@
 // micro_kernel_avx512_half(K, a, b, out): as micro_kernel_avx512 for the first 16 columns
 //   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
 //   panel of at most 16 columns: half the multiply-adds.
-// micro_kernel_avx512_fused<NV>(K, a, rows, dest): the 8 x 16NV block (NV = 1 or 2) over B
+// micro_kernel_avx512_half_rows(K, a, b, out), micro_kernel_avx512_quarter(K, a, b, out): as
+//   micro_kernel_avx512 and micro_kernel_avx512_half for the first 4 rows only (A panels still
+//   8 floats a k); rows 4..7 of out are not written. For a last row panel of at most 4 rows
+//   (12 output channels: 8 + 4): half the multiply-adds, the same values in those rows.
+// micro_kernel_avx512_fused<NV, MR>(K, a, rows, dest): the MR x 16NV block (NV = 1 or 2, MR = 8
+//   or 4 of the A panel's 8 rows; MR defaults to 8) over B
 //   rows rows(k) (PackedRows or OffsetRows), accumulated with FMA in k order, then written
 //   from the registers to dest (TileDest) instead of to a tile: row r < dest.rows gets
 //   dest.bias[r] added (when bias is set) and ReLU (when relu), and column j goes to
@@ -81,18 +86,19 @@ struct OffsetRows {
 
 // The fused kernel (see the header comment). The accumulators are an array the unrolled loops
 // index with constants only, so they live in registers (8 x NV of the 32).
-template <int NV, class RowB>
+template <int NV, int MR = 8, class RowB>
 __attribute__((target("avx512f"))) inline void
 micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& dest) {
   static_assert(NV == 1 || NV == 2, "16 or 32 columns");
-  constexpr int MR = 8;
+  static_assert(MR == 8 || MR == 4, "8 or the first 4 of the A panel's 8 rows");
+  constexpr int panel_rows = 8; // A's panel height whatever MR
   __m512 c[MR][NV];
   SHADOWSENSE_UNROLL(8)
   for (int r = 0; r < MR; ++r) {
     SHADOWSENSE_UNROLL(2)
     for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
   }
-  for (int k = 0; k < K; ++k, a += MR) {
+  for (int k = 0; k < K; ++k, a += panel_rows) {
     const float* bk = row_b(k);
     __m512 b[NV];
     SHADOWSENSE_UNROLL(2)
@@ -129,12 +135,14 @@ micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& des
   }
 }
 
-// The fused kernel writing a plain 8 x 32 tile (its first 16 NV columns): one run, no bias.
-template <int NV>
+// The fused kernel writing a plain 8 x 32 tile (its first 16 NV columns and MR rows): one run,
+// no bias.
+template <int NV, int MR = 8>
 __attribute__((target("avx512f"))) inline void
 micro_kernel_avx512_tile(int K, const float* a, const float* b, float* out) {
   static constexpr TileSegments whole{1, {NV == 2 ? ~0u : 0xFFFFu}, {0}};
-  micro_kernel_avx512_fused<NV>(K, a, PackedRows{b}, TileDest{out, 32, nullptr, false, 8, &whole});
+  micro_kernel_avx512_fused<NV, MR>(K, a, PackedRows{b},
+                                    TileDest{out, 32, nullptr, false, MR, &whole});
 }
 __attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
                                                                    const float* b, float* out) {
@@ -143,6 +151,14 @@ __attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const 
 __attribute__((target("avx512f"))) inline void
 micro_kernel_avx512_half(int K, const float* a, const float* b, float* out) {
   micro_kernel_avx512_tile<1>(K, a, b, out);
+}
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_half_rows(int K, const float* a, const float* b, float* out) {
+  micro_kernel_avx512_tile<2, 4>(K, a, b, out);
+}
+__attribute__((target("avx512f"))) inline void
+micro_kernel_avx512_quarter(int K, const float* a, const float* b, float* out) {
+  micro_kernel_avx512_tile<1, 4>(K, a, b, out);
 }
 
 // The AVX2 kernel over B rows row_b(k) (24 floats each): a packed panel (micro_kernel_avx2) or

@@ -639,12 +639,13 @@ void winograd_conv3x3_tile(const MicroKernel& kernel, const WinogradOps& ops,
       j += run;
     }
     // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
-    // (A last panel of at most nr / 2 tiles runs the half-width kernel where there is one.)
-    const MicroKernelFn fn = kernel.half && cols <= nr / 2 ? kernel.half : kernel.fn;
+    // (A last panel of at most nr / 2 tiles, or a last row panel of at most mr / 2 output
+    // channels, runs the half-width or half-height kernel where there is one.)
     for (std::size_t xi = 0; xi < products; ++xi)
       for (int mp = mp0; mp < mp1; ++mp)
-        fn(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
-           s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
+        tile_kernel(kernel, u.m - mp * mr,
+                    cols)(c, u.u[xi].panel(mp), s.v.data() + xi * xs_v,
+                          s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
     for (int mp = mp0; mp < mp1; ++mp) {
       const int rows = std::min(mr, u.m - mp * mr);
       for (int r = 0; r < rows; ++r) {
