@@ -8,6 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -77,6 +78,31 @@ TEST_CASE("MaskSmoother equals cv::GaussianBlur + threshold bit for bit: default
   // Frame-sized masks (the robot rig's frames are 635x350).
   for (int i = 0; i < 4; ++i)
     CHECK(mismatches(smoother, random_mask(rng, {635, 350}, true), 5) == 0);
+}
+
+TEST_CASE("MaskSmoother: bands of empty rows between shapes, one smoother over many masks") {
+  // The streaming path skips the sums of all-0 rows (mask_smoothing.hpp): shapes separated by
+  // empty bands of every height 0..7, at the top and bottom too, and masks that alternate with
+  // full ones so a ring slot that held sums must be cleared before it counts as 0.
+  cv::RNG rng(0xBA4D);
+  MaskSmoother smoother;
+  int total = 0, masks = 0;
+  for (const int k : {3, 5}) {
+    for (int i = 0; i < 200; ++i) {
+      const cv::Size size(rng.uniform(2, 70), rng.uniform(2, 60));
+      cv::Mat m = random_mask(rng, size, true);
+      for (int y = rng.uniform(0, 3); y < size.height;) { // blank bands of random height
+        const int band = rng.uniform(0, 8);
+        m.rowRange(y, std::min(size.height, y + band)).setTo(0);
+        y += band + rng.uniform(1, 4);
+      }
+      total += mismatches(smoother, m, k);
+      total += mismatches(smoother, cv::Mat(size, CV_8UC1, cv::Scalar(255)), k);
+      masks += 2;
+    }
+  }
+  CHECK(masks == 800);
+  CHECK(total == 0);
 }
 
 TEST_CASE("MaskSmoother equals OpenCV for every kernel size the segmenter accepts") {

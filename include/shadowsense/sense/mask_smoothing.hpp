@@ -48,6 +48,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -55,6 +56,19 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 
 namespace detail {
+
+// Whether any of the n bytes at p is non-zero (8 bytes at a time).
+inline bool any_nonzero(const std::uint8_t* p, int n) {
+  std::uint64_t acc = 0;
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t v;
+    std::memcpy(&v, p + i, 8);
+    acc |= v;
+  }
+  for (; i < n; ++i) acc |= p[i];
+  return acc != 0;
+}
 
 // OpenCV's fixed-point (8 fractional bits) Gaussian taps for kernel size k and sigma 0.
 inline std::array<int, 31> gaussian_taps_q8(int k) {
@@ -154,6 +168,7 @@ public:
     if (stream_k_ > 1) {
       padded_.resize(uw + static_cast<std::size_t>(stream_k_ - 1));
       ring_.resize(uw * static_cast<std::size_t>(stream_k_));
+      ring_zero_.fill(false); // what the ring holds is not known yet
       const detail::SegmentKernels& kern = segment_kernels();
       hsum_ = stream_k_ == 3 ? kern.hsum3 : kern.hsum5;
       vsum_ = stream_k_ == 3 ? kern.vsum3 : kern.vsum5;
@@ -177,9 +192,19 @@ public:
       return;
     }
     std::uint8_t* pad = padded_.data();
-    std::fill(pad, pad + r, pad[r]);
-    std::fill(pad + r + w, pad + 2 * r + w, pad[r + w - 1]);
-    hsum_(pad, w, ring_row(y));
+    // Most rows of a frame have no shadow: an all-0 row has all-0 sums, written once into its
+    // ring slot (the slot stays 0 while 0 rows follow), and emit() skips the vertical sums of
+    // a row whose k source rows are all 0.
+    const std::size_t slot = static_cast<std::size_t>(y % stream_k_);
+    if (!detail::any_nonzero(pad + r, w)) {
+      if (!ring_zero_[slot]) std::fill_n(ring_row(y), w, std::uint16_t{0});
+      ring_zero_[slot] = true;
+    } else {
+      std::fill(pad, pad + r, pad[r]);
+      std::fill(pad + r + w, pad + 2 * r + w, pad[r + w - 1]);
+      hsum_(pad, w, ring_row(y));
+      ring_zero_[slot] = false;
+    }
     if (y >= r) emit(y - r);
   }
   void end() {
@@ -219,10 +244,21 @@ private:
   void emit(int y) {
     const int h = mask_->rows, r = stream_k_ / 2;
     std::array<const std::uint16_t*, 5> rows{};
-    for (int t = 0; t < stream_k_; ++t)
-      rows[static_cast<std::size_t>(t)] = ring_row(std::clamp(y + t - r, 0, h - 1));
-    const bool any = vsum_(rows.data(), mask_->cols, mask_->ptr<uchar>(y),
-                           marks_ ? marks_ + static_cast<std::size_t>(y) * marks_stride_ : nullptr);
+    bool all_zero = true;
+    for (int t = 0; t < stream_k_; ++t) {
+      const int src = std::clamp(y + t - r, 0, h - 1);
+      rows[static_cast<std::size_t>(t)] = ring_row(src);
+      all_zero = all_zero && ring_zero_[static_cast<std::size_t>(src % stream_k_)];
+    }
+    const auto w = static_cast<std::size_t>(mask_->cols);
+    std::uint8_t* marks = marks_ ? marks_ + static_cast<std::size_t>(y) * marks_stride_ : nullptr;
+    bool any = false;
+    if (all_zero) { // the sums are 0, below the threshold: what vsum_ would write
+      std::fill_n(mask_->ptr<uchar>(y), w, uchar{0});
+      if (marks) std::fill_n(marks, w, std::uint8_t{0});
+    } else {
+      any = vsum_(rows.data(), mask_->cols, mask_->ptr<uchar>(y), marks);
+    }
     if (row_flags_) row_flags_[y] = any ? 1 : 0;
   }
 
@@ -310,6 +346,7 @@ private:
   detail::HsumRowFn hsum_ = nullptr;
   detail::VsumRowFn vsum_ = nullptr;
   std::vector<std::uint16_t> ring_; // horizontal sums of the last k rows (row y at y % k)
+  std::array<bool, 5> ring_zero_{}; // per ring slot: it holds all 0 sums
 
   int k_ = 0;
   std::array<int, 31> taps_{};
