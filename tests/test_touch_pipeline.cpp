@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 
 #include "common/files.hpp"
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -227,6 +228,36 @@ std::vector<std::string> events_of(const TouchFrame& f) {
 }
 
 } // namespace
+
+TEST_CASE("CameraHealth: one sampled byte changed anywhere ends a repeat; unsampled bytes do not") {
+  // 27 x 9 with sample_step 4: 7 samples a row (four lanes of the signature, then three more),
+  // 3 sampled rows; 1 and 3 channels, 4 (alpha not looked at).
+  for (const int channels : {1, 3, 4}) {
+    CAPTURE(channels);
+    cv::Mat base(9, 27, CV_8UC(channels));
+    cv::randu(base, 60, 200);
+    int sampled_changes = 0, unsampled_changes = 0;
+    for (int y = 0; y < base.rows; ++y)
+      for (int x = 0; x < base.cols; ++x)
+        for (int c = 0; c < channels; ++c) {
+          const bool sampled = y % 4 == 0 && x % 4 == 0 && c < 3;
+          cv::Mat changed = base.clone();
+          changed.ptr<std::uint8_t>(y)[x * channels + c] ^= 1;
+          CameraHealth h;
+          h.update(base);
+          h.update(base);
+          REQUIRE(h.repeated_frames() == 1);
+          h.update(changed);
+          if (sampled) {
+            sampled_changes += h.repeated_frames() == 0;
+          } else {
+            unsampled_changes += h.repeated_frames() == 2;
+          }
+        }
+    CHECK(sampled_changes == 3 * 7 * std::min(channels, 3));
+    CHECK(unsampled_changes == 9 * 27 * channels - 3 * 7 * std::min(channels, 3));
+  }
+}
 
 TEST_CASE("CameraHealth: black, black with one bright pixel, white, frozen; a live camera none") {
   const sim::Frame f = render({}, 7);
