@@ -14,6 +14,7 @@
 #include <random>
 #include <string>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 using namespace shadowsense;
@@ -113,9 +114,21 @@ TEST_CASE("micro-kernels: K = 0 gives zeros, NaN and Inf propagate") {
   }
 }
 
+namespace {
+// A packed A panel (K x mr) and B panel (K x nr), one float past each, uniform in [-2, 2).
+std::pair<std::vector<float>, std::vector<float>> random_panels(const detail::MicroKernel& mk,
+                                                                int K, std::mt19937& rng) {
+  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
+  std::vector<float> a(static_cast<std::size_t>(K) * mk.mr + 1),
+      b(static_cast<std::size_t>(K) * mk.nr + 1);
+  for (auto& v : a) v = ud(rng);
+  for (auto& v : b) v = ud(rng);
+  return {std::move(a), std::move(b)};
+}
+} // namespace
+
 TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others untouched") {
   std::mt19937 rng(12);
-  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
   int tested = 0;
   for (const auto& mk : kernels_under_test()) {
     if (!mk.half) continue;
@@ -124,10 +137,7 @@ TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others 
     ++tested;
     for (int K : {0, 1, 9, 300}) {
       CAPTURE(K);
-      std::vector<float> a(static_cast<std::size_t>(K) * mk.mr + 1),
-          b(static_cast<std::size_t>(K) * mk.nr + 1);
-      for (auto& v : a) v = ud(rng);
-      for (auto& v : b) v = ud(rng);
+      const auto [a, b] = random_panels(mk, K, rng);
       std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), half(full.size(), 7.0f);
       mk.fn(K, a.data(), b.data(), full.data());
       mk.half(K, a.data(), b.data(), half.data());
@@ -147,7 +157,6 @@ TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others 
 
 TEST_CASE("half-height kernels: the first mr / 2 rows bit for bit, the others untouched") {
   std::mt19937 rng(13);
-  std::uniform_real_distribution<float> ud(-2.0f, 2.0f);
   int tested = 0;
   for (const auto& mk : kernels_under_test()) {
     if (!mk.half_rows) continue;
@@ -157,10 +166,7 @@ TEST_CASE("half-height kernels: the first mr / 2 rows bit for bit, the others un
     REQUIRE_UNARY(mk.quarter != nullptr);
     for (int K : {0, 1, 9, 300}) {
       CAPTURE(K);
-      std::vector<float> a(static_cast<std::size_t>(K) * mk.mr + 1),
-          b(static_cast<std::size_t>(K) * mk.nr + 1);
-      for (auto& v : a) v = ud(rng);
-      for (auto& v : b) v = ud(rng);
+      const auto [a, b] = random_panels(mk, K, rng);
       std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), rows(full.size(), 7.0f),
           quarter(full.size(), 7.0f);
       mk.fn(K, a.data(), b.data(), full.data());

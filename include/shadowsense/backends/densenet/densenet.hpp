@@ -567,40 +567,56 @@ private:
     pool_->run(tasks, fn);
   }
 
-  // Panel rows [p0, p1) of q: the codes of input channel c at pixels [b0, b1) are those of the
-  // floats value(c, b0, b1, v) writes to v, computed channel by channel over blocks of pixels
-  // (contiguous, vectorised) and then transposed into the pixel-major panel.
-  template <class Value>
-  void pack_codes(int p0, int p1, const QConv& q, Value&& value, bool& nan) {
-    constexpr int block = 64;
-    const std::size_t kp = static_cast<std::size_t>(q.kp);
-    std::uint8_t* x = xq_.data();
-    float v[block];
-    for (int p = p0; p < p1; ++p)
-      std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
-    // Channels in groups of `group`: their codes go to a small tile first, then each pixel's
-    // `group` bytes are written together, so the pixel-major panel is written one run of bytes
-    // per pixel and group instead of one byte per pixel and channel.
-    constexpr int group = 16;
+  // Activation codes of `channels` input channels at positions [p0, p1) into a pixel-major
+  // array: the code of channel c at position p goes to dst[p * stride + c]. values(c, b0, b1,
+  // scratch) returns the floats of channel c at positions [b0, b1) (in scratch, 64 floats, or
+  // elsewhere). Computed channel by channel over blocks of 64 positions (contiguous,
+  // vectorised); channels in groups of 16 go to a small tile first, then each position's 16
+  // bytes are written together (one run of bytes per position and group instead of one byte per
+  // position and channel at the array's stride). nan is set when a value is NaN.
+  template <class Values>
+  static void transpose_codes(int p0, int p1, int channels, float inv_in, Values&& values,
+                              std::uint8_t* dst, std::size_t stride, bool& nan) {
+    constexpr int block = 64, group = 16;
+    float scratch[block];
     std::uint8_t tile[group][block];
     for (int b0 = p0; b0 < p1; b0 += block) {
       const int b1 = std::min(p1, b0 + block), nb = b1 - b0;
-      for (int c0 = 0; c0 < q.k; c0 += group) {
-        const int ng = std::min(group, q.k - c0);
+      for (int c0 = 0; c0 < channels; c0 += group) {
+        const int ng = std::min(group, channels - c0);
         for (int g = 0; g < ng; ++g) {
-          value(c0 + g, b0, b1, v);
+          const float* v = values(c0 + g, b0, b1, scratch);
           bool bad = false;
           for (int j = 0; j < nb; ++j) {
             bad |= v[j] != v[j];
-            tile[g][j] = detail::int8_code(v[j], q.inv_in);
+            tile[g][j] = detail::int8_code(v[j], inv_in);
           }
           nan |= bad;
         }
-        std::uint8_t* d = x + static_cast<std::size_t>(b0) * kp + static_cast<std::size_t>(c0);
-        for (int j = 0; j < nb; ++j, d += kp)
+        std::uint8_t* d =
+            dst + static_cast<std::size_t>(b0) * stride + static_cast<std::size_t>(c0);
+        for (int j = 0; j < nb; ++j, d += stride)
           for (int g = 0; g < ng; ++g) d[g] = tile[g][j];
       }
     }
+  }
+
+  // Panel rows [p0, p1) of q: the codes of input channel c at pixels [b0, b1) are those of the
+  // floats value(c, b0, b1, v) writes to v, transposed into the pixel-major panel
+  // (transpose_codes); the panel's columns k..kp-1 are 0.
+  template <class Value>
+  void pack_codes(int p0, int p1, const QConv& q, Value&& value, bool& nan) {
+    const std::size_t kp = static_cast<std::size_t>(q.kp);
+    std::uint8_t* x = xq_.data();
+    for (int p = p0; p < p1; ++p)
+      std::memset(x + p * kp + q.k, 0, kp - static_cast<std::size_t>(q.k));
+    transpose_codes(
+        p0, p1, q.k, q.inv_in,
+        [&](int c, int b0, int b1, float* v) {
+          value(c, b0, b1, v);
+          return static_cast<const float*>(v);
+        },
+        x, kp, nan);
   }
 
   // The int32 sums of q over panel rows [p0, p1) into acc_ (row stride n).
@@ -658,27 +674,13 @@ private:
     const auto in = static_cast<std::size_t>(inner);
     std::uint8_t* q3 = q3_.data();
     over_pixels((bh + 2) * pw, [&](int p0, int p1, int t) { // padded positions
-      constexpr int block = 64, group = 16;                 // channels in groups, as pack_codes
-      std::uint8_t tile[group][block];
       bool nan = false;
-      for (int b0 = p0; b0 < p1; b0 += block) {
-        const int nb = std::min(p1, b0 + block) - b0;
-        for (int c0 = 0; c0 < inner; c0 += group) {
-          const int ng = std::min(group, inner - c0);
-          for (int g = 0; g < ng; ++g) {
-            const float* s = bott + static_cast<std::size_t>(c0 + g) * plane + b0;
-            bool bad = false;
-            for (int j = 0; j < nb; ++j) {
-              bad |= s[j] != s[j];
-              tile[g][j] = detail::int8_code(s[j], q.inv_in);
-            }
-            nan |= bad;
-          }
-          std::uint8_t* d = q3 + static_cast<std::size_t>(b0) * in + static_cast<std::size_t>(c0);
-          for (int j = 0; j < nb; ++j, d += in)
-            for (int g = 0; g < ng; ++g) d[g] = tile[g][j];
-        }
-      }
+      transpose_codes(
+          p0, p1, inner, q.inv_in,
+          [&](int c, int b0, int, float*) {
+            return bott + static_cast<std::size_t>(c) * plane + b0;
+          },
+          q3, in, nan);
       if (nan) int8_nan_[static_cast<std::size_t>(t)] = 1;
     });
     const int cin = blk.c_in + static_cast<int>(l) * arch_.growth_rate;

@@ -180,30 +180,28 @@ SHADOWSENSE_VNNI inline void int8_block_vnni(const std::int8_t* w0, const std::u
   }
 }
 
+// Every weight row against Pix pixels from pixel j: blocks of 4 rows, then one at a time.
+template <std::size_t Pix>
+SHADOWSENSE_VNNI inline void int8_rows_vnni(const std::int8_t* w, int m, const std::uint8_t* x,
+                                            int j, std::size_t K, std::int32_t* c,
+                                            std::size_t ldc) {
+  int i = 0;
+  for (; i + 4 <= m; i += 4)
+    int8_block_vnni<4, Pix>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
+                            ldc);
+  for (; i < m; ++i)
+    int8_block_vnni<1, Pix>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
+                            ldc);
+}
+
 // 4 weight rows x 4 pixels per step (16 accumulators, 4 pixel and 1 weight register of the 32),
 // remainders one row or one pixel at a time with the same instructions.
 SHADOWSENSE_VNNI inline void gemm_s8u7_vnni(const std::int8_t* w, int m, const std::uint8_t* x,
                                             int n, int kp, std::int32_t* c, std::size_t ldc) {
   const std::size_t K = static_cast<std::size_t>(kp);
   int j = 0;
-  for (; j + 4 <= n; j += 4) {
-    int i = 0;
-    for (; i + 4 <= m; i += 4)
-      int8_block_vnni<4, 4>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
-                            ldc);
-    for (; i < m; ++i)
-      int8_block_vnni<1, 4>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
-                            ldc);
-  }
-  for (; j < n; ++j) {
-    int i = 0;
-    for (; i + 4 <= m; i += 4)
-      int8_block_vnni<4, 1>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
-                            ldc);
-    for (; i < m; ++i)
-      int8_block_vnni<1, 1>(w + i * K, x + j * K, K, c + static_cast<std::size_t>(i) * ldc + j,
-                            ldc);
-  }
+  for (; j + 4 <= n; j += 4) int8_rows_vnni<4>(w, m, x, j, K, c, ldc);
+  for (; j < n; ++j) int8_rows_vnni<1>(w, m, x, j, K, c, ldc);
 }
 #undef SHADOWSENSE_VNNI
 #endif
