@@ -23,7 +23,8 @@ ChannelSums plain_sums(const unsigned char* row, int pixels) {
 
 std::vector<ChannelSumsKind> kernels_here() {
   std::vector<ChannelSumsKind> k;
-  for (auto kind : {ChannelSumsKind::portable, ChannelSumsKind::avx2, ChannelSumsKind::neon})
+  for (auto kind : {ChannelSumsKind::portable, ChannelSumsKind::avx2, ChannelSumsKind::avx512,
+                    ChannelSumsKind::neon})
     if (channel_sums_cpu_has(kind)) k.push_back(kind);
   return k;
 }
@@ -50,6 +51,13 @@ TEST_CASE("add_channel_sums: every kernel gives the plain loop's sums, exactly")
         CHECK(got[1] == want[1] + 2);
         CHECK(got[2] == want[2] + 3);
       }
+    // 40000 random pixels: several of the AVX-512 kernel's 256-step flushes, each lane added
+    // to its channel.
+    std::vector<unsigned char> long_row(3 * 40000);
+    for (auto& b : long_row) b = static_cast<unsigned char>(byte(rng));
+    ChannelSums long_got{0, 0, 0};
+    add_channel_sums(long_row.data(), 40000, long_got, kind);
+    CHECK(long_got == plain_sums(long_row.data(), 40000));
     // 70000 pixels of 255 and one channel of 0: a 16-bit lane kept past 257 steps or a
     // 32-bit lane of the wrong width would wrap.
     std::vector<unsigned char> big(3 * 70000, 255);
@@ -70,7 +78,7 @@ TEST_CASE("add_channel_sums: every kernel gives the plain loop's sums, exactly")
 
 TEST_CASE("add_channel_sums: a kernel this build or CPU lacks is refused by name") {
   bool refused_one = false;
-  for (auto kind : {ChannelSumsKind::avx2, ChannelSumsKind::neon})
+  for (auto kind : {ChannelSumsKind::avx2, ChannelSumsKind::avx512, ChannelSumsKind::neon})
     if (!channel_sums_cpu_has(kind)) {
       ChannelSums s{0, 0, 0};
       const unsigned char row[3] = {1, 2, 3};

@@ -66,15 +66,19 @@ struct LightingNormaliser {
 
   // The sum of each channel's 8-bit values over a CV_8UC3 image (not checked), exact: row by
   // row with the kernel this CPU runs (classify/channel_sums.hpp: AVX2, NEON or portable; the
-  // same integers from each), in pieces of at most 2^24 pixels (the kernels' contract).
+  // same integers from each), in pieces of at most 2^24 pixels (the kernels' contract). A
+  // continuous image is one row: the kernels' scalar tails then run once, not once a row.
   static std::array<std::uint64_t, 3> channel_sums(const cv::Mat& image) {
-    constexpr int piece = 1 << 24;
+    constexpr long long piece = 1 << 24;
     ChannelSums total{0, 0, 0};
-    for (int y = 0; y < image.rows; ++y) {
+    const bool one_row = image.isContinuous();
+    const int rows = one_row ? 1 : image.rows;
+    const long long cols = one_row ? static_cast<long long>(image.rows) * image.cols : image.cols;
+    for (int y = 0; y < rows; ++y) {
       const unsigned char* s = image.ptr<unsigned char>(y);
-      for (long long x = 0; x < image.cols; x += piece)
+      for (long long x = 0; x < cols; x += piece)
         add_channel_sums(s + 3 * static_cast<std::size_t>(x),
-                         static_cast<int>(std::min<long long>(piece, image.cols - x)), total);
+                         static_cast<int>(std::min(piece, cols - x)), total);
     }
     return total;
   }
