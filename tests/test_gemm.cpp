@@ -413,11 +413,11 @@ TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision a
 
 namespace {
 
-// The 3x3 convolution (pad 1) of c channels of a zero-bordered (h + 2) x pw grid, in double:
-// out[o][y][x] and the error scale sum |w| |x| of each output.
-void reference_conv3x3(const std::vector<float>& w, const std::vector<float>& in, int m, int c,
-                       int h, int wd, int pw, std::size_t plane, std::vector<double>& out,
-                       std::vector<double>& scale) {
+// The r x r correlation (r = 3: pad 1) of c channels of a zero-bordered grid of row stride pw,
+// in double: out[o][y][x] and the error scale sum |w| |x| of each output.
+void reference_conv(int r, const std::vector<float>& w, const std::vector<float>& in, int m, int c,
+                    int h, int wd, int pw, std::size_t plane, std::vector<double>& out,
+                    std::vector<double>& scale) {
   out.assign(static_cast<std::size_t>(m) * h * wd, 0.0);
   scale.assign(out.size(), 0.0);
   for (int o = 0; o < m; ++o)
@@ -425,9 +425,9 @@ void reference_conv3x3(const std::vector<float>& w, const std::vector<float>& in
       for (int x = 0; x < wd; ++x) {
         double acc = 0, abs_acc = 0;
         for (int i = 0; i < c; ++i)
-          for (int t = 0; t < 9; ++t) {
-            const double a = w[(static_cast<std::size_t>(o) * c + i) * 9 + t];
-            const double b = in[i * plane + static_cast<std::size_t>(y + t / 3) * pw + x + t % 3];
+          for (int t = 0; t < r * r; ++t) {
+            const double a = w[(static_cast<std::size_t>(o) * c + i) * r * r + t];
+            const double b = in[i * plane + static_cast<std::size_t>(y + t / r) * pw + x + t % r];
             acc += a * b;
             abs_acc += std::abs(a * b);
           }
@@ -459,10 +459,18 @@ void winograd_abs_scale(int tile, const std::vector<float>& w, const std::vector
                                   {0, 0, 1}};
   static const double at4[4][6] = {
       {1, 1, 1, 1, 1, 0}, {0, 1, 1, 2, 2, 0}, {0, 1, 1, 4, 4, 0}, {0, 1, 1, 8, 8, 1}};
-  const int a = tile + 2;
+  // F(3x3, 4x4): bt4, and
+  static const double g3[6][4] = {{1. / 4, 0, 0, 0},
+                                  {1. / 6, 1. / 6, 1. / 6, 1. / 6},
+                                  {1. / 6, 1. / 6, 1. / 6, 1. / 6},
+                                  {1. / 24, 1. / 12, 1. / 6, 1. / 3},
+                                  {1. / 24, 1. / 12, 1. / 6, 1. / 3},
+                                  {0, 0, 0, 1}};
+  static const double at3[3][6] = {{1, 1, 1, 1, 1, 0}, {0, 1, 1, 2, 2, 0}, {0, 1, 1, 4, 4, 1}};
+  const int a = tile == 2 ? 4 : 6, taps = tile == 3 ? 4 : 3;
   auto bt = [&](int p, int r) { return tile == 2 ? bt2[p][r] : bt4[p][r]; };
-  auto g = [&](int p, int k) { return tile == 2 ? g2[p][k] : g4[p][k]; };
-  auto at = [&](int i, int p) { return tile == 2 ? at2[i][p] : at4[i][p]; };
+  auto g = [&](int p, int k) { return tile == 2 ? g2[p][k] : tile == 4 ? g4[p][k] : g3[p][k]; };
+  auto at = [&](int i, int p) { return tile == 2 ? at2[i][p] : tile == 4 ? at4[i][p] : at3[i][p]; };
   scale.assign(static_cast<std::size_t>(m) * h * wd, 0.0);
   // |G| |g| |G^T| for every (o, i)
   std::vector<double> u(static_cast<std::size_t>(m) * c * a * a);
@@ -471,10 +479,11 @@ void winograd_abs_scale(int tile, const std::vector<float>& w, const std::vector
       for (int p = 0; p < a; ++p)
         for (int q = 0; q < a; ++q) {
           double acc = 0;
-          for (int ky = 0; ky < 3; ++ky)
-            for (int kx = 0; kx < 3; ++kx)
+          for (int ky = 0; ky < taps; ++ky)
+            for (int kx = 0; kx < taps; ++kx)
               acc += g(p, ky) *
-                     std::abs(w[(static_cast<std::size_t>(o) * c + i) * 9 + ky * 3 + kx]) *
+                     std::abs(
+                         w[(static_cast<std::size_t>(o) * c + i) * taps * taps + ky * taps + kx]) *
                      g(q, kx);
           u[((static_cast<std::size_t>(o) * c + i) * a + p) * a + q] = acc;
         }
@@ -551,7 +560,7 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
       std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
       for (auto& v : w) v = ud(rng);
       std::vector<double> ref, scale, wscale;
-      reference_conv3x3(w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
+      reference_conv(3, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
       winograd_abs_scale(tile, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, wscale);
       const double eps = std::numeric_limits<float>::epsilon();
       const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
@@ -587,6 +596,82 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
             ", max |diff| / bound = ", worst_bound);
     CHECK(worst > 0); // the comparison ran on float results
   }
+}
+
+TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU after, for "
+          "every kernel") {
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  struct Shape {
+    int m, c, h, w;
+  };
+  // conv0's own (24 output channels over the 12 stride-2 phases of a 3-channel image, the
+  // shipped model's 44 x 80 and DenseNet-121's 75 x 110), one tile, sizes 1-2 past a multiple
+  // of 3, a tile row longer than one 16-tile step, rows that do not fill a panel.
+  const Shape shapes[] = {{24, 12, 44, 80}, {64, 12, 75, 110}, {3, 5, 1, 1},  {8, 4, 2, 5},
+                          {7, 3, 4, 7},     {12, 12, 9, 52},   {5, 2, 3, 50}, {9, 12, 10, 3}};
+  double worst = 0, worst_bound = 0;
+  for (const auto& sh : shapes) {
+    CAPTURE(sh.m);
+    CAPTURE(sh.c);
+    CAPTURE(sh.h);
+    CAPTURE(sh.w);
+    // The input as conv0's phases hold it: the (h + 3) x (w + 3) region read by the direct
+    // correlation, zero beyond it up to the padded extent the tiles read, NaN past the last
+    // plane's readable slack.
+    const int pw = detail::winograd_padded(sh.w, 3);
+    const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(sh.h, 3)) * pw;
+    const std::size_t zeros = sh.c * plane;
+    std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
+    std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
+              std::numeric_limits<float>::quiet_NaN());
+    for (int i = 0; i < sh.c; ++i)
+      for (int y = 0; y < sh.h + 3; ++y)
+        for (int x = 0; x < sh.w + 3; ++x)
+          in[i * plane + static_cast<std::size_t>(y) * pw + x] = ud(rng);
+    std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 16), bias(sh.m);
+    for (auto& v : w) v = ud(rng);
+    for (auto& v : bias) v = 0.5f * ud(rng);
+    std::vector<double> ref, scale, wscale;
+    reference_conv(4, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, ref, scale);
+    winograd_abs_scale(3, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, wscale);
+    const double eps = std::numeric_limits<float>::epsilon();
+    const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
+    for (const auto& mk : kernels_under_test())
+      for (int threads : {1, 3}) {
+        const std::string name = mk.name;
+        CAPTURE(name);
+        CAPTURE(threads);
+        detail::WinogradWeights u;
+        u.set(w.data(), sh.m, sh.c, mk.mr, 3);
+        detail::ThreadPool pool(threads);
+        std::vector<detail::WinogradScratch> scratch(static_cast<std::size_t>(threads),
+                                                     detail::make_winograd_scratch(sh.c, sh.m, mk));
+        std::vector<float> out(n_out + 64, -7.0f);
+        detail::winograd_conv4x4(mk, detail::select_winograd_ops(mk.kind), u, in.data(), pw, plane,
+                                 sh.h, sh.w, bias.data(), out.data(), pool, scratch);
+        int bad = 0;
+        const std::size_t image = static_cast<std::size_t>(sh.h) * sh.w;
+        for (std::size_t k = 0; k < n_out; ++k) {
+          // relu(conv + b): the bias adds one rounding of the sum's size
+          const double b = bias[k / image], want = std::max(ref[k] + b, 0.0);
+          const double diff = std::abs(double(out[k]) - want);
+          const double bound = (sh.c + 32) * eps * wscale[k] + eps * std::abs(ref[k] + b);
+          if (ref[k] + b > 0) {
+            worst =
+                std::max(worst, std::abs(double(out[k]) - b - ref[k]) / std::max(scale[k], 1e-30));
+            worst_bound = std::max(worst_bound, diff / std::max(bound, 1e-30));
+          }
+          if (!(diff <= bound)) ++bad; // (NaN counts as bad)
+        }
+        CHECK(bad == 0);
+        CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
+                          [](float v) { return v == -7.0f; }));
+      }
+  }
+  MESSAGE("Winograd F(3x3, 4x4) vs direct (double): max |diff| / sum |w x| = ", worst,
+          ", max |diff| / bound = ", worst_bound);
+  CHECK(worst > 0);
 }
 
 TEST_CASE("winograd_tile: F(4x4) on large images, F(2x2) or direct where tiles leave panels "

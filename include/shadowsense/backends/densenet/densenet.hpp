@@ -72,6 +72,10 @@ public:
   // block (tests, benchmarks; direct also saves the memory of the transformed weights, 16/9 of
   // the 3x3 weights for F(2x2) and 36/9 for F(4x4)).
   enum class Conv3x3 { automatic, direct, winograd, winograd4x4 };
+  // conv0 (7x7, stride 2): automatic takes Winograd F(3x3, 4x4) over the input's four stride-2
+  // phases where detail::winograd_conv0_pays(h0, w0, nr) says so (a third of the multiply-adds
+  // of the direct convolution on every input size but tiny ones); direct and winograd force one.
+  enum class Conv0 { automatic, direct, winograd };
   // float32: every convolution in float; int8: the quantised convolutions of the model file's
   // int8 section (InvalidArgument without one); automatic: int8 when the file has the section.
   enum class Precision { automatic, float32, int8 };
@@ -83,6 +87,7 @@ public:
     int spin_us = detail::ThreadPool::default_spin_us;
     GemmKernelKind kernel = GemmKernelKind::automatic;
     Conv3x3 conv3x3 = Conv3x3::automatic;
+    Conv0 conv0 = Conv0::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
     // vector_ops (the four required ones set) are used instead of `kernel`.
@@ -305,6 +310,7 @@ public:
   std::size_t weight_bytes() const {
     std::size_t n = conv0_.data.size() + bias0_.size() + classifier_w_.size() +
                     classifier_b_.size() + 2 * norm5_.scale.size();
+    for (const auto& u : conv0_winograd_.u) n += u.data.size();
     for (const auto& b : blocks_) {
       n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
       for (const auto& l : b.layers) {
@@ -444,6 +450,21 @@ private:
     std::vector<float> w;
     bias0_ = fold(m, "features.conv0.weight", "features.norm0", w);
     conv0_.pack(w.data(), arch_.init_features, 3 * 49, kernel_.mr);
+    if (config_.conv0 != Conv0::direct) {
+      // conv0 as a stride-1 4x4 correlation over the 12 phase planes (phase (py, px) of
+      // channel c: plane (py * 2 + px) * 3 + c, as load_input writes them): tap (a, b) of
+      // plane (py, px, c) is tap (2a + py, 2b + px) of channel c, 0 past the 7x7 kernel.
+      std::vector<float> w4(static_cast<std::size_t>(arch_.init_features) * 12 * 16, 0.0f);
+      for (int o = 0; o < arch_.init_features; ++o)
+        for (int py = 0; py < 2; ++py)
+          for (int px = 0; px < 2; ++px)
+            for (int c = 0; c < 3; ++c)
+              for (int a = 0; 2 * a + py < 7; ++a)
+                for (int b = 0; 2 * b + px < 7; ++b)
+                  w4[((static_cast<std::size_t>(o) * 12 + (py * 2 + px) * 3 + c) * 4 + a) * 4 + b] =
+                      w[static_cast<std::size_t>(o) * 147 + (c * 7 + 2 * a + py) * 7 + 2 * b + px];
+      conv0_winograd_.set(w4.data(), arch_.init_features, 12, kernel_.mr, 3);
+    }
     int c = arch_.init_features;
     const int k = arch_.growth_rate, inner = arch_.bn_size * arch_.growth_rate;
     max_k_ = std::max(147, inner * 9);
@@ -485,9 +506,11 @@ private:
       s.tile.assign(static_cast<std::size_t>(kernel_.mr) * kernel_.nr, 0.0f);
       s.index.assign(static_cast<std::size_t>(kernel_.nr), 0);
     }
-    if (builds_winograd())
-      winograd_scratch_.assign(static_cast<std::size_t>(pool_->size()),
-                               detail::make_winograd_scratch(inner, arch_.growth_rate, kernel_));
+    if (builds_winograd() || !conv0_winograd_.empty())
+      winograd_scratch_.assign(
+          static_cast<std::size_t>(pool_->size()),
+          detail::make_winograd_scratch(std::max(inner, conv0_winograd_.c),
+                                        std::max(arch_.growth_rate, conv0_winograd_.m), kernel_));
   }
 
   // The int8 section (validated by ModelFile) as the GEMM reads it.
@@ -752,9 +775,18 @@ private:
       // the output's position on a grid of pitch w0 + 3 (+ 64 floats of slack: the fused
       // kernel's last panel reads a whole 32-wide row from its last tap, 3 columns into the
       // plane's last row).
-      phase_pitch_ = w0_ + 3;
-      phase_plane_ = static_cast<std::size_t>(h0_ + 3) * phase_pitch_;
-      phases_.assign(12 * phase_plane_ + 64, 0.0f);
+      // With conv0 by Winograd (winograd_conv0_pays), the planes reach as far as its last
+      // tiles read (winograd_padded) and are readable winograd_read_slack floats past the
+      // last one.
+      conv0_tile_ =
+          config_.conv0 == Conv0::winograd || (config_.conv0 == Conv0::automatic &&
+                                               detail::winograd_conv0_pays(h0_, w0_, kernel_.nr))
+              ? 3
+              : 0;
+      const int rows = conv0_tile_ ? detail::winograd_padded(h0_, 3) : h0_ + 3;
+      phase_pitch_ = conv0_tile_ ? detail::winograd_padded(w0_, 3) : w0_ + 3;
+      phase_plane_ = static_cast<std::size_t>(rows) * phase_pitch_;
+      phases_.assign(12 * phase_plane_ + std::max(64, detail::winograd_read_slack), 0.0f);
       conv0_taps_.resize(147);
       for (int c = 0; c < 3; ++c)
         for (int ky = 0; ky < 7; ++ky)
@@ -876,6 +908,11 @@ private:
       }
     };
     float* out0 = conv0_out_.data();
+    if (conv0_tile_ == 3) { // F(3x3, 4x4) over the phases, bias and ReLU in its output
+      detail::winograd_conv4x4(kernel_, winograd_ops_, conv0_winograd_, src, pitch, phase_plane_,
+                               h0_, w0, bias0_.data(), out0, *pool_, winograd_scratch_);
+      return;
+    }
 #if SHADOWSENSE_X86_KERNELS
     if (fused_) { // B read in place: nothing packed
       detail::gemm_fused_avx512(
@@ -1204,6 +1241,8 @@ private:
   std::vector<detail::GemmScratch> scratch_;
   std::vector<detail::WinogradScratch> winograd_scratch_;
   detail::PackedMatrix conv0_;
+  detail::WinogradWeights conv0_winograd_; // conv0 over the phases (empty: Conv0::direct)
+  int conv0_tile_ = 0;                     // 3: conv0 by winograd_conv4x4 at this input size
   std::vector<float> bias0_;
   std::vector<Block> blocks_;
   Affine norm5_;

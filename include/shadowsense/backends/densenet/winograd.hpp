@@ -69,6 +69,7 @@
 #include <algorithm>
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -82,48 +83,82 @@ inline constexpr int winograd_read_slack = 80;
 inline constexpr int winograd_max_products = 36; // (T + 2)^2 for the largest tile, T = 4
 
 inline int winograd_padded(int n, int tile) {
-  return std::max(n + 2, (n + tile - 1) / tile * tile + 2);
+  const int extra = tile == 3 ? 3 : 2; // the kernel's taps - 1
+  return std::max(n + extra, (n + tile - 1) / tile * tile + extra);
+}
+
+// Tile size T -> the kernel's taps r (3, or 4 for F(3x3, 4x4)) and the transformed patch's
+// side alpha = T + r - 1 (4 or 6).
+constexpr int winograd_taps(int tile) {
+  return tile == 3 ? 4 : 3;
+}
+constexpr int winograd_alpha(int tile) {
+  return tile + winograd_taps(tile) - 1;
 }
 
 struct WinogradWeights {
   int m = 0, c = 0, tile = 0;
-  std::vector<PackedMatrix> u; // (tile + 2)^2 matrices
+  std::vector<PackedMatrix> u; // alpha^2 matrices
 
   bool empty() const { return u.empty(); }
 
   void set(const float* w, int rows, int channels, int mr, int tile_size) {
-    require(tile_size == 2 || tile_size == 4,
-            "Winograd: tile size " + std::to_string(tile_size) + ", expected 2 or 4");
+    require(tile_size == 2 || tile_size == 3 || tile_size == 4,
+            "Winograd: tile size " + std::to_string(tile_size) + ", expected 2, 3 or 4");
     m = rows;
     c = channels;
     tile = tile_size;
-    static constexpr double G2[4][3] = {{1, 0, 0}, {.5, .5, .5}, {.5, -.5, .5}, {0, 0, 1}};
-    static constexpr double G4[6][3] = {{1. / 4, 0, 0},
+    static constexpr double G2[4][4] = {{1, 0, 0}, {.5, .5, .5}, {.5, -.5, .5}, {0, 0, 1}};
+    static constexpr double G4[6][4] = {{1. / 4, 0, 0},
                                         {-1. / 6, -1. / 6, -1. / 6},
                                         {-1. / 6, 1. / 6, -1. / 6},
                                         {1. / 24, 1. / 12, 1. / 6},
                                         {1. / 24, -1. / 12, 1. / 6},
                                         {0, 0, 1}};
-    const int a = tile + 2;
-    const double(*G)[3] = tile == 2 ? G2 : G4;
+    // F(3x3, 4x4): the same interpolation points as F(4x4, 3x3), four taps.
+    static constexpr double G3[6][4] = {{1. / 4, 0, 0, 0},
+                                        {-1. / 6, -1. / 6, -1. / 6, -1. / 6},
+                                        {-1. / 6, 1. / 6, -1. / 6, 1. / 6},
+                                        {1. / 24, 1. / 12, 1. / 6, 1. / 3},
+                                        {1. / 24, -1. / 12, 1. / 6, -1. / 3},
+                                        {0, 0, 0, 1}};
+    const int a = winograd_alpha(tile), r = winograd_taps(tile);
+    const double(*G)[4] = tile == 2 ? G2 : tile == 4 ? G4 : G3;
     std::vector<std::vector<float>> plain(static_cast<std::size_t>(a * a));
     for (auto& p : plain) p.assign(static_cast<std::size_t>(m) * c, 0.0f);
     for (int o = 0; o < m; ++o)
       for (int i = 0; i < c; ++i) {
-        const float* g = w + (static_cast<std::size_t>(o) * c + i) * 9;
-        double gg[6][3]; // G g
+        const float* g = w + (static_cast<std::size_t>(o) * c + i) * r * r;
+        double gg[6][4]; // G g
         for (int p = 0; p < a; ++p)
-          for (int kx = 0; kx < 3; ++kx)
-            gg[p][kx] = G[p][0] * g[kx] + G[p][1] * g[3 + kx] + G[p][2] * g[6 + kx];
+          for (int kx = 0; kx < r; ++kx) {
+            double acc = 0;
+            for (int ky = 0; ky < r; ++ky) acc += G[p][ky] * g[ky * r + kx];
+            gg[p][kx] = acc;
+          }
         for (int p = 0; p < a; ++p)
-          for (int q = 0; q < a; ++q)
+          for (int q = 0; q < a; ++q) {
+            double acc = 0;
+            for (int kx = 0; kx < r; ++kx) acc += G[q][kx] * gg[p][kx];
             plain[static_cast<std::size_t>(p * a + q)][static_cast<std::size_t>(o) * c + i] =
-                static_cast<float>(G[q][0] * gg[p][0] + G[q][1] * gg[p][1] + G[q][2] * gg[p][2]);
+                static_cast<float>(acc);
+          }
       }
     u.assign(plain.size(), PackedMatrix{});
     for (std::size_t xi = 0; xi < plain.size(); ++xi) u[xi].pack(plain[xi].data(), m, c, mr);
   }
 };
+
+// Whether conv0 (7x7, stride 2, an h x w output) costs less by F(3x3, 4x4) over the input's 12
+// stride-2 phases than directly: panel passes times multiply-adds per column, as winograd_tile
+// (direct: h (w + 3) grid columns, 147 each; Winograd: one 3 x 3 tile per column, 36 products
+// of 12 channels), taken at most 3/4 of the direct cost (the transforms are not free).
+inline bool winograd_conv0_pays(int h, int w, int nr) {
+  const long grid = long(h) * (w + 3), tiles = long((h + 2) / 3) * ((w + 2) / 3);
+  const double direct = double((grid + nr - 1) / nr * 147);
+  const double winograd = double((tiles + nr - 1) / nr * 36 * 12);
+  return 4 * winograd <= 3 * direct;
+}
 
 inline constexpr int winograd_min_outputs = 12; // output channels below which direct wins
 // F(4x4) is taken where its panel cost is at most this share of F(2x2)'s: its transforms cost
@@ -163,6 +198,16 @@ inline void winograd4_at(float x0, float x1, float x2, float x3, float x4, float
   z[1] = m + 2.0f * m2;
   z[2] = p + 4.0f * p2;
   z[3] = m + 8.0f * m2 + x5;
+}
+
+// F(3x3, 4x4)'s A^T x of six values: [1 1 1 1 1 0; 0 1 -1 2 -2 0; 0 1 1 4 4 1] (its B^T is
+// F(4x4, 3x3)'s, winograd4_bt).
+inline void winograd3_at(float x0, float x1, float x2, float x3, float x4, float x5,
+                         float (&z)[3]) {
+  const float p = x1 + x2, m = x1 - x2, p2 = x3 + x4, m2 = x3 - x4;
+  z[0] = x0 + p + p2;
+  z[1] = m + 2.0f * m2;
+  z[2] = p + 4.0f * p2 + x5;
 }
 
 // The transforms, written as unit-stride loops over tiles (the input's stride-2 reads become
@@ -284,6 +329,62 @@ inline void winograd4_at(float x0, float x1, float x2, float x3, float x4, float
     for (int i = 0; i < quads; ++i)                                                                \
       for (int k = 0; k < 4; ++k) d[4 * i + k] = y[k * winograd_max_run + i];                      \
     for (int k = 0; k < n % 4; ++k) d[4 * quads + k] = y[k * winograd_max_run + quads];            \
+  }                                                                                                \
+  /* F(3x3, 4x4): patches 3 columns apart, F(4x4)'s B^T, A^T to 3 x 3 outputs */                   \
+  ATTR inline void winograd_input3_one_##SUFFIX(const float* __restrict s, int pw, int run,        \
+                                                float* __restrict d, std::size_t xs) {             \
+    float t[6][6][winograd_max_run]; /* t[row][q][j]: the patch rows times B */                    \
+    for (int k = 0; k < 6; ++k) {                                                                  \
+      const float* __restrict r = s + k * pw;                                                      \
+      for (int j = 0; j < run; ++j) {                                                              \
+        float y[6];                                                                                \
+        winograd4_bt(r[3 * j], r[3 * j + 1], r[3 * j + 2], r[3 * j + 3], r[3 * j + 4],             \
+                     r[3 * j + 5], y);                                                             \
+        for (int q = 0; q < 6; ++q) t[k][q][j] = y[q];                                             \
+      }                                                                                            \
+    }                                                                                              \
+    for (int q = 0; q < 6; ++q)                                                                    \
+      for (int j = 0; j < run; ++j) {                                                              \
+        float y[6];                                                                                \
+        winograd4_bt(t[0][q][j], t[1][q][j], t[2][q][j], t[3][q][j], t[4][q][j], t[5][q][j], y);   \
+        for (int p = 0; p < 6; ++p) d[static_cast<std::size_t>(6 * p + q) * xs + j] = y[p];        \
+      }                                                                                            \
+  }                                                                                                \
+  ATTR inline void winograd_input3_##SUFFIX(const float* __restrict s, std::size_t plane,          \
+                                            int channels, int pw, int run, int /*room*/,           \
+                                            float* __restrict d, std::size_t dc, std::size_t xs) { \
+    for (int ch = 0; ch < channels; ++ch)                                                          \
+      winograd_input3_one_##SUFFIX(s + ch * plane, pw, run, d + ch * dc, xs);                      \
+  }                                                                                                \
+  ATTR inline void winograd_output3_##SUFFIX(const float* __restrict m, std::size_t xs, int n,     \
+                                             float* __restrict y) {                                \
+    float s[3][6][winograd_max_run]; /* A^T M */                                                   \
+    for (int q = 0; q < 6; ++q)                                                                    \
+      for (int j = 0; j < n; ++j) {                                                                \
+        float z[3];                                                                                \
+        winograd3_at(m[static_cast<std::size_t>(q) * xs + j],                                      \
+                     m[static_cast<std::size_t>(6 + q) * xs + j],                                  \
+                     m[static_cast<std::size_t>(12 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(18 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(24 + q) * xs + j],                                 \
+                     m[static_cast<std::size_t>(30 + q) * xs + j], z);                             \
+        for (int i = 0; i < 3; ++i) s[i][q][j] = z[i];                                             \
+      }                                                                                            \
+    for (int i = 0; i < 3; ++i)                                                                    \
+      for (int j = 0; j < n; ++j) {                                                                \
+        float z[3];                                                                                \
+        winograd3_at(s[i][0][j], s[i][1][j], s[i][2][j], s[i][3][j], s[i][4][j], s[i][5][j], z);   \
+        for (int k = 0; k < 3; ++k)                                                                \
+          y[static_cast<std::size_t>(3 * i + k) * winograd_max_run + j] = z[k];                    \
+      }                                                                                            \
+  }                                                                                                \
+  /* d[3 i + k] = relu(y[k][i] + b) for 3 i + k < n: bias_relu's arithmetic */                     \
+  ATTR inline void winograd_interleave3_bias_relu_##SUFFIX(const float* __restrict y,              \
+                                                           float* __restrict d, int n, float b) {  \
+    for (int x = 0; x < n; ++x) {                                                                  \
+      const float v = y[(x % 3) * winograd_max_run + x / 3] + b;                                   \
+      d[x] = v < 0.0f ? 0.0f : v;                                                                  \
+    }                                                                                              \
   }
 
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, SHADOWSENSE_VECTORISE)
@@ -546,18 +647,155 @@ winograd_input4_avx512(const float* __restrict s, std::size_t plane, int channel
     }
   }
 }
+// F(3x3, 4x4)'s lane sources: lane j of column set k (k < 3) is float 3 j + k of a transformed
+// row's 48; the first permute takes those below 32 from two vectors, the second the rest (mask
+// bit j set) from the third.
+struct Winograd3Columns {
+  std::array<std::array<int, 16>, 3> low{}, high{};
+  std::array<std::uint16_t, 3> from_high{};
+};
+inline constexpr Winograd3Columns winograd3_columns = [] {
+  Winograd3Columns c{};
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 16; ++j) {
+      const int src = 3 * j + k;
+      c.low[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)] = src & 31;
+      c.high[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)] = src & 15;
+      if (src >= 32)
+        c.from_high[static_cast<std::size_t>(k)] =
+            static_cast<std::uint16_t>(c.from_high[static_cast<std::size_t>(k)] | (1u << j));
+    }
+  return c;
+}();
+
+// One step of F(3x3, 4x4)'s input transform, up to 16 tiles three columns apart: B^T down the
+// six patch rows on whole column vectors into t (as winograd4_step_avx512), then per
+// transformed row the columns 3 j + k (k < 3) of its first 48 floats by two permutes each,
+// columns 3 j + 3 .. 3 j + 5 as those one tile on (a one-lane shift, floats 48..50 entering),
+// and B across them. t keeps the caller's values beyond the nv vectors the step fills.
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
+                      std::size_t xs, float (&t)[6][80]) {
+  for (int v = 0; v < nv; ++v) {
+    __m512 x[6], y[6];
+    for (int k = 0; k < 6; ++k)
+      x[k] = _mm512_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 16 * v);
+    winograd4_bt_avx512(x, y);
+    for (int p = 0; p < 6; ++p) _mm512_store_ps(t[p] + 16 * v, y[p]);
+  }
+  __m512i low[3], high[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    low[k] = _mm512_loadu_si512(winograd3_columns.low[k].data());
+    high[k] = _mm512_loadu_si512(winograd3_columns.high[k].data());
+  }
+  for (int p = 0; p < 6; ++p) {
+    const float* r = t[p];
+    const __m512 a = _mm512_load_ps(r), b = _mm512_load_ps(r + 16), c = _mm512_load_ps(r + 32);
+    __m512 x[6], y[6];
+    for (std::size_t k = 0; k < 3; ++k) {
+      x[k] = _mm512_mask_permutexvar_ps(_mm512_permutex2var_ps(a, low[k], b),
+                                        winograd3_columns.from_high[k], high[k], c);
+      x[k + 3] = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+          0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[48 + k])), _mm512_castps_si512(x[k]), 1));
+    }
+    winograd4_bt_avx512(x, y);
+    for (int q = 0; q < 6; ++q) {
+      float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
+      if constexpr (Masked)
+        _mm512_mask_storeu_ps(dst, out, y[q]);
+      else
+        _mm512_storeu_ps(dst, y[q]);
+    }
+  }
+}
+
+// Lane j of the three vectors that interleave three rows of 16 values (48 floats: value e of
+// the result is row e % 3, column e / 3, e = 16 k + j) as an index into (row 0, row 1) for the
+// first permute, and the row-2 lanes with their source lane for the second.
+struct Winograd3Interleave {
+  std::array<std::array<int, 16>, 3> first{}, second{};
+  std::array<std::uint16_t, 3> from_row2{};
+};
+inline constexpr Winograd3Interleave winograd3_interleave = [] {
+  Winograd3Interleave r{};
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 16; ++j) {
+      const int e = 16 * k + j, col = e / 3, row = e % 3;
+      r.first[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)] = row == 1 ? 16 + col : col;
+      r.second[static_cast<std::size_t>(k)][static_cast<std::size_t>(j)] = col;
+      if (row == 2)
+        r.from_row2[static_cast<std::size_t>(k)] =
+            static_cast<std::uint16_t>(r.from_row2[static_cast<std::size_t>(k)] | (1u << j));
+    }
+  return r;
+}();
+
+// winograd_interleave3_bias_relu with AVX-512: 16 tiles (48 outputs) a step, bias and ReLU on
+// the three rows (max(0, v): v < 0 ? 0 : v, NaN kept, as bias_relu), two permutes per output
+// vector, the last step's stores masked. Reads whole vectors of y's rows (winograd_max_run
+// floats each, so always inside them).
+__attribute__((target("avx512f"))) inline void
+winograd_interleave3_bias_relu_avx512(const float* __restrict y, float* __restrict d, int n,
+                                      float b) {
+  const __m512 vb = _mm512_set1_ps(b), zero = _mm512_setzero_ps();
+  __m512i first[3], second[3];
+  for (std::size_t k = 0; k < 3; ++k) {
+    first[k] = _mm512_loadu_si512(winograd3_interleave.first[k].data());
+    second[k] = _mm512_loadu_si512(winograd3_interleave.second[k].data());
+  }
+  for (int t = 0; 3 * t < n; t += 16) {
+    __m512 v[3];
+    for (int k = 0; k < 3; ++k)
+      v[k] = _mm512_maskz_max_ps(0xFFFF, zero,
+                                 _mm512_add_ps(_mm512_loadu_ps(y + k * winograd_max_run + t), vb));
+    for (std::size_t k = 0; k < 3; ++k) {
+      const __m512 out =
+          _mm512_mask_permutexvar_ps(_mm512_permutex2var_ps(v[0], first[k], v[1]),
+                                     winograd3_interleave.from_row2[k], second[k], v[2]);
+      const int e0 = 3 * t + 16 * static_cast<int>(k), left = n - e0;
+      if (left >= 16)
+        _mm512_storeu_ps(d + e0, out);
+      else if (left > 0)
+        _mm512_mask_storeu_ps(d + e0, tail_mask_avx512(left), out);
+    }
+  }
+}
+
+// F(3x3, 4x4)'s input transform with AVX-512 intrinsics, 16 tiles per step, whole-vector loads
+// and stores as winograd_input4_avx512 (a 16-tile step reads 51 floats of each patch row, four
+// vectors: within winograd_read_slack).
+__attribute__((target("avx512f"))) inline void
+winograd_input3_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
+                       int room, float* __restrict d, std::size_t dc, std::size_t xs) {
+  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
+  for (int j = 0; j < run; j += 16) {
+    const int nv = (3 * std::min(16, run - j) + 3 + 15) / 16; // column vectors the tiles read
+    if (room - j >= 16)
+      for (int ch = 0; ch < channels; ++ch)
+        winograd3_step_avx512<false>(s + ch * plane + 3 * j, pw, nv, 0, d + ch * dc + j, xs, t);
+    else {
+      const __mmask16 out = tail_mask_avx512(run - j);
+      for (int ch = 0; ch < channels; ++ch)
+        winograd3_step_avx512<true>(s + ch * plane + 3 * j, pw, nv, out, d + ch * dc + j, xs, t);
+    }
+  }
+}
 #endif
 
 struct WinogradOps {
   using Input = void (*)(const float*, std::size_t, int, int, int, int, float*, std::size_t,
                          std::size_t);
   using Output = void (*)(const float*, std::size_t, int, float*);
-  Input input;                                                 // F(2x2)
-  Output output;                                               // F(2x2)
-  void (*interleave)(const float*, const float*, float*, int); // F(2x2)
-  Input input4;                                                // F(4x4)
-  Output output4;                                              // F(4x4)
-  void (*interleave4)(const float*, float*, int);              // F(4x4)
+  Input input;                                                     // F(2x2)
+  Output output;                                                   // F(2x2)
+  void (*interleave)(const float*, const float*, float*, int);     // F(2x2)
+  Input input4;                                                    // F(4x4)
+  Output output4;                                                  // F(4x4)
+  void (*interleave4)(const float*, float*, int);                  // F(4x4)
+  Input input3;                                                    // F(3x3, 4x4)
+  Output output3;                                                  // F(3x3, 4x4)
+  void (*interleave3_bias_relu)(const float*, float*, int, float); // F(3x3, 4x4)
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -568,15 +806,31 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_interleave_avx512_loops,
             &winograd_input4_avx512,
             &winograd_output4_avx512_loops,
-            &winograd_interleave4_avx512_loops};
+            &winograd_interleave4_avx512_loops,
+            &winograd_input3_avx512,
+            &winograd_output3_avx512_loops,
+            &winograd_interleave3_bias_relu_avx512};
   if (kind == GemmKernelKind::avx2)
-    return {&winograd_input_avx2_loops,      &winograd_output_avx2_loops,
-            &winograd_interleave_avx2_loops, &winograd_input4_avx2,
-            &winograd_output4_avx2_loops,    &winograd_interleave4_avx2_loops};
+    return {&winograd_input_avx2_loops,
+            &winograd_output_avx2_loops,
+            &winograd_interleave_avx2_loops,
+            &winograd_input4_avx2,
+            &winograd_output4_avx2_loops,
+            &winograd_interleave4_avx2_loops,
+            &winograd_input3_avx2_loops,
+            &winograd_output3_avx2_loops,
+            &winograd_interleave3_bias_relu_avx2_loops};
 #endif
   (void)kind; // NEON is aarch64's baseline: the portable loops compile to it
-  return {&winograd_input_portable,  &winograd_output_portable,  &winograd_interleave_portable,
-          &winograd_input4_portable, &winograd_output4_portable, &winograd_interleave4_portable};
+  return {&winograd_input_portable,
+          &winograd_output_portable,
+          &winograd_interleave_portable,
+          &winograd_input4_portable,
+          &winograd_output4_portable,
+          &winograd_interleave4_portable,
+          &winograd_input3_portable,
+          &winograd_output3_portable,
+          &winograd_interleave3_bias_relu_portable};
 }
 
 // Floats from one V_xi slab to the next: c x nr plus one cache line, so the 16 stores of a
@@ -609,21 +863,21 @@ inline WinogradScratch make_winograd_scratch(int c, int m, const MicroKernel& ke
   return s;
 }
 
-// winograd_conv3x3 for one tile size T.
+// winograd_conv3x3 (T = 2, 4) and winograd_conv4x4 (T = 3, with bias and ReLU) for one tile
+// size T.
 template <int T>
-void winograd_conv3x3_tile(const MicroKernel& kernel, const WinogradOps& ops,
-                           const WinogradWeights& u, const float* in, int pw, std::size_t plane,
-                           int h, int w, float* out, ThreadPool& pool,
-                           std::vector<WinogradScratch>& scratch) {
-  constexpr int products = (T + 2) * (T + 2);
+void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const WinogradWeights& u,
+                        const float* in, int pw, std::size_t plane, int h, int w, const float* bias,
+                        float* out, ThreadPool& pool, std::vector<WinogradScratch>& scratch) {
+  constexpr int products = winograd_alpha(T) * winograd_alpha(T);
   const int nr = kernel.nr, mr = kernel.mr, c = u.c;
   const int tiles_x = (w + T - 1) / T, tiles = (h + T - 1) / T * tiles_x;
   const int n_panels = (tiles + nr - 1) / nr, m_panels = (u.m + mr - 1) / mr;
   const std::size_t xs_v = winograd_slab(c, nr);           // V_xi slab: c x nr (+ a line)
   const std::size_t xs_m = winograd_products(u.m, kernel); // M_xi block: m x nr (+ a line)
   const std::size_t image = static_cast<std::size_t>(h) * w;
-  const auto input = T == 2 ? ops.input : ops.input4;
-  const auto output = T == 2 ? ops.output : ops.output4;
+  const auto input = T == 2 ? ops.input : T == 4 ? ops.input4 : ops.input3;
+  const auto output = T == 2 ? ops.output : T == 4 ? ops.output4 : ops.output3;
   // Work units (tile panel, row panel) in equal shares (run_panel_units); a tile panel shared
   // by two threads is transformed by both.
   run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
@@ -661,8 +915,10 @@ void winograd_conv3x3_tile(const MicroKernel& kernel, const WinogradOps& ops,
             const float* yi = y + static_cast<std::size_t>(T * i) * winograd_max_run + j;
             if constexpr (T == 2)
               ops.interleave(yi, yi + winograd_max_run, row, n);
-            else
+            else if constexpr (T == 4)
               ops.interleave4(yi, row, n);
+            else
+              ops.interleave3_bias_relu(yi, row, n, bias[mp * mr + r]);
           }
           j += run;
         }
@@ -675,11 +931,19 @@ inline void winograd_conv3x3(const MicroKernel& kernel, const WinogradOps& ops,
                              const WinogradWeights& u, const float* in, int pw, std::size_t plane,
                              int h, int w, float* out, ThreadPool& pool,
                              std::vector<WinogradScratch>& scratch) {
-  require(u.tile == 2 || u.tile == 4, "Winograd: the weights are not set");
+  require(u.tile == 2 || u.tile == 4, "Winograd: the weights are not set for a 3x3 convolution");
   if (u.tile == 2)
-    winograd_conv3x3_tile<2>(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch);
+    winograd_conv_tile<2>(kernel, ops, u, in, pw, plane, h, w, nullptr, out, pool, scratch);
   else
-    winograd_conv3x3_tile<4>(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch);
+    winograd_conv_tile<4>(kernel, ops, u, in, pw, plane, h, w, nullptr, out, pool, scratch);
+}
+
+inline void winograd_conv4x4(const MicroKernel& kernel, const WinogradOps& ops,
+                             const WinogradWeights& u, const float* in, int pw, std::size_t plane,
+                             int h, int w, const float* bias, float* out, ThreadPool& pool,
+                             std::vector<WinogradScratch>& scratch) {
+  require(u.tile == 3, "Winograd: the weights are not set for F(3x3, 4x4)");
+  winograd_conv_tile<3>(kernel, ops, u, in, pw, plane, h, w, bias, out, pool, scratch);
 }
 
 } // namespace detail
