@@ -731,6 +731,43 @@ inline constexpr Winograd3Interleave winograd3_interleave = [] {
   return r;
 }();
 
+// F(3x3, 4x4)'s z = A^T x on six vectors of tiles (winograd3_at's factored form).
+__attribute__((target("avx512f"))) SHADOWSENSE_ALWAYS_INLINE void
+winograd3_at_avx512(const __m512 (&x)[6], __m512 (&z)[3]) {
+  const __m512 p = _mm512_add_ps(x[1], x[2]), m = _mm512_sub_ps(x[1], x[2]);
+  const __m512 p2 = _mm512_add_ps(x[3], x[4]), m2 = _mm512_sub_ps(x[3], x[4]);
+  z[0] = _mm512_add_ps(_mm512_add_ps(x[0], p), p2);
+  z[1] = _mm512_add_ps(m, _mm512_mul_ps(_mm512_set1_ps(2.0f), m2));
+  z[2] = _mm512_add_ps(_mm512_add_ps(p, _mm512_mul_ps(_mm512_set1_ps(4.0f), p2)), x[5]);
+}
+
+// winograd_output3 with AVX-512: 16 tiles a step, the 18 column results kept in registers
+// between the two passes (the compiled loops go through a stack array). Each operation as
+// winograd3_at's, rounded on its own (no fused multiply-add): the loops' floats. A last step of
+// fewer than 16 tiles masks its loads and stores.
+__attribute__((target("avx512f"))) SHADOWSENSE_STRICT_FP inline void
+winograd_output3_avx512(const float* __restrict m, std::size_t xs, int n, float* __restrict y) {
+  SHADOWSENSE_STRICT_FP_BODY
+  for (int j = 0; j < n; j += 16) {
+    const __mmask16 lanes = n - j >= 16 ? __mmask16(0xFFFF) : tail_mask_avx512(n - j);
+    __m512 s[3][6];
+    for (int q = 0; q < 6; ++q) {
+      __m512 x[6], z[3];
+      for (int p = 0; p < 6; ++p)
+        x[p] = _mm512_maskz_loadu_ps(lanes, m + static_cast<std::size_t>(6 * p + q) * xs + j);
+      winograd3_at_avx512(x, z);
+      for (int i = 0; i < 3; ++i) s[i][q] = z[i];
+    }
+    for (int i = 0; i < 3; ++i) {
+      __m512 z[3];
+      winograd3_at_avx512(s[i], z);
+      for (int k = 0; k < 3; ++k)
+        _mm512_mask_storeu_ps(y + static_cast<std::size_t>(3 * i + k) * winograd_max_run + j, lanes,
+                              z[k]);
+    }
+  }
+}
+
 // winograd_interleave3_bias_relu with AVX-512: 16 tiles (48 outputs) a step, bias and ReLU on
 // the three rows (max(0, v): v < 0 ? 0 : v, NaN kept, as bias_relu), two permutes per output
 // vector, the last step's stores masked. Reads whole vectors of y's rows (winograd_max_run
@@ -808,7 +845,7 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_output4_avx512_loops,
             &winograd_interleave4_avx512_loops,
             &winograd_input3_avx512,
-            &winograd_output3_avx512_loops,
+            &winograd_output3_avx512,
             &winograd_interleave3_bias_relu_avx512};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
