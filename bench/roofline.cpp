@@ -306,8 +306,10 @@ struct Stage {
 // GEMM FLOPs as the library executes them: the 3x3 convolutions by the method DenseNet's
 // automatic choice takes per block (winograd.hpp): F(t x t, 3x3) is (t + 2)^2 GEMMs of growth
 // x inner over the tile count, the direct method runs on the padded grid (2 extra columns per
-// row); conv0 on its grid of pitch w0 + 3. The partly empty last GEMM panels, the Winograd
-// transforms and the element-wise work are not counted.
+// row); conv0 by F(3x3, 4x4) where DenseNet's automatic choice takes it (winograd_conv0_pays:
+// 36 GEMMs of init_features x 12 phase planes over the 3 x 3 tiles), else on its grid of pitch
+// w0 + 3. The partly empty last GEMM panels, the Winograd transforms and the element-wise work
+// are not counted.
 std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
   const ss::DenseNetArchitecture& a = net.architecture();
   const int nr = ss::detail::select_micro_kernel(ss::GemmKernelKind::automatic).nr;
@@ -322,7 +324,10 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
     s.bytes = f * (in + wts + 2 * c0 + p0);
     s.working_set = f * (in + wts + c0 + p0);
     s.flops = 2.0 * wts * h0 * w0;
-    s.executed = 2.0 * wts * h0 * (w0 + 3);
+    const double tiles = double((h0 + 2) / 3) * ((w0 + 2) / 3);
+    s.executed = ss::detail::winograd_conv0_pays(h0, w0, nr)
+                     ? 2.0 * 36 * a.init_features * 12 * tiles
+                     : 2.0 * wts * h0 * (w0 + 3);
     out.push_back(s);
   }
   const int k = a.growth_rate, inner = a.bn_size * a.growth_rate;
@@ -495,8 +500,9 @@ std::string markdown(const Result& r) {
   o << "\nFloor = max(MB moved / bandwidth of the smallest level holding the working set, MFLOP "
        "/ kernel peak), the MFLOP counting the 3x3 convolutions as direct ones; forward and "
        "frame: the sums of their stages' floors. MFLOP executed: the GEMM work as the library "
-       "runs it (Winograd's GEMMs at their tile counts, the direct 3x3 and conv0 on their "
-       "padded grids; transforms, partly empty last panels and element-wise work not "
+       "runs it (Winograd's GEMMs at their tile counts, conv0's F(3x3, 4x4) over the input's "
+       "phases, the direct 3x3 on its padded grid; transforms, partly empty last panels and "
+       "element-wise work not "
        "counted), and its rate against the micro-kernel's peak. Bytes and FLOP model: the "
        "comment at the top of bench/roofline.cpp.\n\n";
   if (fw) {

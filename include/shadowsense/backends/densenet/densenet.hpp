@@ -12,7 +12,10 @@
 // - im2col is fused into GEMM panel packing (no im2col matrix); 3x3 inputs live in a zero-padded
 //   buffer so packing needs no bounds checks. conv0's input is kept as the four stride-2 phases
 //   of the padded image, so each of its 147 taps is one offset from the output's position: a
-//   contiguous copy when packing, or read in place by the AVX-512 kernel.
+//   contiguous copy when packing, or read in place by the AVX-512 kernel. Read as 12 planes,
+//   the phases make conv0 a stride-1 4x4 correlation, which runs by Winograd F(3x3, 4x4)
+//   (winograd_conv4x4: a third of the multiply-adds) on every input but tiny ones
+//   (Config::conv0).
 // - the dense layers' 3x3 convolutions use Winograd F(4x4, 3x3) or F(2x2, 3x3) (winograd.hpp:
 //   4x or 2.25x fewer multiply-adds) where the image has enough tiles to fill the GEMM panels
 //   and the layer has at least 12 output channels; the small late-block images and narrow

@@ -13,15 +13,21 @@
 //   B^T = [4 0 -5 0 1 0; 0 -4 -4 1 1 0; 0 4 -4 -1 1 0; 0 -2 -1 2 1 0; 0 2 -1 -2 1 0;
 //          0 4 0 -5 0 1],
 //   G = [1/4 0 0; -1/6 -1/6 -1/6; -1/6 1/6 -1/6; 1/24 1/12 1/6; 1/24 -1/12 1/6; 0 0 1],
-//   A^T = [1 1 1 1 1 0; 0 1 -1 2 -2 0; 0 1 1 4 4 0; 0 1 -1 8 -8 1].
-// The (T + 2)^2 element-wise products over channels become as many GEMMs (xi = 0..(T + 2)^2 - 1):
+//   A^T = [1 1 1 1 1 0; 0 1 -1 2 -2 0; 0 1 1 4 4 0; 0 1 -1 8 -8 1];
+// and F(3x3, 4x4) (tile 3: 4x4 kernels, conv0 over the input's stride-2 phases; the same points,
+// so the same B^T and 6x6 patches, three columns apart),
+//   G = [1/4 0 0 0; -1/6 -1/6 -1/6 -1/6; -1/6 1/6 -1/6 1/6; 1/24 1/12 1/6 1/3;
+//        1/24 -1/12 1/6 -1/3; 0 0 0 1],
+//   A^T = [1 1 1 1 1 0; 0 1 -1 2 -2 0; 0 1 1 4 4 1].
+// The alpha^2 element-wise products over channels become as many GEMMs (xi = 0..(T + 2)^2 - 1):
 // for a panel of nr tiles, M_xi (out x nr) = U_xi (out x in, the transformed weights, packed
 // once) times V_xi (in x nr, the transformed patches), each run by the forward pass's
 // micro-kernel, so every kernel (AVX-512, AVX2, NEON, portable, reference) gets it.
 //
-// WinogradWeights::set(w, m, c, mr, tile): w is m x c x 3 x 3 row-major (PyTorch's conv weight),
-//   tile is 2 or 4; ensures u[xi] is the m x c matrix (G g G^T)[xi / (tile + 2)][xi % (tile + 2)]
-//   packed in mr-row panels. empty() until set.
+// WinogradWeights::set(w, m, c, mr, tile): tile is 2 or 4 (w is m x c x 3 x 3 row-major,
+//   PyTorch's conv weight) or 3 (m x c x 4 x 4); ensures u[xi] is the m x c matrix
+//   (G g G^T)[xi / alpha][xi % alpha] packed in mr-row panels (alpha = winograd_alpha(tile): 4
+//   or 6). empty() until set.
 // winograd_tile(h, w, m, nr): the method for an h x w image with m output channels and a kernel
 //   of nr columns: 0 (direct), 2 or 4. Each method is costed in micro-kernel panel passes times
 //   the multiply-adds per pass (direct 9, F(2x2) 16, F(4x4) 36 per tile column), the last,
@@ -31,20 +37,26 @@
 //   transforms' additions per tile cost as much as the multiply-adds they save (measured on
 //   compact DenseNets, blocks 4-4-4, 3x88x160, docs/densenet.md: growth 8 takes the same time
 //   with F(4x4) and is 10% slower with F(2x2); growth 12, the shipped model, is 17% faster).
+// winograd_conv0_pays(h, w, nr): whether conv0 with an h x w output costs at most 3/4 of the
+//   direct convolution by F(3x3, 4x4) over the 12 phase planes, in the same panel-pass units.
 // winograd_padded(n, tile): the padded extent (rows or columns) a tile size reads for an image
-//   extent n: n + 2, or more where the last tile reaches past the image.
+//   extent n: n + r - 1 (r the kernel's taps), or more where the last tile reaches past it.
 // WinogradOps: the transforms for one instruction set (select_winograd_ops(kind)):
-//   input(s, plane, channels, pw, run, room, d, dc, xs) [F(2x2)] and input4 (same) [F(4x4)]:
+//   input(s, plane, channels, pw, run, room, d, dc, xs) [F(2x2)], input4 (same) [F(4x4)] and
+//   input3 [F(3x3, 4x4)]:
 //     run (1..winograd_max_run) consecutive tiles of one tile row, for each channel
 //     ch < channels; s + ch * plane is the first tile's patch (top-left; row stride pw; the
 //     patches of tile j start T j further). Writes B^T d B of tile j of channel ch to
 //     d[xi * xs + ch * dc + j], xi = 0..(T + 2)^2 - 1; columns run..room-1 of those rows may be
 //     overwritten (room >= run). Reads up to winograd_read_slack floats from the start of each
 //     patch row of a step of 16 tiles.
-//   output(m, xs, n, y) [F(2x2)] and output4 [F(4x4)]: m[xi * xs + j] (j < n <=
-//     winograd_max_run) to the T x T outputs y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
+//   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
+//     (j < n <= winograd_max_run) to the T x T outputs
+//     y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
 //   interleave4(y, d, n): d[4i + k] = y[k * winograd_max_run + i] for 4i + k < n.
+//   interleave3_bias_relu(y, d, n, b): d[3i + k] = relu(y[k * winograd_max_run + i] + b) for
+//     3i + k < n (v < 0 ? 0 : v: a NaN stays).
 // winograd_conv3x3(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch):
 //   requires: in holds u.c channels of padded images, plane floats apart, each with the image at
 //             row 1, column 1, row stride pw >= winograd_padded(w, u.tile), at least
@@ -56,6 +68,11 @@
 //             (padded coordinates), up to rounding. (tile panel, row panel) units are split
 //             over the pool in equal shares; each output element is computed by one thread in
 //             one order, so the result does not depend on the thread count.
+// winograd_conv4x4(kernel, ops, u, in, pw, plane, h, w, bias, out, pool, scratch): as
+//   winograd_conv3x3 for u.tile == 3 (4x4 kernels), with the image at row 0, column 0 of each
+//   plane (the correlation reads in[c][y + ky][x + kx], ky, kx < 4) and bias[o] added and ReLU
+//   applied to each output: out[o][y][x] = relu(b[o] + sum over c, ky, kx of
+//   w[o][c][ky][kx] * in[c][y + ky][x + kx]), up to rounding.
 // make_winograd_scratch(c, m, kernel): one thread's slabs and products for either tile size
 //   (36 x (c x nr + 16) and 36 x (m rounded up to mr, x nr + 16) floats); requires
 //   1 <= kernel.nr <= winograd_max_run.
@@ -78,7 +95,7 @@ namespace detail {
 
 inline constexpr int winograd_max_run = 64; // >= every kernel's nr
 // Floats a 16-tile step reads from the start of a patch row: F(2x2) 2 x 16 + 2, F(4x4) five
-// whole vectors (4 x 16 + 2 rounded up).
+// whole vectors (4 x 16 + 2 rounded up), F(3x3, 4x4) four (3 x 16 + 3).
 inline constexpr int winograd_read_slack = 80;
 inline constexpr int winograd_max_products = 36; // (T + 2)^2 for the largest tile, T = 4
 
