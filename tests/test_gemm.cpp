@@ -384,30 +384,37 @@ TEST_CASE("DenseNet per kernel on the committed fixtures: equal to torchvision a
     for (auto kind : detail::available_kernels())
       for (auto conv :
            {DenseNet::Conv3x3::direct, DenseNet::Conv3x3::winograd, DenseNet::Conv3x3::winograd4x4})
-        for (int threads : {1, 2}) {
-          DenseNet net(
-              m, {.threads = threads, .kernel = kind, .conv3x3 = conv, .run_self_test = false});
-          const std::string name = net.kernel_name();
-          const char* method = conv == DenseNet::Conv3x3::direct     ? " direct"
-                               : conv == DenseNet::Conv3x3::winograd ? " winograd"
-                                                                     : " winograd4x4";
-          CAPTURE(name);
-          CAPTURE(method);
-          CAPTURE(threads);
-          const auto got = net.logits(st.input);
-          REQUIRE(got.size() == st.logits.size());
-          double vs_torch = 0, vs_ref = 0;
-          for (std::size_t i = 0; i < got.size(); ++i) {
-            const double t = st.logits[i], d = std::abs(double(got[i]) - t);
-            vs_torch = std::max(vs_torch, d);
-            vs_ref = std::max(vs_ref, std::abs(double(got[i]) - double(ref[i])));
-            CAPTURE(i);
-            CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
-            CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
+        for (auto conv0 : {DenseNet::Conv0::direct, DenseNet::Conv0::winograd})
+          for (int threads : {1, 2}) {
+            DenseNet net(m, {.threads = threads,
+                             .kernel = kind,
+                             .conv3x3 = conv,
+                             .conv0 = conv0,
+                             .run_self_test = false});
+            const std::string name = net.kernel_name();
+            const std::string method = conv == DenseNet::Conv3x3::direct     ? " direct"
+                                       : conv == DenseNet::Conv3x3::winograd ? " winograd"
+                                                                             : " winograd4x4";
+            const std::string method0 =
+                conv0 == DenseNet::Conv0::direct ? " conv0 direct" : " conv0 F(3x3, 4x4)";
+            CAPTURE(name);
+            CAPTURE(method);
+            CAPTURE(method0);
+            CAPTURE(threads);
+            const auto got = net.logits(st.input);
+            REQUIRE(got.size() == st.logits.size());
+            double vs_torch = 0, vs_ref = 0;
+            for (std::size_t i = 0; i < got.size(); ++i) {
+              const double t = st.logits[i], d = std::abs(double(got[i]) - t);
+              vs_torch = std::max(vs_torch, d);
+              vs_ref = std::max(vs_ref, std::abs(double(got[i]) - double(ref[i])));
+              CAPTURE(i);
+              CHECK(d <= 1e-4 * std::max(1.0, std::abs(t))); // the x86 golden-test tolerance
+              CHECK(std::abs(double(got[i]) - double(ref[i])) <= 1e-4 * std::max(1.0, std::abs(t)));
+            }
+            MESSAGE(file, " ", name, method, method0, " threads=", threads,
+                    ": max abs diff vs torchvision ", vs_torch, ", vs reference kernel ", vs_ref);
           }
-          MESSAGE(file, " ", name, method, " threads=", threads, ": max abs diff vs torchvision ",
-                  vs_torch, ", vs reference kernel ", vs_ref);
-        }
   }
 }
 
