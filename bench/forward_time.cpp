@@ -26,7 +26,8 @@ using bench::positive_int;
 namespace {
 
 constexpr std::string_view usage =
-    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL]]]\n"
+    "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL\n"
+    "                    [CONV0]]]]\n"
     "Times the DenseNet forward pass on a 1 x 3 x H x W float32 input (raw little-endian CHW)\n"
     "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
     "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
@@ -35,7 +36,9 @@ constexpr std::string_view usage =
     "  (DenseNet::Config::conv3x3).\n"
     "KERNEL: automatic (default), avx512, avx2, neon, portable or reference (Config::kernel);\n"
     "  for a model with an int8 section, int8-vnni, int8-avx2, int8-neon or int8-reference\n"
-    "  picks the int8 kernel instead (Config::int8_kernel).\n";
+    "  picks the int8 kernel instead (Config::int8_kernel).\n"
+    "CONV0: automatic (default), direct or winograd (F(3x3, 4x4) over the input's stride-2\n"
+    "  phases) (DenseNet::Config::conv0).\n";
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);
@@ -60,8 +63,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    if (argc < 7 || argc > 10)
-      throw ss::InvalidArgument("expected 6 to 9 arguments, got " + std::to_string(argc - 1));
+    if (argc < 7 || argc > 11)
+      throw ss::InvalidArgument("expected 6 to 10 arguments, got " + std::to_string(argc - 1));
     const int h = positive_int(argv[3], "H"), w = positive_int(argv[4], "W");
     const int threads = positive_int(argv[5], "THREADS");
     const int iterations = positive_int(argv[6], "ITERATIONS");
@@ -83,7 +86,7 @@ int main(int argc, char** argv) {
     }
     auto kernel = ss::GemmKernelKind::automatic;
     auto int8_kernel = ss::detail::Int8KernelKind::automatic;
-    if (argc == 10) {
+    if (argc >= 10) {
       const std::string_view k = argv[9];
       if (k == "int8-vnni")
         int8_kernel = ss::detail::Int8KernelKind::vnni;
@@ -108,11 +111,23 @@ int main(int argc, char** argv) {
                                   "', expected automatic, avx512, avx2, neon, portable, "
                                   "reference, int8-vnni, int8-avx2, int8-neon or int8-reference");
     }
+    auto conv0 = ss::DenseNet::Conv0::automatic;
+    if (argc == 11) {
+      const std::string_view c = argv[10];
+      if (c == "direct")
+        conv0 = ss::DenseNet::Conv0::direct;
+      else if (c == "winograd")
+        conv0 = ss::DenseNet::Conv0::winograd;
+      else if (c != "automatic")
+        throw ss::InvalidArgument("CONV0 is '" + std::string(c) +
+                                  "', expected automatic, direct or winograd");
+    }
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
     ss::DenseNet net(model, {.threads = threads,
                              .spin_us = spin_us,
                              .kernel = kernel,
                              .conv3x3 = conv3x3,
+                             .conv0 = conv0,
                              .run_self_test = false,
                              .int8_kernel = int8_kernel});
     const ss::Tensor input = read_input(argv[2], h, w);
