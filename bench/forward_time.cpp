@@ -15,9 +15,11 @@
 #include <cstdio>
 #include <ctime>
 #include <fstream>
+#include <initializer_list>
 #include <iostream>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace ss = shadowsense;
@@ -39,6 +41,27 @@ constexpr std::string_view usage =
     "  picks the int8 kernel instead (Config::int8_kernel).\n"
     "CONV0: automatic (default), direct or winograd (F(3x3, 4x4) over the input's stride-2\n"
     "  phases) (DenseNet::Config::conv0).\n";
+
+// The value named `value` in `names`, else InvalidArgument naming the argument and the choices.
+template <class T>
+T named(std::string_view value, const char* argument,
+        std::initializer_list<std::pair<std::string_view, T>> names) {
+  std::string choices;
+  std::size_t i = 0;
+  for (const auto& [name, v] : names) {
+    if (value == name) return v;
+    choices += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + std::string(name);
+    ++i;
+  }
+  throw ss::InvalidArgument(std::string(argument) + " is '" + std::string(value) + "', expected " +
+                            choices);
+}
+
+// The float and int8 kernels KERNEL picks (one of them stays automatic).
+struct Kernels {
+  ss::GemmKernelKind gemm = ss::GemmKernelKind::automatic;
+  ss::detail::Int8KernelKind int8 = ss::detail::Int8KernelKind::automatic;
+};
 
 ss::Tensor read_input(const std::string& path, int h, int w) {
   ss::Tensor t(1, 3, h, w);
@@ -71,65 +94,42 @@ int main(int argc, char** argv) {
     const int spin_us = argc == 7                          ? ss::detail::ThreadPool::default_spin_us
                         : std::string_view(argv[7]) == "0" ? 0
                                                            : positive_int(argv[7], "SPIN_US");
-    auto conv3x3 = ss::DenseNet::Conv3x3::automatic;
-    if (argc >= 9) {
-      const std::string_view c = argv[8];
-      if (c == "direct")
-        conv3x3 = ss::DenseNet::Conv3x3::direct;
-      else if (c == "winograd")
-        conv3x3 = ss::DenseNet::Conv3x3::winograd;
-      else if (c == "winograd4x4")
-        conv3x3 = ss::DenseNet::Conv3x3::winograd4x4;
-      else if (c != "automatic")
-        throw ss::InvalidArgument("CONV3X3 is '" + std::string(c) +
-                                  "', expected automatic, direct, winograd or winograd4x4");
-    }
-    auto kernel = ss::GemmKernelKind::automatic;
-    auto int8_kernel = ss::detail::Int8KernelKind::automatic;
-    if (argc >= 10) {
-      const std::string_view k = argv[9];
-      if (k == "int8-vnni")
-        int8_kernel = ss::detail::Int8KernelKind::vnni;
-      else if (k == "int8-avx2")
-        int8_kernel = ss::detail::Int8KernelKind::avx2;
-      else if (k == "int8-neon")
-        int8_kernel = ss::detail::Int8KernelKind::neon;
-      else if (k == "int8-reference")
-        int8_kernel = ss::detail::Int8KernelKind::reference;
-      else if (k == "avx512")
-        kernel = ss::GemmKernelKind::avx512;
-      else if (k == "avx2")
-        kernel = ss::GemmKernelKind::avx2;
-      else if (k == "neon")
-        kernel = ss::GemmKernelKind::neon;
-      else if (k == "portable")
-        kernel = ss::GemmKernelKind::portable;
-      else if (k == "reference")
-        kernel = ss::GemmKernelKind::reference;
-      else if (k != "automatic")
-        throw ss::InvalidArgument("KERNEL is '" + std::string(k) +
-                                  "', expected automatic, avx512, avx2, neon, portable, "
-                                  "reference, int8-vnni, int8-avx2, int8-neon or int8-reference");
-    }
-    auto conv0 = ss::DenseNet::Conv0::automatic;
-    if (argc == 11) {
-      const std::string_view c = argv[10];
-      if (c == "direct")
-        conv0 = ss::DenseNet::Conv0::direct;
-      else if (c == "winograd")
-        conv0 = ss::DenseNet::Conv0::winograd;
-      else if (c != "automatic")
-        throw ss::InvalidArgument("CONV0 is '" + std::string(c) +
-                                  "', expected automatic, direct or winograd");
-    }
+    using Conv3x3 = ss::DenseNet::Conv3x3;
+    const Conv3x3 conv3x3 = argc < 9 ? Conv3x3::automatic
+                                     : named<Conv3x3>(argv[8], "CONV3X3",
+                                                      {{"automatic", Conv3x3::automatic},
+                                                       {"direct", Conv3x3::direct},
+                                                       {"winograd", Conv3x3::winograd},
+                                                       {"winograd4x4", Conv3x3::winograd4x4}});
+    using Gemm = ss::GemmKernelKind;
+    using Int8 = ss::detail::Int8KernelKind;
+    const Kernels kernels =
+        argc < 10 ? Kernels{}
+                  : named<Kernels>(argv[9], "KERNEL",
+                                   {{"automatic", Kernels{}},
+                                    {"avx512", Kernels{Gemm::avx512}},
+                                    {"avx2", Kernels{Gemm::avx2}},
+                                    {"neon", Kernels{Gemm::neon}},
+                                    {"portable", Kernels{Gemm::portable}},
+                                    {"reference", Kernels{Gemm::reference}},
+                                    {"int8-vnni", Kernels{.int8 = Int8::vnni}},
+                                    {"int8-avx2", Kernels{.int8 = Int8::avx2}},
+                                    {"int8-neon", Kernels{.int8 = Int8::neon}},
+                                    {"int8-reference", Kernels{.int8 = Int8::reference}}});
+    using Conv0 = ss::DenseNet::Conv0;
+    const Conv0 conv0 = argc < 11 ? Conv0::automatic
+                                  : named<Conv0>(argv[10], "CONV0",
+                                                 {{"automatic", Conv0::automatic},
+                                                  {"direct", Conv0::direct},
+                                                  {"winograd", Conv0::winograd}});
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
     ss::DenseNet net(model, {.threads = threads,
                              .spin_us = spin_us,
-                             .kernel = kernel,
+                             .kernel = kernels.gemm,
                              .conv3x3 = conv3x3,
                              .conv0 = conv0,
                              .run_self_test = false,
-                             .int8_kernel = int8_kernel});
+                             .int8_kernel = kernels.int8});
     const ss::Tensor input = read_input(argv[2], h, w);
     for (int i = 0; i < 3; ++i) net.logits(input); // warm-up: buffers, caches, threads
     std::vector<double> ms;

@@ -528,6 +528,24 @@ void winograd_abs_scale(int tile, const std::vector<float>& w, const std::vector
     }
 }
 
+// c planes of `plane` floats, pw a row, values uniform in [-1, 1] over rows x cols from
+// (origin, origin) and zero elsewhere, then NaN past the last plane: the readable slack of the
+// Winograd contract (winograd_read_slack) and beyond. A NaN read into a column that is not
+// dropped shows up in the results.
+std::vector<float> winograd_input_planes(int c, std::size_t plane, int pw, int origin, int rows,
+                                         int cols, std::mt19937& rng) {
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  const std::size_t zeros = c * plane;
+  std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
+  std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
+            std::numeric_limits<float>::quiet_NaN());
+  for (int i = 0; i < c; ++i)
+    for (int y = 0; y < rows; ++y)
+      for (int x = 0; x < cols; ++x)
+        in[i * plane + static_cast<std::size_t>(y + origin) * pw + x + origin] = ud(rng);
+  return in;
+}
+
 } // namespace
 
 TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution for every "
@@ -553,17 +571,8 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
       CAPTURE(sh.w);
       const int pw = detail::winograd_padded(sh.w, tile);
       const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(sh.h, tile)) * pw;
-      // Zero border, then NaN past the last plane: the readable slack of the contract
-      // (winograd_read_slack) and beyond. A NaN read into a column that is not dropped shows up
-      // in the results.
-      const std::size_t zeros = sh.c * plane;
-      std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
-      std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
-                std::numeric_limits<float>::quiet_NaN());
-      for (int i = 0; i < sh.c; ++i)
-        for (int y = 0; y < sh.h; ++y)
-          for (int x = 0; x < sh.w; ++x)
-            in[i * plane + static_cast<std::size_t>(y + 1) * pw + x + 1] = ud(rng);
+      // The image inside a zero border of one.
+      const std::vector<float> in = winograd_input_planes(sh.c, plane, pw, 1, sh.h, sh.w, rng);
       std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
       for (auto& v : w) v = ud(rng);
       std::vector<double> ref, scale, wscale;
@@ -624,18 +633,11 @@ TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU
     CAPTURE(sh.h);
     CAPTURE(sh.w);
     // The input as conv0's phases hold it: the (h + 3) x (w + 3) region read by the direct
-    // correlation, zero beyond it up to the padded extent the tiles read, NaN past the last
-    // plane's readable slack.
+    // correlation, zero beyond it up to the padded extent the tiles read.
     const int pw = detail::winograd_padded(sh.w, 3);
     const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(sh.h, 3)) * pw;
-    const std::size_t zeros = sh.c * plane;
-    std::vector<float> in(zeros + detail::winograd_read_slack + 64, 0.0f);
-    std::fill(in.begin() + static_cast<std::ptrdiff_t>(zeros), in.end(),
-              std::numeric_limits<float>::quiet_NaN());
-    for (int i = 0; i < sh.c; ++i)
-      for (int y = 0; y < sh.h + 3; ++y)
-        for (int x = 0; x < sh.w + 3; ++x)
-          in[i * plane + static_cast<std::size_t>(y) * pw + x] = ud(rng);
+    const std::vector<float> in =
+        winograd_input_planes(sh.c, plane, pw, 0, sh.h + 3, sh.w + 3, rng);
     std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 16), bias(sh.m);
     for (auto& v : w) v = ud(rng);
     for (auto& v : bias) v = 0.5f * ud(rng);
