@@ -4,9 +4,11 @@
 // (pipeline + classify); and the frame encoder alone with each input encoding (the shipped
 // model's geometry, the sim calibration's empty skin). One benchmark iteration = every fixture
 // frame once (per-frame time = mean / frames). bench/frame_time prints the same stages as a table
-// with heap allocations per frame.
+// with heap allocations per frame. Last, the segmenter's reference samples (the one gather of
+// its pass) per kernel, on frames in and out of the cache.
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
+#include <shadowsense/sense/segment_kernels.hpp>
 #include <shadowsense/sense/touch_pipeline.hpp>
 #include <shadowsense/sim.hpp>
 
@@ -16,6 +18,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -98,6 +101,47 @@ TEST_CASE("frame encoder per input encoding (shipped model's geometry, 1 thread,
     BENCHMARK(std::string("encode x10, ") + to_string(e)) {
       for (const cv::Mat& f : frames) encoder.run(f, input);
       return input.size();
+    };
+  }
+}
+
+TEST_CASE("the segmenter's reference samples per kernel, frames in and out of the cache") {
+  // Every third pixel of every third row of a 635 x 350 frame (the robot rig's size), as the
+  // segmenter samples the skin; 60 frames of noise (40 MB, past the last-level cache) read in
+  // turn, or one frame over and over. A camera's new frame is not in the cache.
+  constexpr int w = 635, h = 350, cold_frames = 60;
+  const std::size_t step = 3 * w;
+  cv::RNG rng(7);
+  std::vector<cv::Mat> frames(cold_frames);
+  for (cv::Mat& f : frames) {
+    f.create(h, w, CV_8UC3);
+    rng.fill(f, cv::RNG::UNIFORM, 0, 256);
+  }
+  std::vector<std::int32_t> ys, xs;
+  for (int y = 1; y < h; y += 3)
+    for (int x = 1; x < w; x += 3) {
+      ys.push_back(y);
+      xs.push_back(x);
+    }
+  const int n = static_cast<int>(ys.size());
+  const std::vector<float> inv(ys.size(), 1.0f);
+  std::vector<std::uint16_t> bins(3 * ys.size());
+  for (const SegmentKernelKind kind : {SegmentKernelKind::avx512, SegmentKernelKind::avx2,
+                                       SegmentKernelKind::neon, SegmentKernelKind::portable}) {
+    if (!segment_cpu_has(kind)) continue;
+    const auto run = segment_kernels(kind).reference_bins;
+    int next = 0;
+    auto once = [&](const cv::Mat& f) {
+      run(f.ptr<std::uint8_t>(0), step, ys.data(), xs.data(), inv.data(), inv.data(), inv.data(), n,
+          bins.data(), bins.data() + n, bins.data() + 2 * n);
+      return bins[static_cast<std::size_t>(n) / 2];
+    };
+    BENCHMARK(std::string("reference_bins, frame not in the cache, ") + segment_kernel_name(kind)) {
+      next = (next + 1) % cold_frames;
+      return once(frames[static_cast<std::size_t>(next)]);
+    };
+    BENCHMARK(std::string("reference_bins, frame in the cache, ") + segment_kernel_name(kind)) {
+      return once(frames[0]);
     };
   }
 }
