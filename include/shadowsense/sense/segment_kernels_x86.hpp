@@ -145,13 +145,13 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
   relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
 }
 
-// A gather does not train the hardware prefetcher, and the frame is not in the cache when
-// reference_bins reads it (the camera or the previous stage wrote it): the vector kernels ask
-// for the bytes of the samples this far ahead, every fifth sample (the samples run along every
-// third row, 9 bytes apart, so each 64-byte line is asked for at least once). Measured on
-// 635 x 350 frames not in the cache (docs/densenet.md, "The reference's samples prefetched"):
-// AVX-512 0.084 -> 0.029 ms, AVX2 0.105 -> 0.028 ms. The portable loop, slower per sample, gains
-// nothing from it.
+// A gather does not train the hardware prefetcher, and reference_bins is among the first code
+// to read a new frame, which need not be in the cache (straight from a camera's DMA buffer, or
+// after other work): the vector kernels ask for the bytes of the samples this far ahead, every
+// fifth sample (the samples run along every third row, 9 bytes apart, so each 64-byte line is asked
+// for at least once). Measured on 635 x 350 frames not in the cache (docs/densenet.md, "The
+// reference's samples prefetched"): AVX-512 0.084 -> 0.029 ms, AVX2 0.105 -> 0.028 ms. The portable
+// loop, slower per sample, gains nothing from it.
 inline constexpr int reference_prefetch_distance = 192;
 inline constexpr int reference_prefetch_stride = 5;
 
