@@ -2,11 +2,13 @@
 // tools/make_preprocess_fixture.py), its effect on DenseNet logits, and input validation.
 #include <shadowsense/backends/densenet/densenet.hpp>
 #include <shadowsense/classify/preprocess.hpp>
+#include <shadowsense/classify/scaled_resize.hpp>
 #include <shadowsense/core/codegen.hpp>
 
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -14,6 +16,9 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <random>
+#include <utility>
+#include <vector>
 
 using namespace shadowsense;
 
@@ -292,4 +297,143 @@ TEST_CASE("contrast, brightness and Normalize: the row loops equal a value-by-va
       }
   CHECK(values == 3 * 5 * std::size_t{1 + 2 + 3 + 4 + 5 + 7 + 8 + 9 + 13 + 31 + 160} * 3 * 2);
   CHECK(differ == 0);
+}
+
+namespace {
+
+// torch's taps for in -> out pixels along one axis, as the Preprocessor makes them (the same
+// arithmetic: scale as a float, positions and weights in double).
+detail::ResizeTaps torch_taps(int in, int out) {
+  detail::ResizeTaps t;
+  const double scale = static_cast<float>(in) / static_cast<float>(out);
+  for (int o = 0; o < out; ++o) {
+    const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
+    const int i = std::min(static_cast<int>(real), in - 1);
+    const double l1 = std::clamp(real - i, 0.0, 1.0);
+    t.a.push_back(i);
+    t.b.push_back(i < in - 1 ? i + 1 : i);
+    t.w0.push_back(static_cast<float>(1.0 - l1));
+    t.w1.push_back(static_cast<float>(l1));
+  }
+  return t;
+}
+
+} // namespace
+
+TEST_CASE("scaled resize: the VBMI kernel's values equal scaled_byte for every byte and gain") {
+  if (!detail::scaled_resize_cpu_has_vbmi()) {
+    MESSAGE("this CPU has no AVX-512 VBMI: the portable loop runs (tested below)");
+    return;
+  }
+  // 256 pixels, pixel x holding x, 255 - x and 7 x mod 256; identity taps with weights 1 and 0,
+  // so each output is the scaled value itself (v * 1 + w * 0, then * 1 + * 0: exact).
+  std::vector<std::uint8_t> row(3 * 256 + 64);
+  for (int x = 0; x < 256; ++x) {
+    row[static_cast<std::size_t>(3 * x)] = static_cast<std::uint8_t>(x);
+    row[static_cast<std::size_t>(3 * x + 1)] = static_cast<std::uint8_t>(255 - x);
+    row[static_cast<std::size_t>(3 * x + 2)] = static_cast<std::uint8_t>((7 * x) % 256);
+  }
+  detail::ResizeTaps t;
+  for (int x = 0; x < 256; ++x) {
+    t.a.push_back(x);
+    t.b.push_back(x);
+    t.w0.push_back(1.0f);
+    t.w1.push_back(0.0f);
+  }
+  const auto plan = detail::ScaledResizePlan::make(256, 3 * 256, t);
+  REQUIRE(std::all_of(plan.start.begin(), plan.start.end(), [](int s) { return s >= 0; }));
+  for (const std::array<float, 3> gains :
+       {std::array<float, 3>{1.0f, 1.0f, 1.0f}, std::array<float, 3>{0.35f / 0.1234f, 2.7f, 0.001f},
+        std::array<float, 3>{1e6f, 0.6180339f, 1.0001f}}) {
+    detail::ScaledTable table;
+    detail::fill_scaled_table(gains, table);
+    std::vector<float> d(3 * 256, -1.0f);
+    detail::scaled_resize_row_vbmi(plan, t, row.data(), row.data(), 1.0f, 0.0f, table, gains,
+                                   d.data());
+    int differ = 0;
+    for (int x = 0; x < 256; ++x)
+      for (int c = 0; c < 3; ++c) {
+        const float want =
+            detail::scaled_byte(row[static_cast<std::size_t>(3 * x + c)], gains[std::size_t(c)]);
+        differ += std::memcmp(&want, &d[static_cast<std::size_t>(3 * x + c)], 4) != 0;
+      }
+    CHECK(differ == 0);
+  }
+}
+
+TEST_CASE("scaled resize: the VBMI kernel equals the portable loop bit for bit on every geometry") {
+  if (!detail::scaled_resize_cpu_has_vbmi()) {
+    MESSAGE("this CPU has no AVX-512 VBMI: nothing to compare");
+    return;
+  }
+  std::mt19937 rng(11);
+  // (in_w, out_w): the robot rig's 635 -> 160, the paper's 400 -> 318, upscaling, a shrink by
+  // more than 5 (groups that do not fit a window), widths that are not multiples of 8, rows of
+  // fewer than 128 bytes (no window fits), one output pixel.
+  const std::pair<int, int> widths[] = {{635, 160}, {400, 318}, {50, 203}, {1000, 100},
+                                        {97, 31},   {40, 17},   {43, 43},  {9, 1}};
+  int vector_groups = 0, portable_groups = 0;
+  for (const auto& [in_w, out_w] : widths) {
+    CAPTURE(in_w);
+    CAPTURE(out_w);
+    const detail::ResizeTaps t = torch_taps(in_w, out_w);
+    const int row_bytes = 3 * in_w;
+    const auto plan = detail::ScaledResizePlan::make(out_w, row_bytes, t);
+    for (const int s : plan.start) (s >= 0 ? vector_groups : portable_groups) += 1;
+    // Two rows exactly row_bytes long each (their own allocations: the kernel must not read
+    // past them; ASan's builds check it).
+    std::vector<std::uint8_t> r0(static_cast<std::size_t>(row_bytes)),
+        r1(static_cast<std::size_t>(row_bytes));
+    for (auto& v : r0) v = static_cast<std::uint8_t>(rng());
+    for (auto& v : r1) v = static_cast<std::uint8_t>(rng());
+    for (const std::array<float, 3> gains :
+         {std::array<float, 3>{1.0f, 1.0f, 1.0f}, std::array<float, 3>{1.9f, 0.45f, 3.3f}}) {
+      detail::ScaledTable table;
+      detail::fill_scaled_table(gains, table);
+      std::vector<float> want(3 * static_cast<std::size_t>(out_w), -1.0f), got = want;
+      detail::scaled_resize_row_portable(plan, t, r0.data(), r1.data(), 0.3f, 0.7f, table, gains,
+                                         want.data());
+      detail::scaled_resize_row_vbmi(plan, t, r0.data(), r1.data(), 0.3f, 0.7f, table, gains,
+                                     got.data());
+      CHECK(std::memcmp(want.data(), got.data(), 4 * want.size()) == 0);
+    }
+  }
+  CHECK(vector_groups > 0);   // the permutes ran
+  CHECK(portable_groups > 0); // and the groups that do not fit a window
+}
+
+TEST_CASE("Preprocessor::run_scaled equals run_mapped with the scaled table; bad gains refused") {
+  PreprocessParams p;
+  p.resize_width = 160;
+  p.resize_height = 88;
+  p.crop_width = 0;
+  p.crop_height = 0;
+  Preprocessor pre(Preprocessor::Config{p, ChannelOrder::bgr});
+  cv::Mat image(350, 635, CV_8UC3);
+  cv::randu(image, 0, 256);
+  const std::array<float, 3> gains{1.7f, 0.8f, 1.0f};
+  detail::ScaledTable table;
+  detail::fill_scaled_table(gains, table);
+  Tensor scaled, mapped;
+  pre.run_scaled(image, gains, false, scaled);
+  pre.run_mapped(image, table, false, mapped);
+  REQUIRE(scaled.size() == mapped.size());
+  CHECK(std::memcmp(scaled.data(), mapped.data(), 4 * scaled.size()) == 0);
+  // Without a resize every pixel is mapped: the same path for both.
+  p.resize_width = 0;
+  p.resize_height = 0;
+  Preprocessor same(Preprocessor::Config{p, ChannelOrder::bgr});
+  same.run_scaled(image, gains, false, scaled);
+  same.run_mapped(image, table, false, mapped);
+  CHECK(std::memcmp(scaled.data(), mapped.data(), 4 * scaled.size()) == 0);
+  CHECK_THROWS_WITH_AS(pre.run_scaled(image, {1.0f, 0.0f, 1.0f}, false, scaled),
+                       "Preprocessor::run_scaled: a gain is 0.000000, expected finite and > 0",
+                       InvalidArgument);
+  CHECK_THROWS_WITH_AS(
+      pre.run_scaled(image, {1.0f, 1.0f, std::numeric_limits<float>::quiet_NaN()}, false, scaled),
+      "Preprocessor::run_scaled: a gain is nan, expected finite and > 0", InvalidArgument);
+  cv::Mat floats(350, 635, CV_32FC3, cv::Scalar::all(0.5));
+  CHECK_THROWS_WITH_AS(pre.run_scaled(floats, gains, false, scaled),
+                       "Preprocessor::run_scaled: image is CV_32FC3, expected CV_8UC3",
+                       InvalidArgument);
 }

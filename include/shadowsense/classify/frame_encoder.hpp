@@ -331,11 +331,10 @@ private:
         pre_.run_in_range(rescale(encoded_, scaled_), dark, out);
       }
     } else if (lighting_normalise() && frame.type() == CV_8UC3) {
-      // The normalisation as a value table applied while resizing: the same values as
-      // norm_.run then pre_.run, without a full-size float image. The table's gains come from
-      // the frame as it is, the pixels from the rescaled frame (stage 2b).
-      norm_.table(frame, table_);
-      pre_.run_mapped(rescale(frame, scaled_), table_, false, out);
+      // The normalisation's gains applied while resizing: the same values as norm_.run then
+      // pre_.run, without a full-size float image. The gains come from the frame as it is, the
+      // pixels from the rescaled frame (stage 2b).
+      pre_.run_scaled(rescale(frame, scaled_), norm_.gains(frame), false, out);
     } else if (lighting_normalise()) {
       norm_.run(frame, float_);
       pre_.run(rescale(float_, scaled_), false, out);
@@ -567,7 +566,6 @@ private:
   Segmentation segmentation_{};
   cv::Mat bgr8_;   // masks: a float or RGB frame as the segmenter's 8-bit BGR
   cv::Mat shrunk_; // rescale()'s shrunk frame before its border is filled
-  LightingNormaliser::Table table_{};
   std::array<std::array<int, reference_bins>, 3> hist_{}; // darkness_warmth's reference
 };
 

@@ -11,12 +11,15 @@
 //   channel order; throws InvalidArgument on a bad image.
 // For a CV_8UC3 image the channel means are exact: the integer sums of the values over 255 n.
 // table(image, out): for a CV_8UC3 image (not checked), out[c][v] is the value run() writes
-//   for value v of channel c, bit for bit (FrameEncoder applies it while resizing).
+//   for value v of channel c, bit for bit: detail::scaled_byte(v, gains(image)[c]).
+// gains(image): those per-channel gains (FrameEncoder hands them to Preprocessor::run_scaled,
+//   which applies them while resizing).
 // channel_sums(image): the exact per-channel sums of a CV_8UC3 image (not checked).
 // No state beyond the config: const, callable from any thread.
 #pragma once
 
 #include <shadowsense/classify/channel_sums.hpp>
+#include <shadowsense/classify/scaled_resize.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 
@@ -53,15 +56,20 @@ struct LightingNormaliser {
   // requires: image CV_8UC3 (checked by the callers: run() and FrameEncoder).
   using Table = std::array<std::array<float, 256>, 3>;
   void table(const cv::Mat& image, Table& out) const {
+    detail::fill_scaled_table(gains(image), out);
+  }
+  // The per-channel gains of table: table[c][v] = detail::scaled_byte(v, gains[c]) =
+  // clamp((v / 255) * gains[c], 0, 1), gains[c] = target / max(mean of channel c, min_mean).
+  // requires: image CV_8UC3 (not checked).
+  std::array<float, 3> gains(const cv::Mat& image) const {
     const std::array<std::uint64_t, 3> total = channel_sums(image);
     const double n = double(image.rows) * image.cols;
-    for (int c = 0; c < 3; ++c) {
-      const double mean = double(total[static_cast<std::size_t>(c)]) / (255.0 * n);
-      const float gain = config_.target / std::max(static_cast<float>(mean), config_.min_mean);
-      for (int v = 0; v < 256; ++v)
-        out[static_cast<std::size_t>(c)][static_cast<std::size_t>(v)] =
-            std::clamp((static_cast<float>(v) / 255.0f) * gain, 0.0f, 1.0f);
+    std::array<float, 3> g{};
+    for (std::size_t c = 0; c < 3; ++c) {
+      const double mean = double(total[c]) / (255.0 * n);
+      g[c] = config_.target / std::max(static_cast<float>(mean), config_.min_mean);
     }
+    return g;
   }
 
   // The sum of each channel's 8-bit values over a CV_8UC3 image (not checked), exact: row by

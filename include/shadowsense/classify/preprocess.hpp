@@ -36,6 +36,7 @@
 #pragma once
 
 #include <shadowsense/classify/preprocess_params.hpp>
+#include <shadowsense/classify/scaled_resize.hpp>
 #include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/tensor.hpp>
@@ -107,9 +108,9 @@ public:
       SHADOWSENSE_THROW(InvalidArgument("Preprocessor: image type is " +
                                         cv::typeToString(image.type()) +
                                         ", expected CV_8UC3 (0..255) or CV_32FC3 (0..1)"));
-    // ToTensor: x / 255 in float (division, as torchvision does), through a table.
+    // ToTensor: x / 255 in float (division, as torchvision does): scaled with gain 1.
     if (image.type() == CV_8UC3) {
-      run_mapped_unchecked(image, unit_table(), dark, out);
+      run_scaled_unchecked(image, {1.0f, 1.0f, 1.0f}, dark, out);
       return;
     }
     detail::require(cv::checkRange(image),
@@ -151,16 +152,51 @@ public:
     run_mapped_unchecked(image, table, dark, out);
   }
 
+  // run_mapped with table[c][v] = clamp((v / 255) * gains[c], 0, 1) in float
+  // (detail::scaled_byte: ToTensor for gains 1, LightingNormaliser::gains for the lighting
+  // normalisation), the same floats, faster where the CPU has AVX-512 VBMI (the values are
+  // computed from the tapped bytes, classify/scaled_resize.hpp).
+  // requires: image CV_8UC3; gains finite and > 0. Throws InvalidArgument naming what is wrong
+  //           (the image, a gain, the crop).
+  void run_scaled(const cv::Mat& image, const std::array<float, 3>& gains, bool dark, Tensor& out) {
+    if (!(!image.empty() && image.dims == 2 && image.type() == CV_8UC3))
+      SHADOWSENSE_THROW(
+          InvalidArgument("Preprocessor::run_scaled: image is " +
+                          (image.empty() ? std::string("empty") : cv::typeToString(image.type())) +
+                          ", expected CV_8UC3"));
+    for (const float g : gains)
+      if (!(std::isfinite(g) && g > 0.0f))
+        SHADOWSENSE_THROW(InvalidArgument("Preprocessor::run_scaled: a gain is " +
+                                          std::to_string(g) + ", expected finite and > 0"));
+    run_scaled_unchecked(image, gains, dark, out);
+  }
+
 private:
-  static const Table& unit_table() {
-    static const Table t = [] {
-      Table u{};
-      for (std::size_t c = 0; c < 3; ++c)
-        for (int v = 0; v < 256; ++v)
-          u[c][static_cast<std::size_t>(v)] = static_cast<float>(v) / 255.0f;
-      return u;
-    }();
-    return t;
+  void run_scaled_unchecked(const cv::Mat& image, const std::array<float, 3>& gains, bool dark,
+                            Tensor& out) {
+    if (gains != scaled_gains_) { // the lighting's gains change a little every frame
+      detail::fill_scaled_table(gains, scaled_table_);
+      scaled_gains_ = gains;
+    }
+    const auto& p = config_.params;
+    if (!(p.resize_width > 0 && (p.resize_width != image.cols || p.resize_height != image.rows))) {
+      run_mapped_unchecked(image, scaled_table_, dark, out); // no resize: every pixel mapped
+      return;
+    }
+    input_size_ = image.size();
+    const int out_w = p.resize_width, out_h = p.resize_height;
+    set_taps(image.cols, image.rows, out_w, out_h);
+    if (plan_.row_bytes != 3 * image.cols || plan_.out_w != out_w)
+      plan_ = detail::ScaledResizePlan::make(out_w, 3 * image.cols, xt_);
+    const auto row = detail::scaled_resize_cpu_has_vbmi() ? &detail::scaled_resize_row_vbmi
+                                                          : &detail::scaled_resize_row_portable;
+    resized_.create(out_h, out_w, CV_32FC3);
+    for (int y = 0; y < out_h; ++y) {
+      const auto ky = static_cast<std::size_t>(y);
+      row(plan_, xt_, image.ptr<unsigned char>(yt_.a[ky]), image.ptr<unsigned char>(yt_.b[ky]),
+          yt_.w0[ky], yt_.w1[ky], scaled_table_, gains, resized_.ptr<float>(y));
+    }
+    crop_normalise(resized_, dark, out);
   }
 
   void run_mapped_unchecked(const cv::Mat& image, const Table& table, bool dark, Tensor& out) {
@@ -311,43 +347,47 @@ private:
     }
   }
 
-  struct Taps {
-    std::vector<int> i0, i1;
-    std::vector<float> w0, w1;
-  };
   // torch's compute_indices_weights_linear (align_corners=False, no explicit scale factor):
   // the scale is a float, the source position and the weights are computed in double (CPU
   // acc_type of float) and the weights stored as float.
-  static void taps(int in, int out, Taps& t) {
+  static void taps(int in, int out, detail::ResizeTaps& t) {
     const double scale = static_cast<float>(in) / static_cast<float>(out);
-    t.i0.resize(static_cast<std::size_t>(out));
-    t.i1.resize(t.i0.size());
-    t.w0.resize(t.i0.size());
-    t.w1.resize(t.i0.size());
+    t.a.resize(static_cast<std::size_t>(out));
+    t.b.resize(t.a.size());
+    t.w0.resize(t.a.size());
+    t.w1.resize(t.a.size());
     for (int o = 0; o < out; ++o) {
       const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
       const int i = std::min(static_cast<int>(real), in - 1);
       const double l1 = std::clamp(real - i, 0.0, 1.0);
       const auto k = static_cast<std::size_t>(o);
-      t.i0[k] = i;
-      t.i1[k] = i < in - 1 ? i + 1 : i;
+      t.a[k] = i;
+      t.b[k] = i < in - 1 ? i + 1 : i;
       t.w0[k] = static_cast<float>(1.0 - l1);
       t.w1[k] = static_cast<float>(l1);
     }
   }
+  // The taps of an in_w x in_h -> out_w x out_h resize, made when the sizes change.
+  void set_taps(int in_w, int in_h, int out_w, int out_h) {
+    const std::array<int, 4> sizes{in_w, in_h, out_w, out_h};
+    if (sizes == taps_for_) return;
+    taps(in_w, out_w, xt_);
+    taps(in_h, out_h, yt_);
+    plan_ = {};
+    taps_for_ = sizes;
+  }
   void resize_bilinear(const cv::Mat& src, int out_w, int out_h) {
-    taps(src.cols, out_w, xt_);
-    taps(src.rows, out_h, yt_);
+    set_taps(src.cols, src.rows, out_w, out_h);
     resized_.create(out_h, out_w, CV_32FC3);
     for (int y = 0; y < out_h; ++y) {
       const auto ky = static_cast<std::size_t>(y);
-      const float* r0 = src.ptr<float>(yt_.i0[ky]);
-      const float* r1 = src.ptr<float>(yt_.i1[ky]);
+      const float* r0 = src.ptr<float>(yt_.a[ky]);
+      const float* r1 = src.ptr<float>(yt_.b[ky]);
       const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
       float* d = resized_.ptr<float>(y);
       for (int x = 0; x < out_w; ++x) {
         const auto kx = static_cast<std::size_t>(x);
-        const int a = 3 * xt_.i0[kx], b = 3 * xt_.i1[kx];
+        const int a = 3 * xt_.a[kx], b = 3 * xt_.b[kx];
         const float w0 = xt_.w0[kx], w1 = xt_.w1[kx];
         for (int c = 0; c < 3; ++c) {
           const float t0 = r0[a + c] * w0 + r0[b + c] * w1;
@@ -360,33 +400,13 @@ private:
 
   // resize_bilinear of the image mapped through table, reading only the tapped pixels.
   void resize_bilinear_mapped(const cv::Mat& src, const Table& table, int out_w, int out_h) {
-    taps(src.cols, out_w, xt_);
-    taps(src.rows, out_h, yt_);
+    set_taps(src.cols, src.rows, out_w, out_h);
     resized_.create(out_h, out_w, CV_32FC3);
     for (int y = 0; y < out_h; ++y) {
       const auto ky = static_cast<std::size_t>(y);
-      const unsigned char* r0 = src.ptr<unsigned char>(yt_.i0[ky]);
-      const unsigned char* r1 = src.ptr<unsigned char>(yt_.i1[ky]);
-      const float h0 = yt_.w0[ky], h1 = yt_.w1[ky];
-      float* d = resized_.ptr<float>(y);
-      // The three channels written out: at -O2 GCC kept a loop over them (a profile gave the
-      // resize 0.13 ms at -O2 against 0.07 ms at -O3; the timed gain is the encoder's as a whole).
-      const float* t_0 = table[0].data();
-      const float* t_1 = table[1].data();
-      const float* t_2 = table[2].data();
-      auto tap = [&](const float* t, int a, int b, float w0, float w1) {
-        const float t0 = t[r0[a]] * w0 + t[r0[b]] * w1;
-        const float t1 = t[r1[a]] * w0 + t[r1[b]] * w1;
-        return t0 * h0 + t1 * h1;
-      };
-      for (int x = 0; x < out_w; ++x) {
-        const auto kx = static_cast<std::size_t>(x);
-        const int a = 3 * xt_.i0[kx], b = 3 * xt_.i1[kx];
-        const float w0 = xt_.w0[kx], w1 = xt_.w1[kx];
-        d[3 * x] = tap(t_0, a, b, w0, w1);
-        d[3 * x + 1] = tap(t_1, a + 1, b + 1, w0, w1);
-        d[3 * x + 2] = tap(t_2, a + 2, b + 2, w0, w1);
-      }
+      detail::scaled_resize_pixels(xt_, 0, out_w, src.ptr<unsigned char>(yt_.a[ky]),
+                                   src.ptr<unsigned char>(yt_.b[ky]), yt_.w0[ky], yt_.w1[ky], table,
+                                   resized_.ptr<float>(y));
     }
   }
 
@@ -403,7 +423,11 @@ private:
   std::vector<float> planes_; // crop_normalise: one row of each channel, contiguous
   cv::Rect region_{};         // set_contrast_region; empty = the whole image
   cv::Size input_size_{};     // the image passed to the current run, before the resize
-  Taps xt_, yt_;
+  detail::ResizeTaps xt_, yt_;
+  std::array<int, 4> taps_for_{};       // the sizes xt_ and yt_ were made for
+  detail::ScaledResizePlan plan_;       // run_scaled's vector plan over xt_
+  detail::ScaledTable scaled_table_{};  // run_scaled's values (its portable loop, its tails)
+  std::array<float, 3> scaled_gains_{}; // the gains scaled_table_ holds (0: none yet)
 };
 
 SHADOWSENSE_NAMESPACE_END
