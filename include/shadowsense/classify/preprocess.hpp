@@ -23,6 +23,12 @@
 //             c; not checked). ensures: run() on the image mapped through table, computed
 //             without a full-size float image (8-bit images in run() go this way with
 //             table = v / 255). Throws InvalidArgument on a bad image or crop.
+// run_scaled(image, gains, dark, out)
+//   requires: image CV_8UC3; gains finite and > 0 (else InvalidArgument naming the gain).
+//   ensures: run_mapped() with table[c][v] = clamp((v / 255) * gains[c], 0, 1) in float
+//             (detail::scaled_byte), bit for bit; computed from the tapped bytes where the CPU
+//             has AVX-512 VBMI (classify/scaled_resize.hpp). run() of an 8-bit image is
+//             run_scaled with gains 1; FrameEncoder hands it LightingNormaliser::gains.
 // run_in_range(image, dark, out)
 //   requires: image CV_32FC3 whose values are finite and in 0..1 (not checked: the caller's
 //             contract, e.g. FrameEncoder's own encoded images). ensures: run() on the image
