@@ -299,27 +299,6 @@ TEST_CASE("contrast, brightness and Normalize: the row loops equal a value-by-va
   CHECK(differ == 0);
 }
 
-namespace {
-
-// torch's taps for in -> out pixels along one axis, as the Preprocessor makes them (the same
-// arithmetic: scale as a float, positions and weights in double).
-detail::ResizeTaps torch_taps(int in, int out) {
-  detail::ResizeTaps t;
-  const double scale = static_cast<float>(in) / static_cast<float>(out);
-  for (int o = 0; o < out; ++o) {
-    const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
-    const int i = std::min(static_cast<int>(real), in - 1);
-    const double l1 = std::clamp(real - i, 0.0, 1.0);
-    t.a.push_back(i);
-    t.b.push_back(i < in - 1 ? i + 1 : i);
-    t.w0.push_back(static_cast<float>(1.0 - l1));
-    t.w1.push_back(static_cast<float>(l1));
-  }
-  return t;
-}
-
-} // namespace
-
 TEST_CASE("scaled resize: the VBMI kernel's values equal scaled_byte for every byte and gain") {
   if (!detail::scaled_resize_cpu_has_vbmi()) {
     MESSAGE("this CPU has no AVX-512 VBMI: the portable loop runs (tested below)");
@@ -376,7 +355,8 @@ TEST_CASE("scaled resize: the VBMI kernel equals the portable loop bit for bit o
   for (const auto& [in_w, out_w] : widths) {
     CAPTURE(in_w);
     CAPTURE(out_w);
-    const detail::ResizeTaps t = torch_taps(in_w, out_w);
+    detail::ResizeTaps t;
+    detail::resize_taps(in_w, out_w, t);
     const int row_bytes = 3 * in_w;
     const auto plan = detail::ScaledResizePlan::make(out_w, row_bytes, t);
     for (const int s : plan.start) (s >= 0 ? vector_groups : portable_groups) += 1;

@@ -54,7 +54,7 @@ struct LightingNormaliser {
   // mean differs from it by float rounding, as did this function's earlier exact sum of the
   // float values v / 255: by at most one float step of the mean.)
   // requires: image CV_8UC3 (checked by the callers: run() and FrameEncoder).
-  using Table = std::array<std::array<float, 256>, 3>;
+  using Table = detail::ScaledTable;
   void table(const cv::Mat& image, Table& out) const {
     detail::fill_scaled_table(gains(image), out);
   }

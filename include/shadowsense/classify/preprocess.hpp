@@ -142,7 +142,7 @@ public:
 
   // Per-channel value table of an 8-bit image: table[c][v] is the float value (0..1) of value v
   // in channel c of the image (in the image's channel order).
-  using Table = std::array<std::array<float, 256>, 3>;
+  using Table = detail::ScaledTable;
 
   // run() on an 8-bit image whose values are first mapped through table (ToTensor is the
   // table v / 255; LightingNormaliser::table gives the lighting-normalised one). Only the
@@ -353,33 +353,12 @@ private:
     }
   }
 
-  // torch's compute_indices_weights_linear (align_corners=False, no explicit scale factor):
-  // the scale is a float, the source position and the weights are computed in double (CPU
-  // acc_type of float) and the weights stored as float.
-  static void taps(int in, int out, detail::ResizeTaps& t) {
-    const double scale = static_cast<float>(in) / static_cast<float>(out);
-    t.a.resize(static_cast<std::size_t>(out));
-    t.b.resize(t.a.size());
-    t.w0.resize(t.a.size());
-    t.w1.resize(t.a.size());
-    for (int o = 0; o < out; ++o) {
-      const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
-      const int i = std::min(static_cast<int>(real), in - 1);
-      const double l1 = std::clamp(real - i, 0.0, 1.0);
-      const auto k = static_cast<std::size_t>(o);
-      t.a[k] = i;
-      t.b[k] = i < in - 1 ? i + 1 : i;
-      t.w0[k] = static_cast<float>(1.0 - l1);
-      t.w1[k] = static_cast<float>(l1);
-    }
-  }
   // The taps of an in_w x in_h -> out_w x out_h resize, made when the sizes change.
   void set_taps(int in_w, int in_h, int out_w, int out_h) {
     const std::array<int, 4> sizes{in_w, in_h, out_w, out_h};
     if (sizes == taps_for_) return;
-    taps(in_w, out_w, xt_);
-    taps(in_h, out_h, yt_);
-    plan_ = {};
+    detail::resize_taps(in_w, out_w, xt_);
+    detail::resize_taps(in_h, out_h, yt_);
     taps_for_ = sizes;
   }
   void resize_bilinear(const cv::Mat& src, int out_w, int out_h) {

@@ -16,7 +16,9 @@
 // loads): a 635 x 350 frame resized to 160 x 88 spent about 40% of the frame encoder there.
 //
 // ResizeTaps: torch's bilinear taps along one axis (pixels a[x] <= b[x], both nondecreasing in
-//   x, and their weights).
+//   x, and their weights); resize_taps(in, out, taps) makes them for in -> out pixels.
+// scaled_byte(v, gain), fill_scaled_table(gains, table): the value above, and ScaledTable
+//   (3 x 256 floats, one row per channel) filled with it.
 // ScaledResizePlan::make(out_w, row_bytes, taps): the window and byte indices of each group of 8
 //   output pixels of a row of row_bytes bytes; made once per geometry (a plain value).
 // scaled_resize_row_*(plan, taps, r0, r1, h0, h1, table, gains, d)
@@ -69,6 +71,27 @@ struct ResizeTaps {
   std::vector<int> a, b;
   std::vector<float> w0, w1;
 };
+
+// torch's compute_indices_weights_linear (align_corners=False, no explicit scale factor):
+// the scale is a float, the source position and the weights are computed in double (CPU
+// acc_type of float) and the weights stored as float.
+inline void resize_taps(int in, int out, ResizeTaps& t) {
+  const double scale = static_cast<float>(in) / static_cast<float>(out);
+  t.a.resize(static_cast<std::size_t>(out));
+  t.b.resize(t.a.size());
+  t.w0.resize(t.a.size());
+  t.w1.resize(t.a.size());
+  for (int o = 0; o < out; ++o) {
+    const double real = std::max(scale * (o + 0.5) - 0.5, 0.0);
+    const int i = std::min(static_cast<int>(real), in - 1);
+    const double l1 = std::clamp(real - i, 0.0, 1.0);
+    const auto k = static_cast<std::size_t>(o);
+    t.a[k] = i;
+    t.b[k] = i < in - 1 ? i + 1 : i;
+    t.w0[k] = static_cast<float>(1.0 - l1);
+    t.w1[k] = static_cast<float>(l1);
+  }
+}
 
 struct ScaledResizePlan {
   static constexpr int group = 8;    // output pixels a vector step

@@ -18,7 +18,11 @@
 //   function that must be inlined into one without it (GCC does not inline across different
 //   optimisation options).
 // SHADOWSENSE_ALWAYS_INLINE: inline, and always inlined where the compiler allows it.
+// prefetch_for_read(p): asks for the cache line holding p, to be read soon (GCC and Clang:
+//   __builtin_prefetch, prefetcht0 on x86; nothing elsewhere). Never faults.
 #pragma once
+
+#include <shadowsense/core/version.hpp>
 
 #if defined(__clang__)
 #define SHADOWSENSE_STRICT_FP
@@ -44,3 +48,15 @@
 #else
 #define SHADOWSENSE_ALWAYS_INLINE inline
 #endif
+
+SHADOWSENSE_NAMESPACE_BEGIN
+namespace detail {
+inline void prefetch_for_read(const void* p) {
+#if defined(__GNUC__) || defined(__clang__)
+  __builtin_prefetch(p);
+#else
+  (void)p;
+#endif
+}
+} // namespace detail
+SHADOWSENSE_NAMESPACE_END

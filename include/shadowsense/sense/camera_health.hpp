@@ -34,6 +34,7 @@
 // check of its own: the TouchPipeline that holds it has one.
 #pragma once
 
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/error.hpp>
 
 #include <opencv2/core.hpp>
@@ -110,13 +111,6 @@ public:
   }
 
 private:
-  static void prefetch_for_read(const std::uint8_t* p) {
-#if defined(__GNUC__) || defined(__clang__)
-    __builtin_prefetch(p);
-#else
-    (void)p;
-#endif
-  }
   struct Scan {
     std::int64_t samples = 0, dark = 0, saturated = 0;
     std::uint64_t hash = 0;
@@ -144,7 +138,7 @@ private:
       // change on one that is).
       const std::uint8_t* next = y + step < frame.rows ? frame.ptr<std::uint8_t>(y + step) : px;
       for (int i = 0; i < per_row; i += 4) {
-        prefetch_for_read(next + static_cast<std::ptrdiff_t>(i) * pitch);
+        detail::prefetch_for_read(next + static_cast<std::ptrdiff_t>(i) * pitch);
         const int n = std::min(4, per_row - i);
         for (int l = 0; l < 4; ++l) {
           if (l >= n) break;

@@ -162,9 +162,8 @@ inline void prefetch_reference_samples(const std::uint8_t* frame, std::size_t st
                                        int count, int n) {
   const int end = std::min(i + reference_prefetch_distance + count, n);
   for (int k = i + reference_prefetch_distance; k < end; k += reference_prefetch_stride)
-    _mm_prefetch(reinterpret_cast<const char*>(frame) + static_cast<std::size_t>(ys[k]) * step +
-                     3 * static_cast<std::size_t>(xs[k]),
-                 _MM_HINT_T0);
+    prefetch_for_read(frame + static_cast<std::size_t>(ys[k]) * step +
+                      3 * static_cast<std::size_t>(xs[k]));
 }
 
 // 8 samples a step: one 32-bit gather per sample from the byte before B (so B, G, R are bytes
