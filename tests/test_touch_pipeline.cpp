@@ -230,7 +230,7 @@ std::vector<std::string> events_of(const TouchFrame& f) {
 } // namespace
 
 TEST_CASE("CameraHealth: one sampled byte changed anywhere ends a repeat; unsampled bytes do not") {
-  // 27 x 9 with sample_step 4: 7 samples a row (four lanes of the signature, then three more),
+  // 27 x 9 with sample_step 4: 7 samples a row (the last one in the row's last 64-byte block),
   // 3 sampled rows; 1 and 3 channels, 4 (alpha not looked at).
   for (const int channels : {1, 3, 4}) {
     CAPTURE(channels);
@@ -257,6 +257,101 @@ TEST_CASE("CameraHealth: one sampled byte changed anywhere ends a repeat; unsamp
     CHECK(sampled_changes == 3 * 7 * std::min(channels, 3));
     CHECK(unsampled_changes == 9 * 27 * channels - 3 * 7 * std::min(channels, 3));
   }
+}
+
+// The camera check's scan (sense/camera_scan.hpp) against its definition written out here: the
+// sampled rows read as 32-bit words, the bytes not looked at zeroed, every word holding a
+// looked-at byte through lane (index mod 16) of 16 FNV-style lanes; the AVX-512 kernel must give
+// the portable loop's result bit for bit.
+namespace {
+detail::CameraScan scan_by_definition(const cv::Mat& frame, int step, int dark, int saturated) {
+  const int channels = frame.channels(), colour = channels == 1 ? 1 : 3;
+  const std::size_t row_bytes = static_cast<std::size_t>(frame.cols * channels);
+  std::uint32_t h[16];
+  for (std::uint32_t j = 0; j < 16; ++j) h[j] = 2166136261u ^ j;
+  detail::CameraScan out;
+  for (int y = 0; y < frame.rows; y += step) {
+    const std::uint8_t* row = frame.ptr<std::uint8_t>(y);
+    std::vector<std::uint8_t> looked((row_bytes + 3) / 4 * 4, 0), is_looked(looked.size(), 0);
+    for (int x = 0; x < frame.cols; x += step) {
+      int lo = 255, hi = 0;
+      for (int c = 0; c < colour; ++c) {
+        const std::size_t at = static_cast<std::size_t>(x * channels + c);
+        looked[at] = row[at];
+        is_looked[at] = 1;
+        lo = std::min<int>(lo, row[at]);
+        hi = std::max<int>(hi, row[at]);
+      }
+      ++out.samples;
+      out.dark += hi <= dark;
+      out.saturated += lo >= saturated;
+    }
+    for (std::size_t w = 0; w < looked.size() / 4; ++w) {
+      const std::size_t at = 4 * w; // the word holds a looked-at byte: it takes a step
+      if (!(is_looked[at] || is_looked[at + 1] || is_looked[at + 2] || is_looked[at + 3])) continue;
+      const std::uint8_t* b = &looked[at];
+      const std::uint32_t word = b[0] | b[1] << 8 | b[2] << 16 | std::uint32_t{b[3]} << 24;
+      h[w % 16] = (h[w % 16] ^ word) * 16777619u;
+    }
+  }
+  out.hash = 1469598103934665603ull;
+  for (const std::uint32_t v : h) out.hash = (out.hash ^ v) * 1099511628211ull;
+  return out;
+}
+} // namespace
+
+TEST_CASE("camera scan: the portable loop is the signature's definition and the AVX-512 kernel "
+          "equals it, on every width's last block, every step and a frame cut from a larger one") {
+  cv::RNG rng(11);
+  int compared = 0, compared_avx512 = 0;
+  for (const int channels : {1, 3, 4})
+    for (const int step : {1, 2, 3, 4, 5, 7, 16, 21, 64})
+      for (const int cols : {1, 5, 21, 22, 27, 63, 64, 65, 86, 130, 635}) {
+        const int rows = 1 + (cols + step) % 13;
+        cv::Mat big(rows + 3, cols + 9, CV_8UC(channels));
+        rng.fill(big, cv::RNG::UNIFORM, 0, 256);
+        // Extremes often, so both counts are neither 0 nor everything.
+        std::uint8_t* p = big.data;
+        for (std::size_t i = 0; i < big.total() * big.elemSize(); ++i)
+          if (p[i] % 3 == 0) p[i] = p[i] % 2 ? 255 : 3;
+        for (const bool cut : {false, true}) {
+          const cv::Mat frame =
+              cut ? big(cv::Rect(4, 2, cols, rows)) : big(cv::Rect(0, 0, cols, rows)).clone();
+          CAPTURE(channels);
+          CAPTURE(step);
+          CAPTURE(cols);
+          CAPTURE(cut);
+          detail::CameraScanGrid g;
+          g.data = frame.data;
+          g.row_stride = frame.step[0];
+          g.cols = frame.cols;
+          g.rows = frame.rows;
+          g.channels = channels;
+          g.colour = channels == 1 ? 1 : 3;
+          g.step = step;
+          g.dark_level = 40;
+          g.saturated_level = 230;
+          const detail::CameraScan want = scan_by_definition(frame, step, 40, 230);
+          const detail::CameraScan portable = detail::camera_scan_portable(g);
+          REQUIRE(portable.samples == want.samples);
+          REQUIRE(portable.dark == want.dark);
+          REQUIRE(portable.saturated == want.saturated);
+          REQUIRE(portable.hash == want.hash);
+          ++compared;
+#if SHADOWSENSE_CAMERA_SCAN_X86
+          if (detail::camera_scan_cpu_has_avx512()) {
+            const detail::CameraScan fast = detail::camera_scan_avx512(g);
+            REQUIRE(fast.samples == want.samples);
+            REQUIRE(fast.dark == want.dark);
+            REQUIRE(fast.saturated == want.saturated);
+            REQUIRE(fast.hash == want.hash);
+            ++compared_avx512;
+          }
+#endif
+        }
+      }
+  CHECK(compared == 3 * 9 * 11 * 2);
+  MESSAGE("AVX-512 scans compared: " << compared_avx512);
 }
 
 TEST_CASE("CameraHealth: black, black with one bright pixel, white, frozen; a live camera none") {

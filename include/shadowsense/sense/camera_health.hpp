@@ -36,6 +36,7 @@
 
 #include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/camera_scan.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -111,59 +112,6 @@ public:
   }
 
 private:
-  struct Scan {
-    std::int64_t samples = 0, dark = 0, saturated = 0;
-    std::uint64_t hash = 0;
-  };
-  // The sample grid's counts and signature, Colour (1 or 3) channels looked at per sample. The
-  // signature: FNV-1a steps over the samples (a sample's 1 or 3 bytes taken as one number) in
-  // four lanes (sample i of a row goes to lane i % 4), combined at the end. One lane is a chain
-  // of dependent multiplies; four in local variables run side by side (a 635 x 350 frame's 14k
-  // samples took 0.047 ms with one lane, a multiply per byte and a loop over the channels,
-  // 0.031 ms so).
-  template <int Colour>
-  Scan scan_samples(const cv::Mat& frame, int step, int channels) const {
-    constexpr std::uint64_t fnv_offset = 1469598103934665603ull, fnv_prime = 1099511628211ull;
-    const int dark_level = config_.dark_level, saturated_level = config_.saturated_level;
-    std::uint64_t h[4] = {fnv_offset, fnv_offset ^ 1, fnv_offset ^ 2, fnv_offset ^ 3};
-    std::int64_t dark = 0, saturated = 0;
-    const std::ptrdiff_t pitch = static_cast<std::ptrdiff_t>(step) * channels; // sample to sample
-    const int per_row = (frame.cols + step - 1) / step;
-    Scan out;
-    for (int y = 0; y < frame.rows; y += step) {
-      const std::uint8_t* px = frame.ptr<std::uint8_t>(y);
-      // The next sampled row, asked for while this one is read: the scan is the first to touch
-      // a frame, and one that is not in the cache (straight from a camera's DMA buffer) stalled
-      // on every row's start (0.075 -> 0.063 ms on 635 x 350 frames not in the cache; no
-      // change on one that is).
-      const std::uint8_t* next = y + step < frame.rows ? frame.ptr<std::uint8_t>(y + step) : px;
-      for (int i = 0; i < per_row; i += 4) {
-        detail::prefetch_for_read(next + static_cast<std::ptrdiff_t>(i) * pitch);
-        const int n = std::min(4, per_row - i);
-        for (int l = 0; l < 4; ++l) {
-          if (l >= n) break;
-          const std::uint8_t* p = px + static_cast<std::ptrdiff_t>(i + l) * pitch;
-          int lo = p[0], hi = p[0];
-          std::uint64_t bytes = p[0]; // the sample's bytes as one number: one multiply a sample
-          for (int c = 1; c < Colour; ++c) {
-            lo = std::min<int>(lo, p[c]);
-            hi = std::max<int>(hi, p[c]);
-            bytes |= std::uint64_t{p[c]} << (8 * c);
-          }
-          h[l] = (h[l] ^ bytes) * fnv_prime;
-          dark += hi <= dark_level;
-          saturated += lo >= saturated_level;
-        }
-      }
-      out.samples += per_row;
-    }
-    out.dark = dark;
-    out.saturated = saturated;
-    out.hash = fnv_offset;
-    for (const std::uint64_t v : h) out.hash = (out.hash ^ v) * fnv_prime;
-    return out;
-  }
-
   CameraFault judge(const cv::Mat& frame) {
     const int channels = frame.channels();
     if (!config_.enabled || frame.empty() || frame.depth() != CV_8U ||
@@ -171,10 +119,17 @@ private:
       reset();
       return CameraFault::none;
     }
-    const int step = config_.sample_step;
-    const int colour = channels == 4 ? 3 : channels; // alpha is not looked at
-    const Scan scan = colour == 3 ? scan_samples<3>(frame, step, channels)
-                                  : scan_samples<1>(frame, step, channels);
+    detail::CameraScanGrid grid;
+    grid.data = frame.data;
+    grid.row_stride = frame.step[0];
+    grid.cols = frame.cols;
+    grid.rows = frame.rows;
+    grid.channels = channels;
+    grid.colour = channels == 1 ? 1 : 3; // alpha is not looked at
+    grid.step = config_.sample_step;
+    grid.dark_level = config_.dark_level;
+    grid.saturated_level = config_.saturated_level;
+    const detail::CameraScan scan = detail::camera_scan(grid);
     const std::int64_t samples = scan.samples, dark = scan.dark, saturated = scan.saturated;
     const std::uint64_t hash = scan.hash;
     const bool same =
