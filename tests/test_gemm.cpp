@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -290,6 +291,63 @@ TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by 
             }
 }
 #endif
+
+TEST_CASE("pool0's max pool (VectorOps::max_pool3s2): every kernel's bits are the portable "
+          "loop's, and the values are the 3x3 stride-2 windows' maxima, NaN winning") {
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> ud(0.0f, 4.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  int compared = 0;
+  for (const int h0 : {1, 2, 3, 4, 7, 44})
+    for (const int w0 : {1, 2, 3, 4, 5, 16, 31, 32, 33, 34, 35, 64, 65, 80, 81}) {
+      CAPTURE(h0);
+      CAPTURE(w0);
+      const int bh = (h0 - 1) / 2 + 1, bw = (w0 - 1) / 2 + 1;
+      // ReLU's outputs: >= 0, zeros of both signs, +inf, and a NaN in some planes.
+      std::vector<float> s(static_cast<std::size_t>(h0 * w0));
+      for (auto& v : s) {
+        const int pick = static_cast<int>(rng() % 16);
+        v = pick == 0 ? 0.0f : pick == 1 ? -0.0f : pick == 2 ? inf : ud(rng);
+      }
+      const bool with_nan = (h0 + w0) % 3 == 0;
+      const int nan_at = static_cast<int>(rng() % s.size());
+      if (with_nan) s[static_cast<std::size_t>(nan_at)] = nan;
+      // The definition: each window's max, or NaN when the window holds one.
+      std::vector<float> want(static_cast<std::size_t>(bh * bw));
+      for (int y = 0; y < bh; ++y)
+        for (int x = 0; x < bw; ++x) {
+          float mx = -inf;
+          bool has_nan = false;
+          for (int iy = std::max(2 * y - 1, 0); iy <= std::min(2 * y + 1, h0 - 1); ++iy)
+            for (int ix = std::max(2 * x - 1, 0); ix <= std::min(2 * x + 1, w0 - 1); ++ix) {
+              const float v = s[static_cast<std::size_t>(iy * w0 + ix)];
+              has_nan = has_nan || std::isnan(v);
+              mx = std::max(mx, v);
+            }
+          want[static_cast<std::size_t>(y * bw + x)] = has_nan ? nan : mx;
+        }
+      std::vector<float> vm(static_cast<std::size_t>(w0) + 2), vs(vm.size());
+      std::vector<float> portable(want.size() + 4, 9.0f);
+      detail::max_pool3s2_portable(s.data(), h0, w0, bh, bw, vm.data() + 1, vs.data() + 1,
+                                   portable.data());
+      for (std::size_t i = 0; i < want.size(); ++i)
+        REQUIRE((std::isnan(want[i]) ? std::isnan(portable[i]) : portable[i] == want[i]));
+      CHECK(portable[want.size()] == 9.0f); // nothing written past the plane
+      for (auto kind : detail::available_kernels()) {
+        const auto ops = detail::select_vector_ops(kind);
+        if (!ops.max_pool3s2) continue;
+        CAPTURE(detail::select_micro_kernel(kind).name);
+        std::vector<float> got(portable.size(), 9.0f);
+        std::fill(vm.begin(), vm.end(), 5.0f); // scratch left by an earlier call
+        std::fill(vs.begin(), vs.end(), 5.0f);
+        ops.max_pool3s2(s.data(), h0, w0, bh, bw, vm.data() + 1, vs.data() + 1, got.data());
+        REQUIRE(std::memcmp(got.data(), portable.data(), got.size() * sizeof(float)) == 0);
+        ++compared;
+      }
+    }
+  MESSAGE("vector kernels compared: " << compared);
+}
 
 TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmetic to 1 ulp)") {
   const auto ref = detail::select_vector_ops(GemmKernelKind::reference);

@@ -959,61 +959,20 @@ private:
     const int tasks = std::min(pool_->size(), arch_.init_features);
     // Each thread's row a cache line clear of the next thread's: rows w0_ floats apart shared
     // a line, and pool0 at 2 threads took as long as at 1 (DenseNet-161: 0.42 / 0.41 ms).
-    const std::size_t stride = (static_cast<std::size_t>(w0_) + 15) / 16 * 16 + 16;
+    // Each row buffer holds w0_ + 2 floats from vm[-1] (VectorOps::max_pool3s2's contract).
+    const std::size_t stride = (static_cast<std::size_t>(w0_) + 2 + 15) / 16 * 16 + 16;
     pool_max_.resize(stride * tasks);
     pool_sum_.resize(stride * tasks);
+    const auto pool = ops_.max_pool3s2 ? ops_.max_pool3s2 : &detail::max_pool3s2_portable;
     auto task = [&](int t) {
-      float* vm = pool_max_.data() + stride * t;
-      float* vs = pool_sum_.data() + stride * t;
+      float* vm = pool_max_.data() + stride * t + 1;
+      float* vs = pool_sum_.data() + stride * t + 1;
       const int c0 = arch_.init_features * t / tasks, c1 = arch_.init_features * (t + 1) / tasks;
       for (int c = c0; c < c1; ++c)
-        pool0_channel(conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_, h0_, w0_, bh, bw,
-                      vm, vs, dst + static_cast<std::size_t>(c) * bh * bw);
+        pool(conv0_out_.data() + static_cast<std::size_t>(c) * h0_ * w0_, h0_, w0_, bh, bw, vm, vs,
+             dst + static_cast<std::size_t>(c) * bh * bw);
     };
     pool_->run(tasks, task);
-  }
-
-  // pool0 of one channel s (h0 x w0) into dst (bh x bw), with the row buffers vm, vs (w0
-  // floats each). Its loops are written for the compiler to vectorise (SHADOWSENSE_VECTORISE:
-  // at GCC's -O2 they ran scalar, pool0 2.5x its -O3 time).
-  SHADOWSENSE_VECTORISE static void pool0_channel(const float* s, int h0, int w0, int bh, int bw,
-                                                  float* vm, float* vs, float* dst) {
-    for (int y = 0; y < bh; ++y) {
-      const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0 - 1);
-      const float* r = s + static_cast<std::size_t>(y0) * w0;
-      for (int x = 0; x < w0; ++x) {
-        vm[x] = r[x];
-        vs[x] = r[x];
-      }
-      for (int iy = y0 + 1; iy <= y1; ++iy) {
-        r = s + static_cast<std::size_t>(iy) * w0;
-        for (int x = 0; x < w0; ++x) {
-          vm[x] = std::max(vm[x], r[x]);
-          vs[x] += r[x];
-        }
-      }
-      float* d = dst + static_cast<std::size_t>(y) * bw;
-      auto window = [&](int x) { // clipped at the image's edges
-        const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0 - 1);
-        float mx = vm[x0], nan_probe = vs[x0];
-        for (int ix = x0 + 1; ix <= x1; ++ix) {
-          mx = std::max(mx, vm[ix]);
-          nan_probe += vs[ix];
-        }
-        return nan_probe == nan_probe ? mx : nan_probe;
-      };
-      // Windows with all three columns inside (2x + 1 <= w0 - 1) in a loop of fixed shape
-      // the compiler vectorises; the same values in the same order as window(x).
-      const int inner = std::min(bw, w0 / 2);
-      int x = 0;
-      for (; x < std::min(1, bw); ++x) d[x] = window(x);
-      for (; x < inner; ++x) {
-        const float mx = std::max(std::max(vm[2 * x - 1], vm[2 * x]), vm[2 * x + 1]);
-        const float nan_probe = (vs[2 * x - 1] + vs[2 * x]) + vs[2 * x + 1];
-        d[x] = nan_probe == nan_probe ? mx : nan_probe;
-      }
-      for (; x < bw; ++x) d[x] = window(x);
-    }
   }
 
   // Dense layer l of block b, first half: conv1 (1x1) on relu(norm1(features)), + folded norm2,

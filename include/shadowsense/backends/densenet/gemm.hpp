@@ -97,6 +97,16 @@ inline MicroKernelFn tile_kernel(const MicroKernel& k, int rows, int cols) {
 //                                  sh[c]) for j < cols, 0 for cols <= j < nr, c < channels
 //                                  (affine_relu per channel in one call; optional: when null,
 //                                  the forward pass calls affine_relu per channel)
+//   max_pool3s2(s, h0, w0, bh, bw, vm, vs, d): pool0, max 3x3, stride 2, padding 1, of the
+//                                  h0 x w0 plane s into the bh x bw plane d (bh = (h0 - 1) / 2
+//                                  + 1, likewise bw): d = the window's max (std::max in row
+//                                  order, then columns 2x - 1, 2x, 2x + 1), unless the window's
+//                                  sum (per column over its rows in order, then the three
+//                                  column sums in order) is NaN, when d is that sum (a NaN in
+//                                  the window wins; the inputs are >= 0 after ReLU, so the sum
+//                                  is NaN exactly then). vm, vs: scratch rows of w0 + 2 floats
+//                                  each, from vm[-1] and vs[-1]. Bit for bit the same in every
+//                                  kernel (optional: when null, max_pool3s2_portable)
 // Sources and destinations never overlap. relu(NaN) is NaN.
 struct VectorOps {
   void (*affine_relu)(const float*, float*, int, float, float);
@@ -105,6 +115,7 @@ struct VectorOps {
   void (*pack3x3)(const float*, float*, int, int, int);
   void (*pack_affine_relu)(const float*, std::size_t, int, const float*, const float*, float*, int,
                            int) = nullptr;
+  void (*max_pool3s2)(const float*, int, int, int, int, float*, float*, float*) = nullptr;
 };
 
 // pack_affine_relu from a kind's affine_relu (direct calls, no per-channel pointer call).
@@ -158,8 +169,8 @@ inline VectorOps select_vector_ops(GemmKernelKind kind) {
   switch (resolve_kernel(kind)) {
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return {&affine_relu_avx512, &bias_relu_avx512, &pool_affine_relu_avx512, &pack3x3_avx512,
-            &pack_affine_relu_avx512};
+    return {&affine_relu_avx512, &bias_relu_avx512,        &pool_affine_relu_avx512,
+            &pack3x3_avx512,     &pack_affine_relu_avx512, &max_pool3s2_avx512};
   case GemmKernelKind::avx2:
     return {&affine_relu_avx2, &bias_relu_avx2, &pool_affine_relu_avx2, &pack3x3_avx2,
             &pack_affine_relu_avx2};

@@ -17,15 +17,19 @@
 //   (gemm_reference.hpp), accumulated in float in k order (a multiply-add may be fused where
 //   the target has FMA and the compiler contracts): out differs from the reference only by
 //   float rounding.
-// affine_relu_portable, bias_relu_portable, pool_affine_relu_portable, pack3x3_portable: the
-//   VectorOps contracts of gemm.hpp (any n, cols <= nr; exact copies for pack3x3).
+// affine_relu_portable, bias_relu_portable, pool_affine_relu_portable, pack3x3_portable,
+//   max_pool3s2_portable: the VectorOps contracts of gemm.hpp (any n, cols <= nr; exact copies
+//   for pack3x3).
 // portable_mr / portable_nr depend on __AVX__: build every translation unit of a program with
 // the same instruction-set flags (as for any inline code).
 // No state; callable from any thread.
 #pragma once
 
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/version.hpp>
 
+#include <algorithm>
+#include <cstddef>
 #include <cstring>
 
 SHADOWSENSE_NAMESPACE_BEGIN
@@ -176,6 +180,48 @@ inline void pool_affine_relu_portable(const float* __restrict r0, const float* _
                                       float* __restrict d, int n, float sc, float sh) {
   pool_affine_relu_portable_any(r0, r1, d, n, sc, sh);
 }
+// max_pool3s2: VectorOps' contract (gemm.hpp). Its loops are written for the compiler to
+// vectorise (SHADOWSENSE_VECTORISE: at GCC's -O2 they ran scalar, pool0 2.5x its -O3 time).
+SHADOWSENSE_VECTORISE inline void max_pool3s2_portable(const float* s, int h0, int w0, int bh,
+                                                       int bw, float* vm, float* vs, float* dst) {
+  for (int y = 0; y < bh; ++y) {
+    const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0 - 1);
+    const float* r = s + static_cast<std::size_t>(y0) * w0;
+    for (int x = 0; x < w0; ++x) {
+      vm[x] = r[x];
+      vs[x] = r[x];
+    }
+    for (int iy = y0 + 1; iy <= y1; ++iy) {
+      r = s + static_cast<std::size_t>(iy) * w0;
+      for (int x = 0; x < w0; ++x) {
+        vm[x] = std::max(vm[x], r[x]);
+        vs[x] += r[x];
+      }
+    }
+    float* d = dst + static_cast<std::size_t>(y) * bw;
+    auto window = [&](int x) { // clipped at the image's edges
+      const int x0 = std::max(2 * x - 1, 0), x1 = std::min(2 * x + 1, w0 - 1);
+      float mx = vm[x0], nan_probe = vs[x0];
+      for (int ix = x0 + 1; ix <= x1; ++ix) {
+        mx = std::max(mx, vm[ix]);
+        nan_probe += vs[ix];
+      }
+      return nan_probe == nan_probe ? mx : nan_probe;
+    };
+    // Windows with all three columns inside (2x + 1 <= w0 - 1) in a loop of fixed shape
+    // the compiler vectorises; the same values in the same order as window(x).
+    const int inner = std::min(bw, w0 / 2);
+    int x = 0;
+    for (; x < std::min(1, bw); ++x) d[x] = window(x);
+    for (; x < inner; ++x) {
+      const float mx = std::max(std::max(vm[2 * x - 1], vm[2 * x]), vm[2 * x + 1]);
+      const float nan_probe = (vs[2 * x - 1] + vs[2 * x]) + vs[2 * x + 1];
+      d[x] = nan_probe == nan_probe ? mx : nan_probe;
+    }
+    for (; x < bw; ++x) d[x] = window(x);
+  }
+}
+
 // affine_relu / bias_relu mostly run on one full panel row (n == portable_nr): that case is
 // inlined with a constant n (straight-line vector code, no loop tail).
 inline void affine_relu_portable(const float* __restrict s, float* __restrict d, int n, float sc,

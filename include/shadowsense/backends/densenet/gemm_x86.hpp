@@ -29,6 +29,7 @@
 //   panel crosses at most 32 row ends). Plain data, defined for every target.
 // pack_affine_relu_avx2: VectorOps::pack_affine_relu (gemm.hpp) with AVX2 + FMA, the values of
 //   affine_relu_avx2.
+// max_pool3s2_avx512: VectorOps::max_pool3s2 (gemm.hpp), the bits of max_pool3s2_portable.
 // No state; callable from any thread.
 #pragma once
 
@@ -36,8 +37,10 @@
 #include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/version.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define SHADOWSENSE_X86_KERNELS 1
@@ -291,6 +294,76 @@ __attribute__((target("avx512f"))) inline void pool_affine_relu_avx512(const flo
     c = c < 0.0f ? 0.0f : c;
     e = e < 0.0f ? 0.0f : e;
     d[j] = ((a + b) + (c + e)) * 0.25f;
+  }
+}
+// max_pool3s2 (gemm.hpp's contract): the column pass 16 floats a step, the window pass 16
+// windows a step; std::max(a, b) is a < b ? b : a, which is _mm512_max_ps(b, a) for every a, b
+// (NaN and signed zeros alike), and the sums in the portable loop's order: the same bits. (The
+// max is written as the all-lanes masked form: GCC 12 warns on _mm512_max_ps's undefined
+// pass-through operand.)
+__attribute__((target("avx512f"))) inline void max_pool3s2_avx512(const float* s, int h0, int w0,
+                                                                  int bh, int bw, float* vm,
+                                                                  float* vs, float* dst) {
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+  // Past each end of a row, a column that changes nothing: max(-inf, v) is v (a NaN is caught
+  // by the sum) and -0 + v is v for every v, +0 included. So the first and last windows, which
+  // have two columns, take the inner windows' formula and all run in the vector loop.
+  vm[-1] = vm[w0] = -std::numeric_limits<float>::infinity();
+  vs[-1] = vs[w0] = -0.0f;
+  for (int y = 0; y < bh; ++y) {
+    const int y0 = std::max(2 * y - 1, 0), y1 = std::min(2 * y + 1, h0 - 1);
+    const float* r = s + static_cast<std::size_t>(y0) * w0;
+    const float* r1 = y0 + 1 <= y1 ? s + static_cast<std::size_t>(y0 + 1) * w0 : nullptr;
+    const float* r2 = y0 + 2 <= y1 ? s + static_cast<std::size_t>(y0 + 2) * w0 : nullptr;
+    for (int x = 0; x < w0; x += 16) {
+      const __mmask16 m = w0 - x >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << (w0 - x)) - 1);
+      __m512 mx = _mm512_maskz_loadu_ps(m, r + x), sum = mx;
+      if (r1) {
+        const __m512 v = _mm512_maskz_loadu_ps(m, r1 + x);
+        mx = _mm512_maskz_max_ps(0xFFFF, v, mx);
+        sum = _mm512_add_ps(sum, v);
+      }
+      if (r2) {
+        const __m512 v = _mm512_maskz_loadu_ps(m, r2 + x);
+        mx = _mm512_maskz_max_ps(0xFFFF, v, mx);
+        sum = _mm512_add_ps(sum, v);
+      }
+      _mm512_mask_storeu_ps(vm + x, m, mx);
+      _mm512_mask_storeu_ps(vs + x, m, sum);
+    }
+    float* d = dst + static_cast<std::size_t>(y) * bw;
+    for (int x = 0; x < bw; x += 16) {
+      const __mmask16 m = bw - x >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << (bw - x)) - 1);
+      // Windows x .. x + 15 read columns 2x - 1 .. 2x + 31: even and odd ones come from two
+      // permutes of two loads. Nothing past vm[w0] is read (masked lanes are zeros and unused).
+      const int avail = w0 + 1 - 2 * x; // floats from vm + 2x - 1 to vm + w0 inclusive
+      const __mmask16 la = avail >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << avail) - 1);
+      const __mmask16 lb = avail >= 32   ? 0xFFFF
+                           : avail <= 16 ? 0
+                                         : static_cast<__mmask16>((1u << (avail - 16)) - 1);
+      const __mmask16 ca =
+          avail - 1 >= 16 ? 0xFFFF : static_cast<__mmask16>((1u << (avail - 1)) - 1);
+      const __mmask16 cb = avail - 1 >= 32   ? 0xFFFF
+                           : avail - 1 <= 16 ? 0
+                                             : static_cast<__mmask16>((1u << (avail - 17)) - 1);
+      const float* m0 = vm + 2 * x;
+      const float* s0 = vs + 2 * x;
+      const __m512 pa = _mm512_maskz_loadu_ps(la, m0 - 1), pb = _mm512_maskz_loadu_ps(lb, m0 + 15);
+      const __m512 ma = _mm512_maskz_loadu_ps(ca, m0), mb = _mm512_maskz_loadu_ps(cb, m0 + 16);
+      const __m512 qa = _mm512_maskz_loadu_ps(la, s0 - 1), qb = _mm512_maskz_loadu_ps(lb, s0 + 15);
+      const __m512 sa = _mm512_maskz_loadu_ps(ca, s0), sb = _mm512_maskz_loadu_ps(cb, s0 + 16);
+      const __m512 me = _mm512_permutex2var_ps(ma, even, mb),
+                   mo = _mm512_permutex2var_ps(ma, odd, mb);
+      const __m512 mp = _mm512_permutex2var_ps(pa, even, pb);
+      const __m512 se = _mm512_permutex2var_ps(sa, even, sb),
+                   so = _mm512_permutex2var_ps(sa, odd, sb);
+      const __m512 sp = _mm512_permutex2var_ps(qa, even, qb);
+      const __m512 mx = _mm512_maskz_max_ps(0xFFFF, mo, _mm512_maskz_max_ps(0xFFFF, me, mp));
+      const __m512 probe = _mm512_add_ps(_mm512_add_ps(sp, se), so);
+      const __mmask16 ok = _mm512_cmp_ps_mask(probe, probe, _CMP_EQ_OQ);
+      _mm512_mask_storeu_ps(d + x, m, _mm512_mask_blend_ps(ok, probe, mx));
+    }
   }
 }
 SHADOWSENSE_DEFINE_VECTOR_OPS(avx2, __attribute__((target("avx2,fma"))) SHADOWSENSE_VECTORISE)
