@@ -50,6 +50,11 @@
 //     d[xi * xs + ch * dc + j], xi = 0..(T + 2)^2 - 1; columns run..room-1 of those rows may be
 //     overwritten (room >= run). Reads up to winograd_read_slack floats from the start of each
 //     patch row of a step of 16 tiles.
+//   input4_panel(in, plane, channels, pw, tiles_x, t0, cols, d, dc, xs) [F(4x4), optional, the
+//     AVX-512 kernel only; when null, input4 per run]: tiles t0 .. t0 + cols - 1 of the image's
+//     tile grid (tiles_x a row; tile (ty, tx)'s patch at in + 4 ty pw + 4 tx), the values input4
+//     gives each of them, tile t0 + j's to d[xi * xs + ch * dc + j]; requires dc a multiple of 16
+//     and >= cols (columns cols..dc-1 of those rows may be overwritten).
 //   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
 //     (j < n <= winograd_max_run) to the T x T outputs
 //     y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
@@ -570,22 +575,29 @@ __attribute__((target("avx512f"))) inline void winograd4_bt_avx512(const __m512 
 }
 
 // One step of F(4x4)'s input transform, up to 16 tiles: B^T down the six patch rows first, on
-// whole vectors of consecutive columns (no shuffles), into a stack buffer; then, per transformed
-// row, the columns 4j + k of the tiles by a 16 x 4 transpose of 64 floats (two permutes and two
-// block shuffles per pair of k) and a one-lane shift for k = 4, 5, and B across them. Only the
-// nv <= 5 column vectors the step's tiles read are transformed (a 14-tile row reads 58 floats,
-// 4 vectors); t (64-byte aligned) keeps the caller's values in the vectors beyond nv.
-template <bool Masked>
+// whole vectors of consecutive columns (no shuffles), into a stack buffer (winograd4_columns);
+// then, per transformed row, the columns 4j + k of the tiles by a 16 x 4 transpose of 64 floats
+// (two permutes and two block shuffles per pair of k) and a one-lane shift for k = 4, 5, and B
+// across them (winograd4_rows). Only the nv <= 5 column vectors the step's tiles read are
+// transformed (a 14-tile row reads 58 floats, 4 vectors); t (64-byte aligned) keeps the caller's
+// values in the vectors beyond nv.
 __attribute__((target("avx512f"))) inline void
-winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
-                      std::size_t xs, float (&t)[6][80]) {
+winograd4_columns_avx512(const float* __restrict s, int pw, int nv, float (&t)[6][80], int at) {
   for (int v = 0; v < nv; ++v) {
     __m512 x[6], y[6];
     for (int k = 0; k < 6; ++k)
       x[k] = _mm512_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 16 * v);
     winograd4_bt_avx512(x, y);
-    for (int p = 0; p < 6; ++p) _mm512_store_ps(t[p] + 16 * v, y[p]);
+    for (int p = 0; p < 6; ++p) _mm512_storeu_ps(t[p] + at + 16 * v, y[p]);
   }
+}
+// Fixed: lanes in `fix` take their columns 4 and 5 from fix4[p] and fix5[p] instead of the
+// next lane's columns 0 and 1 (a step whose tiles come from more than one tile row).
+template <bool Masked, bool Fixed = false>
+__attribute__((target("avx512f"))) inline void
+winograd4_rows_avx512(const float (&t)[6][80], __mmask16 out, float* __restrict d, std::size_t xs,
+                      __mmask16 fix = 0, const float (*fix4)[16] = nullptr,
+                      const float (*fix5)[16] = nullptr) {
   const __m512i k01 = _mm512_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28, 1, 5, 9, 13, 17, 21, 25, 29);
   const __m512i k23 = _mm512_setr_epi32(2, 6, 10, 14, 18, 22, 26, 30, 3, 7, 11, 15, 19, 23, 27, 31);
   for (int p = 0; p < 6; ++p) {
@@ -604,6 +616,10 @@ winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, 
         0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[64])), _mm512_castps_si512(x[0]), 1));
     x[5] = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
         0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[65])), _mm512_castps_si512(x[1]), 1));
+    if constexpr (Fixed) {
+      x[4] = _mm512_mask_loadu_ps(x[4], fix, fix4[p]);
+      x[5] = _mm512_mask_loadu_ps(x[5], fix, fix5[p]);
+    }
     winograd4_bt_avx512(x, y);
     for (int q = 0; q < 6; ++q) {
       float* dst = d + static_cast<std::size_t>(6 * p + q) * xs;
@@ -613,6 +629,13 @@ winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, 
         _mm512_storeu_ps(dst, y[q]);
     }
   }
+}
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
+                      std::size_t xs, float (&t)[6][80]) {
+  winograd4_columns_avx512(s, pw, nv, t, 0);
+  winograd4_rows_avx512<Masked>(t, out, d, xs);
 }
 
 // F(4x4)'s input transform with AVX-512 intrinsics, 16 tiles per step, whole-vector loads and
@@ -634,6 +657,62 @@ winograd_input4_avx512(const float* __restrict s, std::size_t plane, int channel
     }
   }
 }
+// F(4x4)'s input transform of a tile panel (WinogradOps::input4_panel), 16 tiles a step whatever
+// tile row they are in. Per run, 16-tile steps left a tile row of 10 tiles (the shipped model's
+// first block, 40 columns) with 6 of 16 lanes unused, and a panel of 32 tiles took 4 steps where
+// 2 hold it. A step's tiles are cut into segments within one tile row each; each segment's
+// columns are transformed into t from column 4 x its first lane, so that the transpose finds
+// lane j's columns at 4j .. 4j + 3 as in one run. Only columns 4 and 5 of a segment's last tile
+// (its patch's overlap with the next tile, which belongs to the next segment's row) are kept
+// aside before the next segment overwrites them, and put in that lane after the shift. Per lane
+// the same operations on the same values as winograd_input4_avx512.
+__attribute__((target("avx512f"))) inline void
+winograd_input4_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
+                             int tiles_x, int t0, int cols, float* __restrict d, std::size_t dc,
+                             std::size_t xs) {
+  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
+  alignas(64) float fix4[6][16] = {}, fix5[6][16] = {};
+  struct Segment {
+    std::ptrdiff_t at; // the segment's first patch, from in
+    int lane, tiles, nv;
+  };
+  for (int j = 0; j < cols; j += 16) {
+    std::array<Segment, 16> seg{};
+    int n = 0;
+    __mmask16 fix = 0;
+    for (int l = j; l < std::min(cols, j + 16);) {
+      const int ty = (t0 + l) / tiles_x, tx = (t0 + l) % tiles_x;
+      const int run = std::min({cols - l, tiles_x - tx, j + 16 - l});
+      seg[static_cast<std::size_t>(n++)] = {static_cast<std::ptrdiff_t>(4 * ty) * pw + 4 * tx,
+                                            l - j, run, (4 * run + 2 + 15) / 16};
+      l += run;
+    }
+    for (int i = 0; i + 1 < n; ++i) {
+      const Segment& g = seg[static_cast<std::size_t>(i)];
+      fix = static_cast<__mmask16>(fix | (1u << (g.lane + g.tiles - 1)));
+    }
+    for (int ch = 0; ch < channels; ++ch) {
+      const float* s = in + static_cast<std::size_t>(ch) * plane;
+      for (int i = 0; i < n; ++i) {
+        const Segment& g = seg[static_cast<std::size_t>(i)];
+        winograd4_columns_avx512(s + g.at, pw, g.nv, t, 4 * g.lane);
+        if (i + 1 < n) { // the last tile's columns 4 and 5, before the next segment's overwrite
+          const int last = g.lane + g.tiles - 1;
+          for (int p = 0; p < 6; ++p) {
+            fix4[p][last] = t[p][4 * last + 4];
+            fix5[p][last] = t[p][4 * last + 5];
+          }
+        }
+      }
+      float* dst = d + static_cast<std::size_t>(ch) * dc + j;
+      if (n > 1)
+        winograd4_rows_avx512<false, true>(t, 0, dst, xs, fix, fix4, fix5);
+      else
+        winograd4_rows_avx512<false>(t, 0, dst, xs);
+    }
+  }
+}
+
 // F(3x3, 4x4)'s lane sources: lane j of column set k (k < 3) is float 3 j + k of a transformed
 // row's 48; the first permute takes those below 32 from two vectors, the second the rest (mask
 // bit j set) from the third.
@@ -820,6 +899,9 @@ struct WinogradOps {
   Input input3;                                                    // F(3x3, 4x4)
   Output output3;                                                  // F(3x3, 4x4)
   void (*interleave3_bias_relu)(const float*, float*, int, float); // F(3x3, 4x4)
+  // F(4x4), optional: a whole tile panel's input transform (see the header comment).
+  void (*input4_panel)(const float*, std::size_t, int, int, int, int, int, float*, std::size_t,
+                       std::size_t) = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -833,7 +915,8 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_interleave4_avx512_loops,
             &winograd_input3_avx512,
             &winograd_output3_avx512,
-            &winograd_interleave3_bias_relu_avx512};
+            &winograd_interleave3_bias_relu_avx512,
+            &winograd_input4_panel_avx512};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
             &winograd_output_avx2_loops,
@@ -909,13 +992,17 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
     const int t0 = np * nr, cols = std::min(nr, tiles - t0);
     // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
     // values: the kernel's output columns are independent, and those columns are dropped.
-    for (int j = 0; j < cols;) { // runs within one tile row
-      const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-      const int run = std::min(cols - j, tiles_x - tx);
-      input(in + static_cast<std::size_t>(T * ty) * pw + T * tx, plane, c, pw, run, nr - j,
-            s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
-      j += run;
-    }
+    if (T == 4 && ops.input4_panel && nr % 16 == 0)
+      ops.input4_panel(in, plane, c, pw, tiles_x, t0, cols, s.v.data(),
+                       static_cast<std::size_t>(nr), xs_v);
+    else
+      for (int j = 0; j < cols;) { // runs within one tile row
+        const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
+        const int run = std::min(cols - j, tiles_x - tx);
+        input(in + static_cast<std::size_t>(T * ty) * pw + T * tx, plane, c, pw, run, nr - j,
+              s.v.data() + j, static_cast<std::size_t>(nr), xs_v);
+        j += run;
+      }
     // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
     // (A last panel of at most nr / 2 tiles, or a last row panel of at most mr / 2 output
     // channels, runs the half-width or half-height kernel where there is one.)
