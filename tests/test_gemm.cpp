@@ -673,49 +673,57 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
 }
 
 #if SHADOWSENSE_X86_KERNELS
-TEST_CASE("Winograd F(4x4)'s panel input transform (AVX-512) gives every tile input4's bits, "
-          "for steps across one, two and three tile rows") {
+TEST_CASE("Winograd F(2x2) and F(4x4)'s panel input transforms (AVX-512) give every tile input's "
+          "and input4's bits, for steps across one, two and more tile rows") {
   if (!detail::cpu_has(GemmKernelKind::avx512)) return;
   const detail::WinogradOps ops = detail::select_winograd_ops(GemmKernelKind::avx512);
+  REQUIRE(static_cast<bool>(ops.input_panel));
   REQUIRE(static_cast<bool>(ops.input4_panel));
   std::mt19937 rng(17);
-  constexpr int nr = 32, products = 36;
+  constexpr int nr = 32;
   int compared = 0;
-  // Tile rows of 1 to 17 tiles (w = 4 tiles_x), panels starting anywhere in a row.
-  for (const int tiles_x : {1, 3, 5, 7, 10, 16, 17})
-    for (const int channels : {1, 3}) {
-      const int h = 4 * 5, w = 4 * tiles_x, tiles = 5 * tiles_x;
-      const int pw = detail::winograd_padded(w, 4);
-      const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(h, 4)) * pw;
-      const std::vector<float> in = winograd_input_planes(channels, plane, pw, 1, h, w, rng);
-      const std::size_t xs = static_cast<std::size_t>(channels) * nr + 16;
-      for (int t0 = 0; t0 < tiles; t0 += 7) {
-        const int cols = std::min(nr, tiles - t0);
-        CAPTURE(tiles_x);
-        CAPTURE(channels);
-        CAPTURE(t0);
-        std::vector<float> want(products * xs, 0.0f), got(want.size(), 0.0f);
-        for (int j = 0; j < cols;) { // input4 per run, as winograd_conv_tile calls it
-          const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
-          const int run = std::min(cols - j, tiles_x - tx);
-          ops.input4(in.data() + static_cast<std::size_t>(4 * ty) * pw + 4 * tx, plane, channels,
-                     pw, run, nr - j, want.data() + j, nr, xs);
-          j += run;
+  for (const int tile : {2, 4}) {
+    const int products = (tile + 2) * (tile + 2);
+    const auto per_run = tile == 2 ? ops.input : ops.input4;
+    const auto panel = tile == 2 ? ops.input_panel : ops.input4_panel;
+    // Tile rows of 1 to 17 tiles, panels starting anywhere in a row.
+    for (const int tiles_x : {1, 3, 5, 7, 10, 16, 17})
+      for (const int channels : {1, 3}) {
+        const int h = tile * 5, w = tile * tiles_x, tiles = 5 * tiles_x;
+        const int pw = detail::winograd_padded(w, tile);
+        const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(h, tile)) * pw;
+        const std::vector<float> in = winograd_input_planes(channels, plane, pw, 1, h, w, rng);
+        const std::size_t xs = static_cast<std::size_t>(channels) * nr + 16;
+        for (int t0 = 0; t0 < tiles; t0 += 7) {
+          const int cols = std::min(nr, tiles - t0);
+          CAPTURE(tile);
+          CAPTURE(tiles_x);
+          CAPTURE(channels);
+          CAPTURE(t0);
+          std::vector<float> want(static_cast<std::size_t>(products) * xs, 0.0f),
+              got(want.size(), 0.0f);
+          for (int j = 0; j < cols;) { // per run, as winograd_conv_tile calls it
+            const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
+            const int run = std::min(cols - j, tiles_x - tx);
+            per_run(in.data() + static_cast<std::size_t>(tile * ty) * pw + tile * tx, plane,
+                    channels, pw, run, nr - j, want.data() + j, nr, xs);
+            j += run;
+          }
+          panel(in.data(), plane, channels, pw, tiles_x, t0, cols, got.data(), nr, xs);
+          int differ = 0;
+          for (int xi = 0; xi < products; ++xi)
+            for (int ch = 0; ch < channels; ++ch)
+              for (int j = 0; j < cols; ++j) {
+                const std::size_t at = static_cast<std::size_t>(xi) * xs +
+                                       static_cast<std::size_t>(ch) * nr +
+                                       static_cast<std::size_t>(j);
+                differ += std::memcmp(&want[at], &got[at], sizeof(float)) != 0;
+              }
+          CHECK(differ == 0);
+          ++compared;
         }
-        ops.input4_panel(in.data(), plane, channels, pw, tiles_x, t0, cols, got.data(), nr, xs);
-        int differ = 0;
-        for (int xi = 0; xi < products; ++xi)
-          for (int ch = 0; ch < channels; ++ch)
-            for (int j = 0; j < cols; ++j) {
-              const std::size_t at = static_cast<std::size_t>(xi) * xs +
-                                     static_cast<std::size_t>(ch) * nr +
-                                     static_cast<std::size_t>(j);
-              differ += std::memcmp(&want[at], &got[at], sizeof(float)) != 0;
-            }
-        CHECK(differ == 0);
-        ++compared;
       }
-    }
+  }
   MESSAGE("panels compared: " << compared);
 }
 #endif

@@ -50,11 +50,12 @@
 //     d[xi * xs + ch * dc + j], xi = 0..(T + 2)^2 - 1; columns run..room-1 of those rows may be
 //     overwritten (room >= run). Reads up to winograd_read_slack floats from the start of each
 //     patch row of a step of 16 tiles.
-//   input4_panel(in, plane, channels, pw, tiles_x, t0, cols, d, dc, xs) [F(4x4), optional, the
-//     AVX-512 kernel only; when null, input4 per run]: tiles t0 .. t0 + cols - 1 of the image's
-//     tile grid (tiles_x a row; tile (ty, tx)'s patch at in + 4 ty pw + 4 tx), the values input4
-//     gives each of them, tile t0 + j's to d[xi * xs + ch * dc + j]; requires dc a multiple of 16
-//     and >= cols (columns cols..dc-1 of those rows may be overwritten).
+//   input_panel(in, plane, channels, pw, tiles_x, t0, cols, d, dc, xs) [F(2x2)] and input4_panel
+//     [F(4x4)], optional (the AVX-512 kernel only; when null, input and input4 per run): tiles
+//     t0 .. t0 + cols - 1 of the image's tile grid (tiles_x a row; tile (ty, tx)'s patch at in +
+//     T ty pw + T tx), the values input / input4 give each of them, tile t0 + j's to
+//     d[xi * xs + ch * dc + j]; require dc a multiple of 16 and >= cols (columns cols..dc-1 of
+//     those rows may be overwritten).
 //   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
 //     (j < n <= winograd_max_run) to the T x T outputs
 //     y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
@@ -496,32 +497,43 @@ winograd_input4_avx2(const float* __restrict s, std::size_t plane, int channels,
   }
 }
 
-// 16 tiles of one patch row k: t[q] = (row k of the patches) B, q = 0..3, from the 34 floats
-// at r.
-__attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* r, __m512 (&t)[4]) {
+// 16 tiles of one patch row k: t[q] = (row k of the patches) B, q = 0..3, from its 32 floats in
+// a, b and the two after them, r32 and r33. Fixed: lanes in `fix` take their columns 2 and 3
+// from f2 and f3 instead of the next lane's columns 0 and 1 (a step across tile rows).
+template <bool Fixed = false>
+__attribute__((target("avx512f"))) inline void
+winograd_row_parts_avx512(__m512 a, __m512 b, float r32, float r33, __m512 (&t)[4],
+                          __mmask16 fix = 0, __m512 f2 = _mm512_setzero_ps(),
+                          __m512 f3 = _mm512_setzero_ps()) {
   const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
   const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
-  const __m512 a = _mm512_loadu_ps(r), b = _mm512_loadu_ps(r + 16);
   const __m512 e0 = _mm512_permutex2var_ps(a, even, b), o0 = _mm512_permutex2var_ps(a, odd, b);
   // e1, o1: e0, o0 one lane on, r[32] and r[33] entering at the top (a lane shift instead of two
   // more loads and permutes; maskz with a full mask: GCC 12 warns maybe-uninitialized on alignr)
-  const __m512 e1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
-      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[32])), _mm512_castps_si512(e0), 1));
-  const __m512 o1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
-      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[33])), _mm512_castps_si512(o0), 1));
+  __m512 e1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r32)), _mm512_castps_si512(e0), 1));
+  __m512 o1 = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
+      0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r33)), _mm512_castps_si512(o0), 1));
+  if constexpr (Fixed) {
+    e1 = _mm512_mask_mov_ps(e1, fix, f2);
+    o1 = _mm512_mask_mov_ps(o1, fix, f3);
+  }
   t[0] = _mm512_sub_ps(e0, e1);
   t[1] = _mm512_add_ps(o0, e1);
   t[2] = _mm512_sub_ps(e1, o0);
   t[3] = _mm512_sub_ps(o0, o1);
 }
+// From the 34 floats at r.
+__attribute__((target("avx512f"))) inline void winograd_row_avx512(const float* r, __m512 (&t)[4]) {
+  winograd_row_parts_avx512(_mm512_loadu_ps(r), _mm512_loadu_ps(r + 16), r[32], r[33], t);
+}
 
-// One 16-tile step of the input transform; Masked: only the tiles in `out` are written.
+// B^T across the four transformed patch rows, and the 16 products' stores; Masked: only the
+// tiles in `out` are written.
 template <bool Masked>
 __attribute__((target("avx512f"))) inline void
-winograd_step_avx512(const float* __restrict s, int pw, __mmask16 out, float* __restrict d,
-                     std::size_t xs) {
-  __m512 t[4][4];
-  for (int k = 0; k < 4; ++k) winograd_row_avx512(s + static_cast<std::ptrdiff_t>(k) * pw, t[k]);
+winograd_columns_store_avx512(const __m512 (&t)[4][4], __mmask16 out, float* __restrict d,
+                              std::size_t xs) {
   for (int q = 0; q < 4; ++q) {
     const __m512 v[4] = {_mm512_sub_ps(t[0][q], t[2][q]), _mm512_add_ps(t[1][q], t[2][q]),
                          _mm512_sub_ps(t[2][q], t[1][q]), _mm512_sub_ps(t[1][q], t[3][q])};
@@ -531,6 +543,96 @@ winograd_step_avx512(const float* __restrict s, int pw, __mmask16 out, float* __
         _mm512_mask_storeu_ps(dst, out, v[p]);
       else
         _mm512_storeu_ps(dst, v[p]);
+    }
+  }
+}
+
+// One 16-tile step of the input transform; Masked: only the tiles in `out` are written.
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd_step_avx512(const float* __restrict s, int pw, __mmask16 out, float* __restrict d,
+                     std::size_t xs) {
+  __m512 t[4][4];
+  for (int k = 0; k < 4; ++k) winograd_row_avx512(s + static_cast<std::ptrdiff_t>(k) * pw, t[k]);
+  winograd_columns_store_avx512<Masked>(t, out, d, xs);
+}
+
+// A tile panel's tiles cut into 16-tile steps, and each step into segments within one tile row
+// (WinogradOps' panel transforms): segment i covers lanes lane .. lane + tiles - 1, its first
+// patch at `at` floats from the image.
+struct WinogradSegment {
+  std::ptrdiff_t at = 0;
+  int lane = 0, tiles = 0;
+};
+template <int T>
+inline int winograd_step_segments(int pw, int tiles_x, int t0, int cols, int j,
+                                  std::array<WinogradSegment, 16>& seg) {
+  int n = 0;
+  for (int l = j; l < std::min(cols, j + 16);) {
+    const int ty = (t0 + l) / tiles_x, tx = (t0 + l) % tiles_x;
+    const int run = std::min({cols - l, tiles_x - tx, j + 16 - l});
+    seg[static_cast<std::size_t>(n++)] = {static_cast<std::ptrdiff_t>(T * ty) * pw + T * tx, l - j,
+                                          run};
+    l += run;
+  }
+  return n;
+}
+
+// F(2x2)'s input transform of a tile panel (WinogradOps::input_panel), 16 tiles a step whatever
+// tile row they are in (as winograd_input4_panel_avx512 for F(4x4)): each segment's patch row
+// is loaded into the lanes of its tiles (masked loads from 2 x its first lane before its patch),
+// and columns 2 and 3 of a segment's last tile (the overlap with the next tile, which is in
+// another row or not loaded) are put in that lane after the shift, unless it is lane 15. Per lane
+// the same operations on the same values as winograd_input_avx512.
+__attribute__((target("avx512f"))) inline void
+winograd_input_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
+                            int tiles_x, int t0, int cols, float* __restrict d, std::size_t dc,
+                            std::size_t xs) {
+  std::array<WinogradSegment, 16> seg{};
+  for (int j = 0; j < cols; j += 16) {
+    const int n = winograd_step_segments<2>(pw, tiles_x, t0, cols, j, seg);
+    if (n == 1) { // one tile row: the plain step
+      for (int ch = 0; ch < channels; ++ch)
+        winograd_step_avx512<false>(in + static_cast<std::size_t>(ch) * plane + seg[0].at, pw, 0,
+                                    d + static_cast<std::size_t>(ch) * dc + j, xs);
+      continue;
+    }
+    // Lanes 2 x lane .. 2 x (lane + tiles) - 1 of the 32 floats (a: 0-15, b: 16-31) per segment.
+    __mmask16 lo[16], hi[16], fix = 0;
+    for (int i = 0; i < n; ++i) {
+      const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
+      const std::uint64_t bits = ((std::uint64_t{1} << (2 * g.tiles)) - 1) << (2 * g.lane);
+      lo[i] = static_cast<__mmask16>(bits & 0xFFFF);
+      hi[i] = static_cast<__mmask16>(bits >> 16);
+      if (g.lane + g.tiles < 16) fix = static_cast<__mmask16>(fix | (1u << (g.lane + g.tiles - 1)));
+    }
+    const WinogradSegment& last = seg[static_cast<std::size_t>(n - 1)];
+    for (int ch = 0; ch < channels; ++ch) {
+      const float* s = in + static_cast<std::size_t>(ch) * plane;
+      __m512 t[4][4];
+      for (int k = 0; k < 4; ++k) {
+        const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(k) * pw;
+        __m512 a = _mm512_setzero_ps(), b = _mm512_setzero_ps(), f2 = a, f3 = a;
+        for (int i = 0; i < n; ++i) {
+          const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
+          const float* p = s + g.at + row; // the segment's patch row
+          // Float 2 x lane of the 32 is the patch row's first: loads from 2 x lane floats before
+          // it, whose masks read none of those (an address only: it may precede the planes).
+          const auto r = reinterpret_cast<const float*>(reinterpret_cast<std::uintptr_t>(p) -
+                                                        sizeof(float) * 2 * g.lane);
+          a = _mm512_mask_loadu_ps(a, lo[i], r);
+          b = _mm512_mask_loadu_ps(b, hi[i], r + 16);
+          if (g.lane + g.tiles < 16) { // the last tile's columns 2 and 3 are not the next lane's
+            const __mmask16 m = static_cast<__mmask16>(1u << (g.lane + g.tiles - 1));
+            f2 = _mm512_mask_mov_ps(f2, m, _mm512_set1_ps(p[2 * g.tiles]));
+            f3 = _mm512_mask_mov_ps(f3, m, _mm512_set1_ps(p[2 * g.tiles + 1]));
+          }
+        }
+        const float* p = s + last.at + row;
+        winograd_row_parts_avx512<true>(a, b, p[32 - 2 * last.lane], p[33 - 2 * last.lane], t[k],
+                                        fix, f2, f3);
+      }
+      winograd_columns_store_avx512<false>(t, 0, d + static_cast<std::size_t>(ch) * dc + j, xs);
     }
   }
 }
@@ -672,30 +774,20 @@ winograd_input4_panel_avx512(const float* __restrict in, std::size_t plane, int 
                              std::size_t xs) {
   alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
   alignas(64) float fix4[6][16] = {}, fix5[6][16] = {};
-  struct Segment {
-    std::ptrdiff_t at; // the segment's first patch, from in
-    int lane, tiles, nv;
-  };
+  std::array<WinogradSegment, 16> seg{};
   for (int j = 0; j < cols; j += 16) {
-    std::array<Segment, 16> seg{};
-    int n = 0;
+    const int n = winograd_step_segments<4>(pw, tiles_x, t0, cols, j, seg);
     __mmask16 fix = 0;
-    for (int l = j; l < std::min(cols, j + 16);) {
-      const int ty = (t0 + l) / tiles_x, tx = (t0 + l) % tiles_x;
-      const int run = std::min({cols - l, tiles_x - tx, j + 16 - l});
-      seg[static_cast<std::size_t>(n++)] = {static_cast<std::ptrdiff_t>(4 * ty) * pw + 4 * tx,
-                                            l - j, run, (4 * run + 2 + 15) / 16};
-      l += run;
-    }
     for (int i = 0; i + 1 < n; ++i) {
-      const Segment& g = seg[static_cast<std::size_t>(i)];
+      const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
       fix = static_cast<__mmask16>(fix | (1u << (g.lane + g.tiles - 1)));
     }
     for (int ch = 0; ch < channels; ++ch) {
       const float* s = in + static_cast<std::size_t>(ch) * plane;
       for (int i = 0; i < n; ++i) {
-        const Segment& g = seg[static_cast<std::size_t>(i)];
-        winograd4_columns_avx512(s + g.at, pw, g.nv, t, 4 * g.lane);
+        const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
+        const int nv = (4 * g.tiles + 2 + 15) / 16; // column vectors the segment's tiles read
+        winograd4_columns_avx512(s + g.at, pw, nv, t, 4 * g.lane);
         if (i + 1 < n) { // the last tile's columns 4 and 5, before the next segment's overwrite
           const int last = g.lane + g.tiles - 1;
           for (int p = 0; p < 6; ++p) {
@@ -899,9 +991,11 @@ struct WinogradOps {
   Input input3;                                                    // F(3x3, 4x4)
   Output output3;                                                  // F(3x3, 4x4)
   void (*interleave3_bias_relu)(const float*, float*, int, float); // F(3x3, 4x4)
-  // F(4x4), optional: a whole tile panel's input transform (see the header comment).
-  void (*input4_panel)(const float*, std::size_t, int, int, int, int, int, float*, std::size_t,
-                       std::size_t) = nullptr;
+  // F(2x2) and F(4x4), optional: a whole tile panel's input transform (the header comment).
+  using PanelInput = void (*)(const float*, std::size_t, int, int, int, int, int, float*,
+                              std::size_t, std::size_t);
+  PanelInput input_panel = nullptr;
+  PanelInput input4_panel = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -916,6 +1010,7 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_input3_avx512,
             &winograd_output3_avx512,
             &winograd_interleave3_bias_relu_avx512,
+            &winograd_input_panel_avx512,
             &winograd_input4_panel_avx512};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
@@ -992,9 +1087,10 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
     const int t0 = np * nr, cols = std::min(nr, tiles - t0);
     // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
     // values: the kernel's output columns are independent, and those columns are dropped.
-    if (T == 4 && ops.input4_panel && nr % 16 == 0)
-      ops.input4_panel(in, plane, c, pw, tiles_x, t0, cols, s.v.data(),
-                       static_cast<std::size_t>(nr), xs_v);
+    const auto panel_input = T == 2 ? ops.input_panel : T == 4 ? ops.input4_panel : nullptr;
+    if (panel_input && nr % 16 == 0)
+      panel_input(in, plane, c, pw, tiles_x, t0, cols, s.v.data(), static_cast<std::size_t>(nr),
+                  xs_v);
     else
       for (int j = 0; j < cols;) { // runs within one tile row
         const int ty = (t0 + j) / tiles_x, tx = (t0 + j) % tiles_x;
