@@ -673,19 +673,22 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
 }
 
 #if SHADOWSENSE_X86_KERNELS
-TEST_CASE("Winograd F(2x2) and F(4x4)'s panel input transforms (AVX-512) give every tile input's "
-          "and input4's bits, for steps across one, two and more tile rows") {
+TEST_CASE("Winograd's panel input transforms (AVX-512: F(2x2), F(4x4), F(3x3, 4x4)) give every "
+          "tile the per-run transform's bits, for steps across one, two and more tile rows") {
   if (!detail::cpu_has(GemmKernelKind::avx512)) return;
   const detail::WinogradOps ops = detail::select_winograd_ops(GemmKernelKind::avx512);
   REQUIRE(static_cast<bool>(ops.input_panel));
   REQUIRE(static_cast<bool>(ops.input4_panel));
+  REQUIRE(static_cast<bool>(ops.input3_panel));
   std::mt19937 rng(17);
   constexpr int nr = 32;
   int compared = 0;
-  for (const int tile : {2, 4}) {
-    const int products = (tile + 2) * (tile + 2);
-    const auto per_run = tile == 2 ? ops.input : ops.input4;
-    const auto panel = tile == 2 ? ops.input_panel : ops.input4_panel;
+  for (const int tile : {2, 4, 3}) { // 3: F(3x3, 4x4), conv0's
+    const int products = tile == 2 ? 16 : 36;
+    const auto per_run = tile == 2 ? ops.input : tile == 4 ? ops.input4 : ops.input3;
+    const auto panel = tile == 2   ? ops.input_panel
+                       : tile == 4 ? ops.input4_panel
+                                   : ops.input3_panel;
     // Tile rows of 1 to 17 tiles, panels starting anywhere in a row.
     for (const int tiles_x : {1, 3, 5, 7, 10, 16, 17})
       for (const int channels : {1, 3}) {

@@ -50,10 +50,11 @@
 //     d[xi * xs + ch * dc + j], xi = 0..(T + 2)^2 - 1; columns run..room-1 of those rows may be
 //     overwritten (room >= run). Reads up to winograd_read_slack floats from the start of each
 //     patch row of a step of 16 tiles.
-//   input_panel(in, plane, channels, pw, tiles_x, t0, cols, d, dc, xs) [F(2x2)] and input4_panel
-//     [F(4x4)], optional (the AVX-512 kernel only; when null, input and input4 per run): tiles
-//     t0 .. t0 + cols - 1 of the image's tile grid (tiles_x a row; tile (ty, tx)'s patch at in +
-//     T ty pw + T tx), the values input / input4 give each of them, tile t0 + j's to
+//   input_panel(in, plane, channels, pw, tiles_x, t0, cols, d, dc, xs) [F(2x2)], input4_panel
+//     [F(4x4)] and input3_panel [F(3x3, 4x4)], optional (the AVX-512 kernel only; when null,
+//     input, input4 and input3 per run): tiles t0 .. t0 + cols - 1 of the image's tile grid
+//     (tiles_x a row; tile (ty, tx)'s patch at in + T ty pw + T tx), the values the per-run
+//     transform gives each of them, tile t0 + j's to
 //     d[xi * xs + ch * dc + j]; require dc a multiple of 16 and >= cols (columns cols..dc-1 of
 //     those rows may be overwritten).
 //   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
@@ -831,17 +832,12 @@ inline constexpr Winograd3Columns winograd3_columns = [] {
 // transformed row the columns 3 j + k (k < 3) of its first 48 floats by two permutes each,
 // columns 3 j + 3 .. 3 j + 5 as those one tile on (a one-lane shift, floats 48..50 entering),
 // and B across them. t keeps the caller's values beyond the nv vectors the step fills.
-template <bool Masked>
+// Fixed: lanes in `fix` take their columns 3 .. 5 from fix3[k][p] (k = 0..2) instead of the next
+// lane's columns 0 .. 2 (a step across tile rows).
+template <bool Masked, bool Fixed = false>
 __attribute__((target("avx512f"))) inline void
-winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
-                      std::size_t xs, float (&t)[6][80]) {
-  for (int v = 0; v < nv; ++v) {
-    __m512 x[6], y[6];
-    for (int k = 0; k < 6; ++k)
-      x[k] = _mm512_loadu_ps(s + static_cast<std::ptrdiff_t>(k) * pw + 16 * v);
-    winograd4_bt_avx512(x, y);
-    for (int p = 0; p < 6; ++p) _mm512_store_ps(t[p] + 16 * v, y[p]);
-  }
+winograd3_rows_avx512(const float (&t)[6][80], __mmask16 out, float* __restrict d, std::size_t xs,
+                      __mmask16 fix = 0, const float (*fix3)[6][16] = nullptr) {
   __m512i low[3], high[3];
   for (std::size_t k = 0; k < 3; ++k) {
     low[k] = _mm512_loadu_si512(winograd3_columns.low[k].data());
@@ -856,6 +852,7 @@ winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, 
                                         winograd3_columns.from_high[k], high[k], c);
       x[k + 3] = _mm512_castsi512_ps(_mm512_maskz_alignr_epi32(
           0xFFFF, _mm512_castps_si512(_mm512_set1_ps(r[48 + k])), _mm512_castps_si512(x[k]), 1));
+      if constexpr (Fixed) x[k + 3] = _mm512_mask_loadu_ps(x[k + 3], fix, fix3[k][p]);
     }
     winograd4_bt_avx512(x, y);
     for (int q = 0; q < 6; ++q) {
@@ -866,6 +863,13 @@ winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, 
         _mm512_storeu_ps(dst, y[q]);
     }
   }
+}
+template <bool Masked>
+__attribute__((target("avx512f"))) inline void
+winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
+                      std::size_t xs, float (&t)[6][80]) {
+  winograd4_columns_avx512(s, pw, nv, t, 0);
+  winograd3_rows_avx512<Masked>(t, out, d, xs);
 }
 
 // Lane j of the three vectors that interleave three rows of 16 values (48 floats: value e of
@@ -976,6 +980,45 @@ winograd_input3_avx512(const float* __restrict s, std::size_t plane, int channel
     }
   }
 }
+
+// F(3x3, 4x4)'s input transform of a tile panel (WinogradOps::input3_panel), 16 tiles a step
+// whatever tile row they are in, as winograd_input4_panel_avx512: segments' columns at column
+// 3 x their first lane, columns 3 .. 5 of a segment's last tile kept aside and put back after the
+// shift. conv0's rows of 27 tiles (the shipped model) took three steps for a 32-tile panel.
+__attribute__((target("avx512f"))) inline void
+winograd_input3_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
+                             int tiles_x, int t0, int cols, float* __restrict d, std::size_t dc,
+                             std::size_t xs) {
+  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
+  alignas(64) float fix3[3][6][16] = {};
+  std::array<WinogradSegment, 16> seg{};
+  for (int j = 0; j < cols; j += 16) {
+    const int n = winograd_step_segments<3>(pw, tiles_x, t0, cols, j, seg);
+    __mmask16 fix = 0;
+    for (int i = 0; i + 1 < n; ++i) {
+      const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
+      fix = static_cast<__mmask16>(fix | (1u << (g.lane + g.tiles - 1)));
+    }
+    for (int ch = 0; ch < channels; ++ch) {
+      const float* s = in + static_cast<std::size_t>(ch) * plane;
+      for (int i = 0; i < n; ++i) {
+        const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
+        const int nv = (3 * g.tiles + 3 + 15) / 16; // column vectors the segment's tiles read
+        winograd4_columns_avx512(s + g.at, pw, nv, t, 3 * g.lane);
+        if (i + 1 < n) { // the last tile's columns 3 .. 5, before the next segment's overwrite
+          const int last = g.lane + g.tiles - 1;
+          for (int k = 0; k < 3; ++k)
+            for (int p = 0; p < 6; ++p) fix3[k][p][last] = t[p][3 * last + 3 + k];
+        }
+      }
+      float* dst = d + static_cast<std::size_t>(ch) * dc + j;
+      if (n > 1)
+        winograd3_rows_avx512<false, true>(t, 0, dst, xs, fix, fix3);
+      else
+        winograd3_rows_avx512<false>(t, 0, dst, xs);
+    }
+  }
+}
 #endif
 
 struct WinogradOps {
@@ -996,6 +1039,7 @@ struct WinogradOps {
                               std::size_t, std::size_t);
   PanelInput input_panel = nullptr;
   PanelInput input4_panel = nullptr;
+  PanelInput input3_panel = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -1011,7 +1055,8 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_output3_avx512,
             &winograd_interleave3_bias_relu_avx512,
             &winograd_input_panel_avx512,
-            &winograd_input4_panel_avx512};
+            &winograd_input4_panel_avx512,
+            &winograd_input3_panel_avx512};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
             &winograd_output_avx2_loops,
@@ -1087,7 +1132,9 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
     const int t0 = np * nr, cols = std::min(nr, tiles - t0);
     // The transformed patches of every channel. Columns cols..nr-1 of the slabs keep older
     // values: the kernel's output columns are independent, and those columns are dropped.
-    const auto panel_input = T == 2 ? ops.input_panel : T == 4 ? ops.input4_panel : nullptr;
+    const auto panel_input = T == 2   ? ops.input_panel
+                             : T == 4 ? ops.input4_panel
+                                      : ops.input3_panel;
     if (panel_input && nr % 16 == 0)
       panel_input(in, plane, c, pw, tiles_x, t0, cols, s.v.data(), static_cast<std::size_t>(nr),
                   xs_v);
