@@ -580,7 +580,7 @@ inline int winograd_step_segments(int pw, int tiles_x, int t0, int cols, int j,
 }
 
 // F(2x2)'s input transform of a tile panel (WinogradOps::input_panel), 16 tiles a step whatever
-// tile row they are in (as winograd_input4_panel_avx512 for F(4x4)): each segment's patch row
+// tile row they are in (as winograd_input6_panel_avx512 for F(4x4)): each segment's patch row
 // is loaded into the lanes of its tiles (masked loads from 2 x its first lane before its patch),
 // and columns 2 and 3 of a segment's last tile (the overlap with the next tile, which is in
 // another row or not loaded) are put in that lane after the shift, unless it is lane 15. Per lane
@@ -760,52 +760,6 @@ winograd_input4_avx512(const float* __restrict s, std::size_t plane, int channel
     }
   }
 }
-// F(4x4)'s input transform of a tile panel (WinogradOps::input4_panel), 16 tiles a step whatever
-// tile row they are in. Per run, 16-tile steps left a tile row of 10 tiles (the shipped model's
-// first block, 40 columns) with 6 of 16 lanes unused, and a panel of 32 tiles took 4 steps where
-// 2 hold it. A step's tiles are cut into segments within one tile row each; each segment's
-// columns are transformed into t from column 4 x its first lane, so that the transpose finds
-// lane j's columns at 4j .. 4j + 3 as in one run. Only columns 4 and 5 of a segment's last tile
-// (its patch's overlap with the next tile, which belongs to the next segment's row) are kept
-// aside before the next segment overwrites them, and put in that lane after the shift. Per lane
-// the same operations on the same values as winograd_input4_avx512.
-__attribute__((target("avx512f"))) inline void
-winograd_input4_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
-                             int tiles_x, int t0, int cols, float* __restrict d, std::size_t dc,
-                             std::size_t xs) {
-  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
-  alignas(64) float fix4[6][16] = {}, fix5[6][16] = {};
-  std::array<WinogradSegment, 16> seg{};
-  for (int j = 0; j < cols; j += 16) {
-    const int n = winograd_step_segments<4>(pw, tiles_x, t0, cols, j, seg);
-    __mmask16 fix = 0;
-    for (int i = 0; i + 1 < n; ++i) {
-      const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
-      fix = static_cast<__mmask16>(fix | (1u << (g.lane + g.tiles - 1)));
-    }
-    for (int ch = 0; ch < channels; ++ch) {
-      const float* s = in + static_cast<std::size_t>(ch) * plane;
-      for (int i = 0; i < n; ++i) {
-        const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
-        const int nv = (4 * g.tiles + 2 + 15) / 16; // column vectors the segment's tiles read
-        winograd4_columns_avx512(s + g.at, pw, nv, t, 4 * g.lane);
-        if (i + 1 < n) { // the last tile's columns 4 and 5, before the next segment's overwrite
-          const int last = g.lane + g.tiles - 1;
-          for (int p = 0; p < 6; ++p) {
-            fix4[p][last] = t[p][4 * last + 4];
-            fix5[p][last] = t[p][4 * last + 5];
-          }
-        }
-      }
-      float* dst = d + static_cast<std::size_t>(ch) * dc + j;
-      if (n > 1)
-        winograd4_rows_avx512<false, true>(t, 0, dst, xs, fix, fix4, fix5);
-      else
-        winograd4_rows_avx512<false>(t, 0, dst, xs);
-    }
-  }
-}
-
 // F(3x3, 4x4)'s lane sources: lane j of column set k (k < 3) is float 3 j + k of a transformed
 // row's 48; the first permute takes those below 32 from two vectors, the second the rest (mask
 // bit j set) from the third.
@@ -981,19 +935,28 @@ winograd_input3_avx512(const float* __restrict s, std::size_t plane, int channel
   }
 }
 
-// F(3x3, 4x4)'s input transform of a tile panel (WinogradOps::input3_panel), 16 tiles a step
-// whatever tile row they are in, as winograd_input4_panel_avx512: segments' columns at column
-// 3 x their first lane, columns 3 .. 5 of a segment's last tile kept aside and put back after the
-// shift. conv0's rows of 27 tiles (the shipped model) took three steps for a 32-tile panel.
+// The input transform of a tile panel for the 6-wide patches, T = 4 (F(4x4), WinogradOps::
+// input4_panel) or T = 3 (F(3x3, 4x4), input3_panel), 16 tiles a step whatever tile row they are
+// in. Per run, 16-tile steps left a tile row of 10 tiles (the shipped model's first block) with
+// 6 of 16 lanes idle, and conv0's rows of 27 tiles made three steps of a 32-tile panel. A step's
+// tiles are cut into segments within one tile row; each segment's columns are transformed into
+// t from column T x its first lane, so that the lane gather finds lane j's columns at T j ..
+// T j + 5 as in one run, except for a segment's last tile: its columns T .. 5 (its patch's
+// overlap with the next tile, which belongs to the next segment's row) are kept aside before
+// the next segment overwrites them, and put in that lane after the shift. Per lane the same
+// operations on the same values as winograd_input4_avx512 / winograd_input3_avx512.
+template <int T>
 __attribute__((target("avx512f"))) inline void
-winograd_input3_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
+winograd_input6_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
                              int tiles_x, int t0, int cols, float* __restrict d, std::size_t dc,
                              std::size_t xs) {
+  static_assert(T == 4 || T == 3, "F(4x4) or F(3x3, 4x4)");
+  constexpr int overlap = 6 - T;
   alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
-  alignas(64) float fix3[3][6][16] = {};
+  alignas(64) float kept[overlap][6][16] = {};
   std::array<WinogradSegment, 16> seg{};
   for (int j = 0; j < cols; j += 16) {
-    const int n = winograd_step_segments<3>(pw, tiles_x, t0, cols, j, seg);
+    const int n = winograd_step_segments<T>(pw, tiles_x, t0, cols, j, seg);
     __mmask16 fix = 0;
     for (int i = 0; i + 1 < n; ++i) {
       const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
@@ -1003,19 +966,26 @@ winograd_input3_panel_avx512(const float* __restrict in, std::size_t plane, int 
       const float* s = in + static_cast<std::size_t>(ch) * plane;
       for (int i = 0; i < n; ++i) {
         const WinogradSegment& g = seg[static_cast<std::size_t>(i)];
-        const int nv = (3 * g.tiles + 3 + 15) / 16; // column vectors the segment's tiles read
-        winograd4_columns_avx512(s + g.at, pw, nv, t, 3 * g.lane);
-        if (i + 1 < n) { // the last tile's columns 3 .. 5, before the next segment's overwrite
+        const int nv = (T * g.tiles + overlap + 15) / 16; // column vectors the tiles read
+        winograd4_columns_avx512(s + g.at, pw, nv, t, T * g.lane);
+        if (i + 1 < n) { // the last tile's overlap, before the next segment's overwrite
           const int last = g.lane + g.tiles - 1;
-          for (int k = 0; k < 3; ++k)
-            for (int p = 0; p < 6; ++p) fix3[k][p][last] = t[p][3 * last + 3 + k];
+          for (int k = 0; k < overlap; ++k)
+            for (int p = 0; p < 6; ++p) kept[k][p][last] = t[p][T * last + T + k];
         }
       }
       float* dst = d + static_cast<std::size_t>(ch) * dc + j;
-      if (n > 1)
-        winograd3_rows_avx512<false, true>(t, 0, dst, xs, fix, fix3);
-      else
-        winograd3_rows_avx512<false>(t, 0, dst, xs);
+      if constexpr (T == 4) {
+        if (n > 1)
+          winograd4_rows_avx512<false, true>(t, 0, dst, xs, fix, kept[0], kept[1]);
+        else
+          winograd4_rows_avx512<false>(t, 0, dst, xs);
+      } else {
+        if (n > 1)
+          winograd3_rows_avx512<false, true>(t, 0, dst, xs, fix, kept);
+        else
+          winograd3_rows_avx512<false>(t, 0, dst, xs);
+      }
     }
   }
 }
@@ -1055,8 +1025,8 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_output3_avx512,
             &winograd_interleave3_bias_relu_avx512,
             &winograd_input_panel_avx512,
-            &winograd_input4_panel_avx512,
-            &winograd_input3_panel_avx512};
+            &winograd_input6_panel_avx512<4>,
+            &winograd_input6_panel_avx512<3>};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
             &winograd_output_avx2_loops,
