@@ -321,30 +321,21 @@ TEST_CASE("camera scan: the portable loop is the signature's definition and the 
           CAPTURE(step);
           CAPTURE(cols);
           CAPTURE(cut);
-          detail::CameraScanGrid g;
-          g.data = frame.data;
-          g.row_stride = frame.step[0];
-          g.cols = frame.cols;
-          g.rows = frame.rows;
-          g.channels = channels;
-          g.colour = channels == 1 ? 1 : 3;
-          g.step = step;
-          g.dark_level = 40;
-          g.saturated_level = 230;
+          CameraHealthConfig config;
+          config.sample_step = step;
+          config.dark_level = 40;
+          config.saturated_level = 230;
+          const detail::CameraScanGrid g = detail::camera_scan_grid(frame, config);
           const detail::CameraScan want = scan_by_definition(frame, step, 40, 230);
           const detail::CameraScan portable = detail::camera_scan_portable(g);
-          REQUIRE(portable.samples == want.samples);
-          REQUIRE(portable.dark == want.dark);
-          REQUIRE(portable.saturated == want.saturated);
-          REQUIRE(portable.hash == want.hash);
+          CAPTURE(want.samples);
+          CAPTURE(want.dark);
+          CAPTURE(want.saturated);
+          REQUIRE(portable == want);
           ++compared;
 #if SHADOWSENSE_CAMERA_SCAN_X86
           if (detail::camera_scan_cpu_has_avx512()) {
-            const detail::CameraScan fast = detail::camera_scan_avx512(g);
-            REQUIRE(fast.samples == want.samples);
-            REQUIRE(fast.dark == want.dark);
-            REQUIRE(fast.saturated == want.saturated);
-            REQUIRE(fast.hash == want.hash);
+            REQUIRE(detail::camera_scan_avx512(g) == want);
             ++compared_avx512;
           }
 #endif

@@ -89,6 +89,23 @@ struct CameraHealthConfig {
   }
 };
 
+namespace detail {
+// The scan's view of an 8-bit frame of 1, 3 or 4 channels under a config: alpha is not looked at.
+inline CameraScanGrid camera_scan_grid(const cv::Mat& frame, const CameraHealthConfig& config) {
+  CameraScanGrid grid;
+  grid.data = frame.data;
+  grid.row_stride = frame.step[0];
+  grid.cols = frame.cols;
+  grid.rows = frame.rows;
+  grid.channels = frame.channels();
+  grid.colour = grid.channels == 1 ? 1 : 3;
+  grid.step = config.sample_step;
+  grid.dark_level = config.dark_level;
+  grid.saturated_level = config.saturated_level;
+  return grid;
+}
+} // namespace detail
+
 class CameraHealth {
 public:
   using Config = CameraHealthConfig;
@@ -119,17 +136,7 @@ private:
       reset();
       return CameraFault::none;
     }
-    detail::CameraScanGrid grid;
-    grid.data = frame.data;
-    grid.row_stride = frame.step[0];
-    grid.cols = frame.cols;
-    grid.rows = frame.rows;
-    grid.channels = channels;
-    grid.colour = channels == 1 ? 1 : 3; // alpha is not looked at
-    grid.step = config_.sample_step;
-    grid.dark_level = config_.dark_level;
-    grid.saturated_level = config_.saturated_level;
-    const detail::CameraScan scan = detail::camera_scan(grid);
+    const detail::CameraScan scan = detail::camera_scan(detail::camera_scan_grid(frame, config_));
     const std::int64_t samples = scan.samples, dark = scan.dark, saturated = scan.saturated;
     const std::uint64_t hash = scan.hash;
     const bool same =

@@ -59,6 +59,7 @@ struct CameraScanGrid {
 struct CameraScan {
   std::int64_t samples = 0, dark = 0, saturated = 0;
   std::uint64_t hash = 0;
+  bool operator==(const CameraScan&) const = default;
 };
 
 inline constexpr std::uint32_t kScanPrime = 16777619u, kScanOffset = 2166136261u;

@@ -424,7 +424,7 @@ __attribute__((target("avx2,fma"))) inline void store_first_lanes_avx2(float* ds
   if (n & 1) _mm_store_ss(dst, part);
 }
 
-// One step of F(4x4)'s input transform on AVX2, up to 8 tiles, as winograd4_step_avx512: B^T
+// One step of F(4x4)'s input transform on AVX2, up to 8 tiles, as winograd6_step_avx512<4>: B^T
 // down the six patch rows on whole vectors of consecutive columns into t, then per transformed
 // row the columns 4j + k of the tiles by a transpose (each 128-bit lane holds one tile's four
 // columns: two lane permutes put tiles j and j + 4 in one register, then the 4 x 4 transpose
@@ -476,7 +476,7 @@ winograd4_step_avx2(const float* __restrict s, int pw, int nv, int lanes, float*
   }
 }
 
-// F(4x4)'s input transform with AVX2 intrinsics, 8 tiles per step (winograd_input4_avx512 at
+// F(4x4)'s input transform with AVX2 intrinsics, 8 tiles per step (winograd_input6_avx512<4> at
 // half the width; the compiler's version of the loops, winograd_input4_avx2_loops, was a
 // quarter of the shipped model's forward pass). A step of fewer tiles computes garbage lanes
 // from the floats beyond its patches (within winograd_read_slack) and stores whole vectors where
@@ -733,33 +733,7 @@ winograd4_rows_avx512(const float (&t)[6][80], __mmask16 out, float* __restrict 
     }
   }
 }
-template <bool Masked>
-__attribute__((target("avx512f"))) inline void
-winograd4_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
-                      std::size_t xs, float (&t)[6][80]) {
-  winograd4_columns_avx512(s, pw, nv, t, 0);
-  winograd4_rows_avx512<Masked>(t, out, d, xs);
-}
 
-// F(4x4)'s input transform with AVX-512 intrinsics, 16 tiles per step, whole-vector loads and
-// stores as winograd_input_avx512 (a step of fewer tiles computes garbage lanes from the floats
-// beyond its patches, winograd_read_slack).
-__attribute__((target("avx512f"))) inline void
-winograd_input4_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
-                       int room, float* __restrict d, std::size_t dc, std::size_t xs) {
-  alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
-  for (int j = 0; j < run; j += 16) {
-    const int nv = (4 * std::min(16, run - j) + 2 + 15) / 16; // column vectors the tiles read
-    if (room - j >= 16)
-      for (int ch = 0; ch < channels; ++ch)
-        winograd4_step_avx512<false>(s + ch * plane + 4 * j, pw, nv, 0, d + ch * dc + j, xs, t);
-    else {
-      const __mmask16 out = tail_mask_avx512(run - j);
-      for (int ch = 0; ch < channels; ++ch)
-        winograd4_step_avx512<true>(s + ch * plane + 4 * j, pw, nv, out, d + ch * dc + j, xs, t);
-    }
-  }
-}
 // F(3x3, 4x4)'s lane sources: lane j of column set k (k < 3) is float 3 j + k of a transformed
 // row's 48; the first permute takes those below 32 from two vectors, the second the rest (mask
 // bit j set) from the third.
@@ -782,7 +756,7 @@ inline constexpr Winograd3Columns winograd3_columns = [] {
 }();
 
 // One step of F(3x3, 4x4)'s input transform, up to 16 tiles three columns apart: B^T down the
-// six patch rows on whole column vectors into t (as winograd4_step_avx512), then per
+// six patch rows on whole column vectors into t (as winograd6_step_avx512<4>), then per
 // transformed row the columns 3 j + k (k < 3) of its first 48 floats by two permutes each,
 // columns 3 j + 3 .. 3 j + 5 as those one tile on (a one-lane shift, floats 48..50 entering),
 // and B across them. t keeps the caller's values beyond the nv vectors the step fills.
@@ -817,13 +791,6 @@ winograd3_rows_avx512(const float (&t)[6][80], __mmask16 out, float* __restrict 
         _mm512_storeu_ps(dst, y[q]);
     }
   }
-}
-template <bool Masked>
-__attribute__((target("avx512f"))) inline void
-winograd3_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
-                      std::size_t xs, float (&t)[6][80]) {
-  winograd4_columns_avx512(s, pw, nv, t, 0);
-  winograd3_rows_avx512<Masked>(t, out, d, xs);
 }
 
 // Lane j of the three vectors that interleave three rows of 16 values (48 floats: value e of
@@ -915,22 +882,38 @@ winograd_interleave3_bias_relu_avx512(const float* __restrict y, float* __restri
   }
 }
 
-// F(3x3, 4x4)'s input transform with AVX-512 intrinsics, 16 tiles per step, whole-vector loads
-// and stores as winograd_input4_avx512 (a 16-tile step reads 51 floats of each patch row, four
-// vectors: within winograd_read_slack).
+// One step of the 6-wide patches' input transform, T = 4 (F(4x4)) or 3 (F(3x3, 4x4)), up to 16
+// tiles T columns apart: winograd4_columns_avx512 (B^T down the patch rows), then the rows' lane
+// gather and B across them (winograd4_rows_avx512 / winograd3_rows_avx512).
+template <int T, bool Masked>
 __attribute__((target("avx512f"))) inline void
-winograd_input3_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
+winograd6_step_avx512(const float* __restrict s, int pw, int nv, __mmask16 out, float* __restrict d,
+                      std::size_t xs, float (&t)[6][80]) {
+  winograd4_columns_avx512(s, pw, nv, t, 0);
+  if constexpr (T == 4)
+    winograd4_rows_avx512<Masked>(t, out, d, xs);
+  else
+    winograd3_rows_avx512<Masked>(t, out, d, xs);
+}
+
+// input4 (T = 4) and input3 (T = 3) with AVX-512 intrinsics, 16 tiles per step, whole-vector
+// loads and stores as winograd_input_avx512 (a step of fewer tiles computes garbage lanes from
+// the floats beyond its patches; a step reads whole column vectors, at most 80 floats of each
+// patch row: winograd_read_slack).
+template <int T>
+__attribute__((target("avx512f"))) inline void
+winograd_input6_avx512(const float* __restrict s, std::size_t plane, int channels, int pw, int run,
                        int room, float* __restrict d, std::size_t dc, std::size_t xs) {
   alignas(64) float t[6][80] = {}; // beyond a step's vectors: zeros or an earlier step's values
   for (int j = 0; j < run; j += 16) {
-    const int nv = (3 * std::min(16, run - j) + 3 + 15) / 16; // column vectors the tiles read
+    const int nv = (T * std::min(16, run - j) + (6 - T) + 15) / 16; // column vectors read
     if (room - j >= 16)
       for (int ch = 0; ch < channels; ++ch)
-        winograd3_step_avx512<false>(s + ch * plane + 3 * j, pw, nv, 0, d + ch * dc + j, xs, t);
+        winograd6_step_avx512<T, false>(s + ch * plane + T * j, pw, nv, 0, d + ch * dc + j, xs, t);
     else {
       const __mmask16 out = tail_mask_avx512(run - j);
       for (int ch = 0; ch < channels; ++ch)
-        winograd3_step_avx512<true>(s + ch * plane + 3 * j, pw, nv, out, d + ch * dc + j, xs, t);
+        winograd6_step_avx512<T, true>(s + ch * plane + T * j, pw, nv, out, d + ch * dc + j, xs, t);
     }
   }
 }
@@ -944,7 +927,7 @@ winograd_input3_avx512(const float* __restrict s, std::size_t plane, int channel
 // T j + 5 as in one run, except for a segment's last tile: its columns T .. 5 (its patch's
 // overlap with the next tile, which belongs to the next segment's row) are kept aside before
 // the next segment overwrites them, and put in that lane after the shift. Per lane the same
-// operations on the same values as winograd_input4_avx512 / winograd_input3_avx512.
+// operations on the same values as winograd_input6_avx512<T>.
 template <int T>
 __attribute__((target("avx512f"))) inline void
 winograd_input6_panel_avx512(const float* __restrict in, std::size_t plane, int channels, int pw,
@@ -1018,10 +1001,10 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
     return {&winograd_input_avx512,
             &winograd_output_avx512_loops,
             &winograd_interleave_avx512_loops,
-            &winograd_input4_avx512,
+            &winograd_input6_avx512<4>,
             &winograd_output6_avx512_loops<4>,
             &winograd_interleave4_avx512_loops,
-            &winograd_input3_avx512,
+            &winograd_input6_avx512<3>,
             &winograd_output3_avx512,
             &winograd_interleave3_bias_relu_avx512,
             &winograd_input_panel_avx512,
