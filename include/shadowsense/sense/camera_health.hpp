@@ -30,6 +30,8 @@
 //   ensures:  the frame's fault as above; fault() returns it until the next update. No heap
 //             allocation.
 // reset(): forgets the previous frame (the frozen count starts again).
+// The grid's counts and the frozen check's signature come from sense/camera_scan.hpp (an
+// AVX-512 kernel where the CPU has one, else a portable loop; the same result from both).
 // Threading: one instance per thread (it holds the previous frame's signature); it has no owner
 // check of its own: the TouchPipeline that holds it has one.
 #pragma once
