@@ -110,32 +110,55 @@ TEST_CASE("relative_row: the portable kernel is the rule's definition") {
   CHECK(contact > 0);
 }
 
+// Rows of every width 0-70, 8 random rows each (the last with thresholds equal to computed
+// values: >= must hold exactly) through fn; returns how many differ from the portable kernel.
+static int relative_row_mismatches(detail::RelativeRowFn fn, std::mt19937& rng) {
+  const detail::SegmentKernels& portable = segment_kernels(SegmentKernelKind::portable);
+  detail::SegmentKernels k = portable;
+  k.relative_row = fn;
+  int mismatched_rows = 0, rows = 0;
+  for (int w = 0; w <= 70; ++w)
+    for (int rep = 0; rep < 8; ++rep) {
+      const Row r = random_row(rng, w);
+      detail::RelativeRowParams p{
+          1.f / static_cast<float>(40 + rep * 25), 1.f / 150.f, 1.f / 130.f, 0.2f, 0.45f, 0.08f};
+      if (rep == 7 && w > 0) {
+        const Out o = run(portable, p, r, w);
+        p.shadow = o.d[0];
+        p.contact = o.d[static_cast<std::size_t>(w - 1)];
+        p.warmth = o.w[static_cast<std::size_t>(w / 2)];
+      }
+      ++rows;
+      mismatched_rows += !(run(portable, p, r, w) == run(k, p, r, w));
+    }
+  CHECK(rows == 71 * 8);
+  return mismatched_rows;
+}
+
 TEST_CASE("relative_row: every vector kernel equals the portable one, every width") {
   std::mt19937 rng(11);
-  const detail::SegmentKernels& portable = segment_kernels(SegmentKernelKind::portable);
   for (const SegmentKernelKind kind : vector_kinds()) {
     CAPTURE(segment_kernel_name(kind));
     const detail::SegmentKernels& k = segment_kernels(kind);
     REQUIRE(k.kind == kind);
-    int mismatched_rows = 0, rows = 0;
-    for (int w = 0; w <= 70; ++w)
-      for (int rep = 0; rep < 8; ++rep) {
-        const Row r = random_row(rng, w);
-        detail::RelativeRowParams p{
-            1.f / static_cast<float>(40 + rep * 25), 1.f / 150.f, 1.f / 130.f, 0.2f, 0.45f, 0.08f};
-        if (rep == 7 && w > 0) { // thresholds equal to computed values: >= must hold exactly
-          const Out o = run(portable, p, r, w);
-          p.shadow = o.d[0];
-          p.contact = o.d[static_cast<std::size_t>(w - 1)];
-          p.warmth = o.w[static_cast<std::size_t>(w / 2)];
-        }
-        ++rows;
-        mismatched_rows += !(run(portable, p, r, w) == run(k, p, r, w));
-      }
-    CHECK(rows == 71 * 8);
-    CHECK(mismatched_rows == 0);
+    CHECK(relative_row_mismatches(k.relative_row, rng) == 0);
   }
 }
+
+#if SHADOWSENSE_SEGMENT_X86
+// The avx512 kind runs one of two kernels, by whether the CPU has VBMI: both are checked here
+// where the CPU runs them (the test above checks only the one picked).
+TEST_CASE("relative_row: both AVX-512 kernels (byte shuffles, VBMI permutes) equal the portable "
+          "one") {
+  std::mt19937 rng(12);
+  if (segment_cpu_has(SegmentKernelKind::avx512))
+    CHECK(relative_row_mismatches(detail::relative_row_avx512, rng) == 0);
+  if (detail::segment_cpu_has_vbmi())
+    CHECK(relative_row_mismatches(detail::relative_row_avx512_vbmi, rng) == 0);
+  else
+    MESSAGE("this CPU has no AVX-512 VBMI: relative_row_avx512_vbmi not run");
+}
+#endif
 
 TEST_CASE("mask smoothing rows: every kernel equals the weighted sums written out") {
   std::mt19937 rng(3);

@@ -8,7 +8,8 @@
 //   segment_kernels_neon.hpp      Advanced SIMD (aarch64), compiled in there
 //
 // SegmentKernelKind: automatic picks avx512 on an x86 CPU that has AVX-512 F, BW and VL, else
-//   avx2 on one that has AVX2, neon on aarch64, else portable.
+//   avx2 on one that has AVX2, neon on aarch64, else portable. The avx512 kind's relative rule
+//   splits the channels by byte permutes where the CPU also has VBMI.
 // segment_cpu_has(kind): true when kind is compiled in and the CPU runs it (automatic: false).
 // segment_kernels(kind)
 //   requires: kind is automatic or segment_cpu_has(kind); throws InvalidArgument otherwise.
@@ -87,7 +88,7 @@ inline SegmentKernels make_segment_kernels(SegmentKernelKind kind) {
             .reference_bins = reference_bins_avx2};
   case SegmentKernelKind::avx512:
     return {.kind = kind,
-            .relative_row = relative_row_avx512,
+            .relative_row = segment_cpu_has_vbmi() ? relative_row_avx512_vbmi : relative_row_avx512,
             .hsum3 = hsum_row_avx512<3>,
             .hsum5 = hsum_row_avx512<5>,
             .vsum3 = vsum_row_avx512<3>,
