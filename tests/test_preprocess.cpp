@@ -299,6 +299,62 @@ TEST_CASE("contrast, brightness and Normalize: the row loops equal a value-by-va
   CHECK(differ == 0);
 }
 
+namespace {
+// One pixel's gray, each operation rounded on its own.
+SHADOWSENSE_STRICT_FP float gray_of(float r, float g, float b) {
+  SHADOWSENSE_STRICT_FP_BODY
+  return 0.2989f * r + 0.587f * g + 0.114f * b;
+}
+// detail::gray_sum's definition: the grays summed in double in pixel order.
+double gray_sum_in_order(const std::vector<float>& img, int w, int h) {
+  const auto n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  double sum = 0;
+  for (std::size_t i = 0; i < n; ++i) sum += gray_of(img[i], img[n + i], img[2 * n + i]);
+  return sum;
+}
+double gray_sum_of(const std::vector<float>& img, int w, int h) {
+  const auto n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  return detail::gray_sum(img.data(), img.data() + n, img.data() + 2 * n,
+                          static_cast<std::size_t>(w), w, h);
+}
+} // namespace
+
+TEST_CASE("gray_sum: the sum in pixel order, bit for bit, on every kind of image") {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  int images = 0, differ = 0;
+  // Sizes with every width mod 8, the network's 160 x 88; values on 1/255 steps times a gain,
+  // uniform floats (every mantissa), and zeros mixed in.
+  const std::pair<int, int> sizes[] = {{1, 1}, {7, 3}, {9, 2}, {17, 5}, {40, 4}, {160, 88}};
+  for (const auto& [w, h] : sizes)
+    for (int kind = 0; kind < 3; ++kind) {
+      std::vector<float> img(3 * static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
+      for (float& v : img)
+        v = kind == 0   ? std::min(1.0f, static_cast<float>(rng() % 256) / 255.0f * 1.37f)
+            : kind == 1 ? unit(rng)
+                        : (rng() % 3 == 0 ? 0.0f : unit(rng));
+      const double want = gray_sum_in_order(img, w, h), got = gray_sum_of(img, w, h);
+      differ += std::memcmp(&want, &got, sizeof want) != 0;
+      ++images;
+    }
+  CHECK(images == 18);
+  CHECK(differ == 0);
+  // Where the order matters: a gray of about 1 first, then grays of 2^-40 that the sum in pixel
+  // order loses one by one; eight partial sums would keep them (checked: the image is one where
+  // the orders differ), so the sum must be taken again in pixel order.
+  const int w = 64, h = 4;
+  const auto n = static_cast<std::size_t>(w * h);
+  std::vector<float> img(3 * n, std::ldexp(1.0f, -40));
+  img[0] = img[n] = img[2 * n] = 1.0f;
+  double lanes[8] = {};
+  for (std::size_t i = 0; i < n; ++i) lanes[i % 8] += gray_of(img[i], img[n + i], img[2 * n + i]);
+  double any_order = 0;
+  for (const double v : lanes) any_order += v;
+  const double want = gray_sum_in_order(img, w, h), got = gray_sum_of(img, w, h);
+  REQUIRE(any_order != want);
+  CHECK(std::memcmp(&want, &got, sizeof want) == 0);
+}
+
 TEST_CASE("scaled resize: the VBMI kernel's values equal scaled_byte for every byte and gain") {
   if (!detail::scaled_resize_cpu_has_vbmi()) {
     MESSAGE("this CPU has no AVX-512 VBMI: the portable loop runs (tested below)");
@@ -328,13 +384,13 @@ TEST_CASE("scaled resize: the VBMI kernel's values equal scaled_byte for every b
     detail::fill_scaled_table(gains, table);
     std::vector<float> d(3 * 256, -1.0f);
     detail::scaled_resize_row_vbmi(plan, t, row.data(), row.data(), 1.0f, 0.0f, table, gains,
-                                   d.data());
+                                   {d.data(), d.data() + 256, d.data() + 512});
     int differ = 0;
     for (int x = 0; x < 256; ++x)
       for (int c = 0; c < 3; ++c) {
         const float want =
             detail::scaled_byte(row[static_cast<std::size_t>(3 * x + c)], gains[std::size_t(c)]);
-        differ += std::memcmp(&want, &d[static_cast<std::size_t>(3 * x + c)], 4) != 0;
+        differ += std::memcmp(&want, &d[static_cast<std::size_t>(256 * c + x)], 4) != 0;
       }
     CHECK(differ == 0);
   }
@@ -370,11 +426,13 @@ TEST_CASE("scaled resize: the VBMI kernel equals the portable loop bit for bit o
          {std::array<float, 3>{1.0f, 1.0f, 1.0f}, std::array<float, 3>{1.9f, 0.45f, 3.3f}}) {
       detail::ScaledTable table;
       detail::fill_scaled_table(gains, table);
-      std::vector<float> want(3 * static_cast<std::size_t>(out_w), -1.0f), got = want;
+      // One row per channel, planar.
+      const auto n = static_cast<std::size_t>(out_w);
+      std::vector<float> want(3 * n, -1.0f), got = want;
       detail::scaled_resize_row_portable(plan, t, r0.data(), r1.data(), 0.3f, 0.7f, table, gains,
-                                         want.data());
+                                         {want.data(), want.data() + n, want.data() + 2 * n});
       detail::scaled_resize_row_vbmi(plan, t, r0.data(), r1.data(), 0.3f, 0.7f, table, gains,
-                                     got.data());
+                                     {got.data(), got.data() + n, got.data() + 2 * n});
       CHECK(std::memcmp(want.data(), got.data(), 4 * want.size()) == 0);
     }
   }

@@ -58,11 +58,63 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
 SHADOWSENSE_NAMESPACE_BEGIN
+
+namespace detail {
+
+// The sum in double, in pixel order (row by row), of the float grayscale
+// 0.2989 r + 0.587 g + 0.114 b (each operation rounded in float) of a w x h image given as three
+// planes whose rows are `stride` floats apart: adjust_contrast's mean times the pixel count.
+// Taken in eight partial sums, which give that same double whenever no partial sum rounds: with
+// lo the smallest non-zero |gray| and E = ilogb(lo), every gray value (a float) is an integer
+// times 2^(E - 23), and so is every partial sum, whose size is at most n max|gray| (n pixels);
+// below 2^(E + 30) such a number is a double, so no addition rounds, in any order. Where
+// n max|gray| > 2^(E + 29) (a margin of 2 for the product's rounding) the sum is taken again in
+// pixel order. Images in 0..1 get there only with grays below about 2^-29 next to grays near 1
+// (grays of 1/255 steps need more than 2^20 pixels). NaN: NaN either way.
+SHADOWSENSE_STRICT_FP inline double gray_sum(const float* r, const float* g, const float* b,
+                                             std::size_t stride, int w, int h) {
+  SHADOWSENSE_STRICT_FP_BODY
+  constexpr int lanes = 8;
+  std::array<double, lanes> part{};
+  float lo = std::numeric_limits<float>::infinity(), hi = 0.0f;
+  for (int y = 0; y < h; ++y) {
+    const std::size_t o = static_cast<std::size_t>(y) * stride;
+    for (int x0 = 0; x0 < w; x0 += lanes) {
+      const int n = std::min(lanes, w - x0);
+      for (int j = 0; j < n; ++j) {
+        const std::size_t x = o + static_cast<std::size_t>(x0 + j);
+        const float v = 0.2989f * r[x] + 0.587f * g[x] + 0.114f * b[x];
+        const float a = std::fabs(v);
+        part[static_cast<std::size_t>(j)] += static_cast<double>(v);
+        hi = std::max(hi, a);
+        lo = std::min(lo, a > 0.0f ? a : lo);
+      }
+    }
+  }
+  double sum = 0;
+  const double n = double(w) * double(h);
+  if (lo == std::numeric_limits<float>::infinity() ||
+      n * double(hi) <= std::ldexp(1.0, std::ilogb(lo) + 29)) {
+    for (const double v : part) sum += v;
+    return sum;
+  }
+  for (int y = 0; y < h; ++y) {
+    const std::size_t o = static_cast<std::size_t>(y) * stride;
+    for (int x = 0; x < w; ++x) {
+      const std::size_t i = o + static_cast<std::size_t>(x);
+      sum += 0.2989f * r[i] + 0.587f * g[i] + 0.114f * b[i];
+    }
+  }
+  return sum;
+}
+
+} // namespace detail
 
 class Preprocessor {
 public:
@@ -196,13 +248,13 @@ private:
       plan_ = detail::ScaledResizePlan::make(out_w, 3 * image.cols, xt_);
     const auto row = detail::scaled_resize_cpu_has_vbmi() ? &detail::scaled_resize_row_vbmi
                                                           : &detail::scaled_resize_row_portable;
-    resized_.create(out_h, out_w, CV_32FC3);
+    planar_create(out_h, out_w);
     for (int y = 0; y < out_h; ++y) {
       const auto ky = static_cast<std::size_t>(y);
       row(plan_, xt_, image.ptr<unsigned char>(yt_.a[ky]), image.ptr<unsigned char>(yt_.b[ky]),
-          yt_.w0[ky], yt_.w1[ky], scaled_table_, gains, resized_.ptr<float>(y));
+          yt_.w0[ky], yt_.w1[ky], scaled_table_, gains, planar_out(y));
     }
-    crop_normalise(resized_, dark, out);
+    crop_normalise_planar(dark, out);
   }
 
   void run_mapped_unchecked(const cv::Mat& image, const Table& table, bool dark, Tensor& out) {
@@ -210,17 +262,17 @@ private:
     input_size_ = image.size();
     if (p.resize_width > 0 && (p.resize_width != image.cols || p.resize_height != image.rows)) {
       resize_bilinear_mapped(image, table, p.resize_width, p.resize_height);
-      crop_normalise(resized_, dark, out);
+      crop_normalise_planar(dark, out);
       return;
     }
-    float_.create(image.rows, image.cols, CV_32FC3);
+    planar_create(image.rows, image.cols);
     for (int y = 0; y < image.rows; ++y) {
       const auto* s = image.ptr<unsigned char>(y);
-      auto* d = float_.ptr<float>(y);
+      const detail::PlanarRow d = planar_out(y);
       for (int x = 0; x < image.cols; ++x)
-        for (std::size_t c = 0; c < 3; ++c) d[3 * x + c] = table[c][s[3 * x + c]];
+        for (std::size_t c = 0; c < 3; ++c) d[c][x] = table[c][s[3 * x + c]];
     }
-    crop_normalise(float_, dark, out);
+    crop_normalise_planar(dark, out);
   }
 
   // A float image in 0..1: resize, then crop_normalise.
@@ -238,10 +290,11 @@ private:
     crop_normalise(*cur, dark, out);
   }
 
-  // The pixels of view (a crop of the resized image `image`) that adjust_contrast's mean reads.
-  // offset: the crop's top-left corner in the resized image.
-  cv::Rect mean_rect(const cv::Mat& image, const cv::Mat& view, cv::Point offset) const {
-    const cv::Rect all(0, 0, view.cols, view.rows);
+  // The pixels of a view (a crop of the resized image, of size `image`) that adjust_contrast's
+  // mean reads, relative to the view. view.tl(): the crop's top-left corner in the image.
+  cv::Rect mean_rect(cv::Size image, cv::Rect view) const {
+    const cv::Rect all(0, 0, view.width, view.height);
+    const cv::Point offset = view.tl();
     if (region_.empty() || input_size_.empty()) return all;
     auto span = [](int lo, int len, int in, int out, int shift) {
       const double k = double(out) / in; // output pixels per input pixel
@@ -249,73 +302,78 @@ private:
       const int b = static_cast<int>(std::floor((lo + len - 0.5) * k - 0.5));
       return std::pair{a - shift, b - shift};
     };
-    const auto [x0, x1] = span(region_.x, region_.width, input_size_.width, image.cols, offset.x);
-    const auto [y0, y1] = span(region_.y, region_.height, input_size_.height, image.rows, offset.y);
+    const auto [x0, x1] = span(region_.x, region_.width, input_size_.width, image.width, offset.x);
+    const auto [y0, y1] =
+        span(region_.y, region_.height, input_size_.height, image.height, offset.y);
     const cv::Rect r = cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1) & all;
     return r.empty() ? all : r;
   }
 
-  // Centre crop, contrast, brightness, Normalize of a float image in 0..1.
+  // Centre crop, contrast, brightness, Normalize of an interleaved float image in 0..1: its
+  // channels split into the planar image, then crop_normalise_planar.
   void crop_normalise(const cv::Mat& image, bool dark, Tensor& out) {
+    planar_create(image.rows, image.cols);
+    for (int y = 0; y < image.rows; ++y) {
+      const float* s = image.ptr<float>(y);
+      const detail::PlanarRow d = planar_out(y);
+      for (int x = 0; x < image.cols; ++x) {
+        d[0][x] = s[3 * x];
+        d[1][x] = s[3 * x + 1];
+        d[2][x] = s[3 * x + 2];
+      }
+    }
+    crop_normalise_planar(dark, out);
+  }
+
+  // Centre crop, contrast, brightness, Normalize of the planar image (planar_: one plane per
+  // channel in the input's order, values in 0..1).
+  void crop_normalise_planar(bool dark, Tensor& out) {
     const auto& p = config_.params;
-    const cv::Mat* cur = &image;
-    cv::Mat view = *cur;
-    cv::Point offset(0, 0);
+    const cv::Size image(planar_w_, planar_h_);
+    cv::Rect view(0, 0, image.width, image.height);
     if (p.crop_width > 0) {
-      if (!(p.crop_width <= cur->cols && p.crop_height <= cur->rows))
+      if (!(p.crop_width <= image.width && p.crop_height <= image.height))
         SHADOWSENSE_THROW(
             InvalidArgument("Preprocessor: crop " + std::to_string(p.crop_width) + "x" +
                             std::to_string(p.crop_height) + " is larger than the (resized) image " +
-                            std::to_string(cur->cols) + "x" + std::to_string(cur->rows) +
+                            std::to_string(image.width) + "x" + std::to_string(image.height) +
                             ", expected a crop inside the image"));
-      const int top = round_half_even((cur->rows - p.crop_height) / 2.0);
-      const int left = round_half_even((cur->cols - p.crop_width) / 2.0);
-      view = (*cur)(cv::Rect(left, top, p.crop_width, p.crop_height));
-      offset = {left, top};
+      const int top = round_half_even((image.height - p.crop_height) / 2.0);
+      const int left = round_half_even((image.width - p.crop_width) / 2.0);
+      view = cv::Rect(left, top, p.crop_width, p.crop_height);
     }
-    const int h = view.rows, w = view.cols;
+    const int h = view.height, w = view.width;
     out.resize(1, 3, h, w);
-    // Channel planes in RGB order (R, G, B pointers into the interleaved image).
+    // The planes in RGB order (input channel of R, G, B).
     const int ri = config_.input_order == ChannelOrder::bgr ? 2 : 0, bi = 2 - ri;
+    const std::array<int, 3> plane_of{ri, 1, bi};
     // adjust_contrast: mean of the float grayscale over the whole (cropped) image, or over the
     // part of it that comes from the contrast region.
-    const cv::Rect m = mean_rect(*cur, view, offset);
-    const float mean_gray = gray_mean(view, m, ri, bi);
+    const cv::Rect m = mean_rect(image, view);
+    const float mean_gray =
+        gray_mean(cv::Rect(m.x + view.x, m.y + view.y, m.width, m.height), plane_of);
     const float cf = p.contrast_factor;
     const float blend = (1.0f - cf) * mean_gray;
     const bool rgb_out = p.network_channel_order == ChannelOrder::rgb;
-    // Row by row: split the pixels into one contiguous float row per channel, then contrast,
-    // brightness and Normalize on the contiguous rows (normalise_row). Per value the same float
-    // operations in the same order as torchvision's steps, each rounded on its own.
-    planes_.resize(3 * static_cast<std::size_t>(w));
-    float* split[3] = {planes_.data(), planes_.data() + w, planes_.data() + 2 * w};
-    for (int y = 0; y < h; ++y) {
-      const float* s = view.ptr<float>(y);
-      for (int x = 0; x < w; ++x) {
-        split[0][x] = s[3 * x + ri];
-        split[1][x] = s[3 * x + 1];
-        split[2][x] = s[3 * x + bi];
-      }
+    // Row by row and channel by channel, contrast, brightness and Normalize on the contiguous
+    // plane rows (normalise_row). Per value the same float operations in the same order as
+    // torchvision's steps, each rounded on its own.
+    for (int y = 0; y < h; ++y)
       for (int c = 0; c < 3; ++c) { // c: RGB channel index
         const int dst = rgb_out ? c : 2 - c;
-        normalise_row(split[c], w, cf, blend, dark, p.dark_brightness_factor,
-                      p.mean[static_cast<std::size_t>(dst)], p.std[static_cast<std::size_t>(dst)],
-                      &out(0, dst, y, 0));
+        normalise_row(planar_row(plane_of[static_cast<std::size_t>(c)], view.y + y) + view.x, w, cf,
+                      blend, dark, p.dark_brightness_factor, p.mean[static_cast<std::size_t>(dst)],
+                      p.std[static_cast<std::size_t>(dst)], &out(0, dst, y, 0));
       }
-    }
   }
 
-  // adjust_contrast's mean: the float grayscale 0.2989 R + 0.587 G + 0.114 B of each pixel of
-  // rectangle m of view, summed in double in pixel order.
-  SHADOWSENSE_STRICT_FP static float gray_mean(const cv::Mat& view, cv::Rect m, int ri, int bi) {
-    SHADOWSENSE_STRICT_FP_BODY
-    double gray_sum = 0;
-    for (int y = m.y; y < m.y + m.height; ++y) {
-      const float* s = view.ptr<float>(y);
-      for (int x = m.x; x < m.x + m.width; ++x)
-        gray_sum += 0.2989f * s[3 * x + ri] + 0.587f * s[3 * x + 1] + 0.114f * s[3 * x + bi];
-    }
-    return static_cast<float>(gray_sum / (double(m.height) * m.width));
+  // adjust_contrast's mean: the float grayscale of each pixel of rectangle m of the planar
+  // image (plane_of: the planes of R, G, B), summed in double in pixel order (detail::gray_sum).
+  float gray_mean(cv::Rect m, const std::array<int, 3>& plane_of) const {
+    const auto at = [&](std::size_t c) { return planar_row(plane_of[c], m.y) + m.x; };
+    const double sum = detail::gray_sum(at(0), at(1), at(2), static_cast<std::size_t>(planar_w_),
+                                        m.width, m.height);
+    return static_cast<float>(sum / (double(m.height) * m.width));
   }
 
   // clamp(v, 0, 1) exactly as std::clamp gives it (NaN and -0 kept), as max then min: compilers
@@ -383,15 +441,16 @@ private:
     }
   }
 
-  // resize_bilinear of the image mapped through table, reading only the tapped pixels.
+  // resize_bilinear of the image mapped through table, reading only the tapped pixels, into the
+  // planar image.
   void resize_bilinear_mapped(const cv::Mat& src, const Table& table, int out_w, int out_h) {
     set_taps(src.cols, src.rows, out_w, out_h);
-    resized_.create(out_h, out_w, CV_32FC3);
+    planar_create(out_h, out_w);
     for (int y = 0; y < out_h; ++y) {
       const auto ky = static_cast<std::size_t>(y);
       detail::scaled_resize_pixels(xt_, 0, out_w, src.ptr<unsigned char>(yt_.a[ky]),
                                    src.ptr<unsigned char>(yt_.b[ky]), yt_.w0[ky], yt_.w1[ky], table,
-                                   resized_.ptr<float>(y));
+                                   planar_out(y));
     }
   }
 
@@ -403,11 +462,35 @@ private:
     return static_cast<int>(i % 2 == 0 ? i : i + 1);
   }
 
+  // The planar image (planar_w_ x planar_h_, three planes in the input's channel order) that
+  // crop_normalise_planar reads; grown, never shrunk (no allocation once at the frame size).
+  void planar_create(int h, int w) {
+    planar_h_ = h;
+    planar_w_ = w;
+    const std::size_t n = 3 * static_cast<std::size_t>(h) * static_cast<std::size_t>(w);
+    if (planar_.size() < n) planar_.resize(n);
+  }
+  std::size_t planar_offset(int c, int y) const {
+    return (static_cast<std::size_t>(c) * static_cast<std::size_t>(planar_h_) +
+            static_cast<std::size_t>(y)) *
+           static_cast<std::size_t>(planar_w_);
+  }
+  float* planar_row(int c, int y) {
+    return planar_.data() + planar_offset(c, y);
+  }
+  const float* planar_row(int c, int y) const {
+    return planar_.data() + planar_offset(c, y);
+  }
+  detail::PlanarRow planar_out(int y) {
+    return {planar_row(0, y), planar_row(1, y), planar_row(2, y)};
+  }
+
   Config config_;
-  cv::Mat float_, resized_;
-  std::vector<float> planes_; // crop_normalise: one row of each channel, contiguous
-  cv::Rect region_{};         // set_contrast_region; empty = the whole image
-  cv::Size input_size_{};     // the image passed to the current run, before the resize
+  cv::Mat resized_;
+  std::vector<float> planar_;
+  int planar_w_ = 0, planar_h_ = 0;
+  cv::Rect region_{};     // set_contrast_region; empty = the whole image
+  cv::Size input_size_{}; // the image passed to the current run, before the resize
   detail::ResizeTaps xt_, yt_;
   std::array<int, 4> taps_for_{};       // the sizes xt_ and yt_ were made for
   detail::ScaledResizePlan plan_;       // run_scaled's vector plan over xt_
