@@ -800,20 +800,20 @@ TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU
   CHECK(worst > 0);
 }
 
-TEST_CASE("winograd_tile: F(4x4) on large images, F(2x2) or direct where tiles leave panels "
-          "empty") {
+TEST_CASE("winograd_tile: F(4x4) on large images and where its GEMM costs at most 1.2x F(2x2)'s, "
+          "F(2x2) or direct where tiles leave panels empty") {
   // DenseNet-121/-161 at 3x150x220 (growth 32 / 48, nr = 32): blocks 1-4
   CHECK(detail::winograd_tile(38, 55, 32, 32) == 4);
-  CHECK(detail::winograd_tile(19, 27, 48, 32) == 2); // F(4x4): 2 panels x 36 > 0.85 x 5 x 16
-  CHECK(detail::winograd_tile(9, 13, 32, 32) == 2);  // 12 tiles of 4x4: one panel 3/8 full
+  CHECK(detail::winograd_tile(19, 27, 48, 32) == 4); // F(4x4): 2 panels x 36 <= 1.2 x 5 x 16
+  CHECK(detail::winograd_tile(9, 13, 32, 32) == 4);  // 12 tiles of 4x4: 36 <= 1.2 x 2 x 16
   CHECK(detail::winograd_tile(4, 6, 32, 32) == 0);   // block 4: 6 tiles in one 32-column panel
   CHECK(detail::winograd_tile(1, 1, 32, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 16, 32) == 4); // 16 output channels: still pays
   CHECK(detail::winograd_tile(38, 55, 8, 32) == 0);  // growth 8: direct
   // The shipped model (growth 12, 3x88x160): blocks 40x22, 20x11, 10x5
   CHECK(detail::winograd_tile(40, 22, 12, 32) == 4);
-  CHECK(detail::winograd_tile(20, 11, 12, 32) == 2);
-  CHECK(detail::winograd_tile(10, 5, 12, 32) == 2);
+  CHECK(detail::winograd_tile(20, 11, 12, 32) == 4); // 15 tiles of 4x4: 36 <= 1.2 x 2 x 16
+  CHECK(detail::winograd_tile(10, 5, 12, 32) == 2);  // 6 tiles of 4x4: 36 > 1.2 x 16
   CHECK(detail::winograd_tile(40, 22, 11, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 32, 16) == 4); // AVX2's 16 columns
 }
