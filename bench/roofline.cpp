@@ -30,11 +30,13 @@
 // written and read once; the implementation's own copies (conv0's input phases, packed GEMM
 // panels, Winograd transforms, padded grids) and re-reads of cached data are not counted: they
 // are what the measured time loses against the floor.
-//   segment    frame in (3 B/px), the empty-skin model's 3 inverse planes + skin weight
-//              (4 floats, 16 B/px) and valid mask (1 B/px), the rule's outputs: 2 masks
-//              (2 B/px) and the darkness and warmth planes (2 floats, 8 B/px), the masks'
-//              smoothing (each read and written: 4 B/px), blob extraction (each mask read:
-//              2 B/px): 36 B/px. Working set: the distinct arrays, 30 B/px.
+//   segment    frame in (3 B/px), the empty-skin model's 3 inverse planes (binary16, 6 B/px)
+//              and skin mask (1 B/px), the rule's outputs: 2 masks (2 B/px) and the darkness
+//              and warmth planes (2 floats, 8 B/px), the masks' smoothing (each read and
+//              written: 4 B/px), blob extraction (each mask read: 2 B/px): 26 B/px. Working
+//              set: the distinct arrays, 20 B/px. (Until 2026-11-29 the inverse planes were
+//              floats, and the model also counted the skin weight plane the rule never reads:
+//              36 and 30 B/px.)
 //   pipeline   the rest of TouchPipeline::update (camera health, tracker, state machines):
 //              the camera health's sample grid (every 4th pixel of every 4th row: every cache
 //              line of every 4th row, 3/4 B/px); the rest is per track. Measured as pipeline
@@ -656,8 +658,8 @@ int main(int argc, char** argv) {
 
     const double px = double(r.frame_w) * r.frame_h;
     Stage segment{"segment"};
-    segment.bytes = 36 * px;
-    segment.working_set = 30 * px;
+    segment.bytes = 26 * px;
+    segment.working_set = 20 * px;
     Stage rest{"pipeline (rest)"};
     rest.bytes = double((r.frame_h + 3) / 4) * r.frame_w * 3;
     rest.working_set = rest.bytes;

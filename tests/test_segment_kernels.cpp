@@ -10,7 +10,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -22,8 +24,14 @@ constexpr int kGuard = 40; // values past a row that a kernel must leave alone
 
 struct Row {
   std::vector<std::uint8_t> bgr, skin;
-  std::vector<float> ipb, ipg, ipr;
+  std::vector<std::uint16_t> ipb, ipg, ipr; // the inverse model as binary16 bits
 };
+
+// A random positive binary16 value with its exponent field in [lo, hi] (15 is [1, 2)).
+std::uint16_t random_half(std::mt19937& rng, int lo, int hi) {
+  std::uniform_int_distribution<int> exponent(lo, hi), fraction(0, 1023);
+  return static_cast<std::uint16_t>((exponent(rng) << 10) | fraction(rng));
+}
 
 Row random_row(std::mt19937& rng, int w) {
   Row r;
@@ -34,16 +42,16 @@ Row random_row(std::mt19937& rng, int w) {
   r.ipg.resize(n);
   r.ipr.resize(n);
   std::uniform_int_distribution<int> byte(0, 255), pick(0, 9);
-  std::uniform_real_distribution<float> inv(0.8f, 1.25f), extreme(0.05f, 20.f);
   for (auto& b : r.bgr)
     b = static_cast<std::uint8_t>(pick(rng) == 0 ? 255 * (byte(rng) & 1) : byte(rng));
   for (std::size_t x = 0; x < n; ++x) {
     const int s = pick(rng);
     r.skin[x] = s < 2 ? 0 : s == 2 ? static_cast<std::uint8_t>(byte(rng)) : 255;
-    for (std::vector<float>* p : {&r.ipb, &r.ipg, &r.ipr})
-      (*p)[x] = r.skin[x] == 0 && s == 0 ? 0.f // off the skin the model is 0
-                : pick(rng) == 0         ? extreme(rng)
-                                         : inv(rng);
+    // 0.5 to 2 mostly, else 1/16 to 32 (the model's inverse lies in 0.05 to 20)
+    for (std::vector<std::uint16_t>* p : {&r.ipb, &r.ipg, &r.ipr})
+      (*p)[x] = r.skin[x] == 0 && s == 0 ? std::uint16_t{0} // off the skin the model is 0
+                : pick(rng) == 0         ? random_half(rng, 11, 19)
+                                         : random_half(rng, 14, 15);
   }
   return r;
 }
@@ -84,7 +92,34 @@ SHADOWSENSE_STRICT_FP float product(float v, float inv, float gain) {
   return v * inv * gain;
 }
 
+// A binary16 value by its definition, (-1)^s 2^(e - 15) (1 + f / 1024), or 2^-14 (f / 1024) for
+// e = 0, in double (exact) and then float (exact: every binary16 value is a float).
+float half_value(std::uint16_t h) {
+  const int e = (h >> 10) & 0x1F, f = h & 0x3FF;
+  const double magnitude = e == 0 ? std::ldexp(f, -24) : std::ldexp(1024 + f, e - 25);
+  return static_cast<float>((h & 0x8000) ? -magnitude : magnitude);
+}
+
 } // namespace
+
+TEST_CASE("half_to_float: every binary16 bit pattern, exactly") {
+  int checked = 0;
+  for (std::uint32_t h = 0; h <= 0xFFFF; ++h) {
+    CAPTURE(h);
+    const auto bits = static_cast<std::uint16_t>(h);
+    const float got = detail::half_to_float(bits);
+    const int e = (h >> 10) & 0x1F, f = h & 0x3FF;
+    if (e == 0x1F) { // infinities and NaNs
+      CHECK((f == 0 ? std::isinf(got) : std::isnan(got)));
+      CHECK(std::signbit(got) == ((h & 0x8000) != 0));
+      continue;
+    }
+    const float want = half_value(bits);
+    CHECK(std::memcmp(&got, &want, sizeof got) == 0); // the bits: -0 stays -0
+    ++checked;
+  }
+  CHECK(checked == 2 * 31 * 1024);
+}
 
 TEST_CASE("relative_row: the portable kernel is the rule's definition") {
   std::mt19937 rng(5);
@@ -94,9 +129,9 @@ TEST_CASE("relative_row: the portable kernel is the rule's definition") {
   const Out o = run(k, p, r, 64);
   int shadow = 0, contact = 0;
   for (std::size_t x = 0; x < 64; ++x) {
-    const float qb = product(r.bgr[3 * x], r.ipb[x], p.gb);
-    const float qg = product(r.bgr[3 * x + 1], r.ipg[x], p.gg);
-    const float qr = product(r.bgr[3 * x + 2], r.ipr[x], p.gr);
+    const float qb = product(r.bgr[3 * x], half_value(r.ipb[x]), p.gb);
+    const float qg = product(r.bgr[3 * x + 1], half_value(r.ipg[x]), p.gg);
+    const float qr = product(r.bgr[3 * x + 2], half_value(r.ipr[x]), p.gr);
     const float d = darkness_of(qb, qg, qr, r.skin[x] != 0);
     CHECK(o.d[x] == d);
     CHECK(o.w[x] == qr - qb);

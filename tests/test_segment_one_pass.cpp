@@ -21,6 +21,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -80,8 +81,9 @@ void check_blob_sums(const std::vector<Blob>& blobs, const cv::Mat& mask, const 
   }
 }
 
-// The model planes the rule reads, rebuilt from the segmenter's public state.
-std::array<cv::Mat, 4> model_planes(const Segmenter& s, cv::Size size) {
+// The model planes the rule reads, rebuilt from the segmenter's public state: the inverse of
+// the profile rounded to the nearest binary16 (OpenCV's rounding; `half` false: not rounded).
+std::array<cv::Mat, 4> model_planes(const Segmenter& s, cv::Size size, bool half = true) {
   std::array<cv::Mat, 4> planes;
   if (!s.has_empty_skin()) {
     for (cv::Mat& p : planes) p = cv::Mat(size, CV_32F, cv::Scalar(1));
@@ -93,7 +95,8 @@ std::array<cv::Mat, 4> model_planes(const Segmenter& s, cv::Size size) {
     for (int x = 0; x < profile.cols; ++x)
       for (int k = 0; k < 3; ++k) {
         const float p = profile.at<cv::Vec3f>(y, x)[k];
-        inv.at<cv::Vec3f>(y, x)[k] = p > 0 ? 1.f / p : 0.f;
+        const float v = p > 0 ? 1.f / p : 0.f;
+        inv.at<cv::Vec3f>(y, x)[k] = half ? static_cast<float>(cv::float16_t(v)) : v;
       }
   cv::split(inv, planes.data());
   s.skin_area().convertTo(planes[3], CV_32F, 1.0 / 255);
@@ -251,6 +254,8 @@ TEST_CASE("every per-row kernel equals the portable one on the frames' rows") {
       Segmentation s;
       seg.segment(frame, s); // the frame's reference
       const std::array<cv::Mat, 4> planes = model_planes(seg, frame.size());
+      std::array<cv::Mat, 3> half;
+      for (std::size_t k = 0; k < 3; ++k) planes[k].convertTo(half[k], CV_16F); // exact
       const cv::Vec3f ref = seg.last_reference();
       const detail::RelativeRowParams p{1.f / ref[0], 1.f / ref[1], 1.f / ref[2],
                                         0.2f,         0.45f,        0.08f};
@@ -261,8 +266,8 @@ TEST_CASE("every per-row kernel equals the portable one on the frames' rows") {
       for (int y = 0; y < frame.rows; ++y) {
         auto run = [&](const detail::SegmentKernels& kk, float* d, float* wm, std::uint8_t* sm,
                        std::uint8_t* cm) {
-          kk.relative_row(p, frame.ptr<std::uint8_t>(y), planes[0].ptr<float>(y),
-                          planes[1].ptr<float>(y), planes[2].ptr<float>(y),
+          kk.relative_row(p, frame.ptr<std::uint8_t>(y), half[0].ptr<std::uint16_t>(y),
+                          half[1].ptr<std::uint16_t>(y), half[2].ptr<std::uint16_t>(y),
                           seg.skin_area().ptr<std::uint8_t>(y), w, d, wm, sm, cm);
         };
         run(portable, d1.data(), w1.data(), s1.data(), c1.data());
@@ -274,4 +279,58 @@ TEST_CASE("every per-row kernel equals the portable one on the frames' rows") {
   }
   CHECK(kinds == std::count_if(vector_kinds.begin(), vector_kinds.end(),
                                [](SegmentKernelKind k) { return segment_cpu_has(k); }));
+}
+
+// The segmenter reads the empty-skin model's inverse rounded to binary16 (segmenter.hpp). Against
+// the float model it replaced (the reference colour, thresholds and masks all made from the
+// unrounded inverse, by the multi-pass oracle): the masks may differ only where a pixel's
+// darkness or warmth lies within the rounding (a relative 2^-11 of its q) of a threshold.
+TEST_CASE("the binary16 model against the float one: the masks of generator and real-hand frames "
+          "within 1 in 10^4 pixels") {
+  Fixture& f = fixture();
+  std::vector<cv::Mat> frames = f.generated_frames();
+  for (const cv::Mat& m : f.realhand_frames()) frames.push_back(m);
+  Segmenter seg(f.calibration.config);
+  const SegmenterCalibration& c = seg.config().calibration;
+  REQUIRE(c.mode == SegmentMode::relative);
+  const RelativeRule rule{c.shadow_darkness, c.contact_darkness, c.contact_warmth, c.by_light};
+  double pixels = 0, shadow_differ = 0, contact_differ = 0, shadow_pixels = 0;
+  int reference_differ = 0;
+  float worst_darkness =
+      0; // max |darkness (binary16) - darkness (float)| where the references agree
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    CAPTURE(i);
+    const cv::Mat& frame = frames[i];
+    Segmentation a;
+    seg.segment(frame, a);
+    const std::array<cv::Mat, 4> planes = model_planes(seg, frame.size(), false);
+    cv::Mat inverse_profile;
+    cv::merge(planes.data(), 3, inverse_profile);
+    const cv::Vec3f ref = reference_colour(frame, inverse_profile, c.reference_percentile);
+    const ReferenceMasks r = reference_relative_masks(frame, planes, seg.skin_area(), ref,
+                                                      rule.thresholds_at(detail::luminance(ref)),
+                                                      seg.config().mask_blur);
+    pixels += static_cast<double>(frame.total());
+    shadow_differ += differing(a.shadow_mask, r.shadow);
+    contact_differ += differing(a.contact_mask, r.contact);
+    shadow_pixels += cv::countNonZero(r.shadow);
+    if (ref == seg.last_reference()) {
+      cv::Mat diff;
+      cv::absdiff(seg.darkness(), r.darkness, diff);
+      double hi = 0;
+      cv::minMaxLoc(diff, nullptr, &hi);
+      worst_darkness = std::max(worst_darkness, static_cast<float>(hi));
+    } else {
+      ++reference_differ;
+    }
+  }
+  MESSAGE("binary16 against float model over ", frames.size(), " frames: shadow pixels differing ",
+          shadow_differ, ", contact ", contact_differ, " of ", pixels, " (shadow pixels ",
+          shadow_pixels, "); frames whose reference differs ", reference_differ,
+          "; max |darkness difference| where it agrees ", worst_darkness);
+  CHECK(shadow_pixels > 0.01 * pixels); // the frames have shadows to compare
+  CHECK(shadow_differ <= 1e-4 * pixels);
+  CHECK(contact_differ <= 1e-4 * pixels);
+  // q <= 3 (a pixel three times the lit skin), each inverse within 2^-11 of its float
+  CHECK(worst_darkness <= 3.f * std::ldexp(1.f, -11));
 }

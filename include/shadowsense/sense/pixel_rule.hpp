@@ -11,7 +11,10 @@
 //   classify(in, out)
 //     requires: in.bgr is CV_8UC3; in.skin is CV_8UC1 (255 on the skin) of the same size;
 //               in.inverse_model holds four CV_32F planes of that size: 1 / (empty-skin model) for
-//               B, G, R (all 1 without a model) and the skin weight (1 on the skin, 0 off it);
+//               B, G, R (all 1 without a model), each value one of IEEE binary16 (the segmenter
+//               rounds the inverse model to half precision), and the skin weight (1 on the skin,
+//               0 off it); in.inverse_model_half, when set, holds the same three B, G, R planes
+//               as CV_16F (half the bytes: what RelativeRule reads every frame);
 //               in.reference is the frame's reference colour (BGR, 8-bit units; only computed
 //               when the rule's uses_reference() returns true, or when it has no such member).
 //               out.shadow_mask and out.contact_mask are allocated CV_8UC1 of the frame's size.
@@ -54,6 +57,7 @@
 #include <array>
 #include <cmath>
 #include <concepts>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -209,6 +213,8 @@ struct PixelRuleInput {
   const std::array<cv::Mat, 4>& inverse_model; // 1/model per channel (CV_32F) + skin weight
   const cv::Mat& skin;                         // CV_8UC1, 255 on the skin
   cv::Vec3f reference{1, 1, 1};                // the frame's reference colour (BGR, 8-bit units)
+  // The B, G, R planes of inverse_model as CV_16F (the same values): the segmenter sets it.
+  const std::array<cv::Mat, 3>* inverse_model_half = nullptr;
 };
 
 // What a rule writes (see the concept above).
@@ -302,6 +308,13 @@ struct RelativeRule {
   };
   RowState begin_rows(const PixelRuleInput& in, PixelRuleOutput& out) const {
     const cv::Size size = in.bgr.size();
+    detail::require(in.inverse_model_half != nullptr &&
+                        std::all_of(in.inverse_model_half->begin(), in.inverse_model_half->end(),
+                                    [size](const cv::Mat& m) {
+                                      return m.type() == CV_16F && m.size() == size;
+                                    }),
+                    "RelativeRule: the input has no CV_16F inverse model of the frame's size "
+                    "(PixelRuleInput::inverse_model_half; Segmenter sets it)");
     out.darkness.create(size, CV_32F);
     out.warmth.create(size, CV_32F);
     const cv::Vec3f gain = in.reference;
@@ -315,9 +328,9 @@ struct RelativeRule {
   }
   void classify_row(const PixelRuleInput& in, const RowState& st, PixelRuleOutput& out, int y,
                     uchar* shadow, uchar* contact) const {
-    const std::array<cv::Mat, 4>& planes = in.inverse_model;
-    st.kernels->relative_row(st.params, in.bgr.ptr<uchar>(y), planes[0].ptr<float>(y),
-                             planes[1].ptr<float>(y), planes[2].ptr<float>(y),
+    const std::array<cv::Mat, 3>& planes = *in.inverse_model_half;
+    st.kernels->relative_row(st.params, in.bgr.ptr<uchar>(y), planes[0].ptr<std::uint16_t>(y),
+                             planes[1].ptr<std::uint16_t>(y), planes[2].ptr<std::uint16_t>(y),
                              in.skin.ptr<uchar>(y), in.bgr.cols, out.darkness.ptr<float>(y),
                              out.warmth.ptr<float>(y), shadow, contact);
   }

@@ -8,8 +8,8 @@
 //   segment_kernels_neon.hpp      Advanced SIMD (aarch64), compiled in there
 //
 // SegmentKernelKind: automatic picks avx512 on an x86 CPU that has AVX-512 F, BW and VL, else
-//   avx2 on one that has AVX2, neon on aarch64, else portable. The avx512 kind's relative rule
-//   splits the channels by byte permutes where the CPU also has VBMI.
+//   avx2 on one that has AVX2 and F16C, neon on aarch64, else portable. The avx512 kind's relative
+//   rule splits the channels by byte permutes where the CPU also has VBMI.
 // segment_cpu_has(kind): true when kind is compiled in and the CPU runs it (automatic: false).
 // segment_kernels(kind)
 //   requires: kind is automatic or segment_cpu_has(kind); throws InvalidArgument otherwise.
@@ -50,8 +50,8 @@ inline bool segment_cpu_has(SegmentKernelKind kind) {
   case SegmentKernelKind::portable:
     return true;
 #if SHADOWSENSE_SEGMENT_X86
-  case SegmentKernelKind::avx2:
-    return __builtin_cpu_supports("avx2");
+  case SegmentKernelKind::avx2: // F16C: the relative rule reads the model as binary16
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
   case SegmentKernelKind::avx512:
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
            __builtin_cpu_supports("avx512vl");

@@ -25,12 +25,15 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
 
-SHADOWSENSE_STRICT_FP inline void relative_row_neon(const RelativeRowParams& p,
-                                                    const std::uint8_t* bgr, const float* ipb,
-                                                    const float* ipg, const float* ipr,
-                                                    const std::uint8_t* skin, int w, float* dk,
-                                                    float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+SHADOWSENSE_STRICT_FP inline void
+relative_row_neon(const RelativeRowParams& p, const std::uint8_t* bgr, const std::uint16_t* ipb,
+                  const std::uint16_t* ipg, const std::uint16_t* ipr, const std::uint8_t* skin,
+                  int w, float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
+  // Four binary16 values (bits) as floats, exactly (aarch64 converts half precision natively).
+  const auto halves = [](const std::uint16_t* h) {
+    return vcvt_f32_f16(vreinterpret_f16_u16(vld1_u16(h)));
+  };
   const float32x4_t gb = vdupq_n_f32(p.gb), gg = vdupq_n_f32(p.gg), gr = vdupq_n_f32(p.gr);
   const float32x4_t third = vdupq_n_f32(1.f / 3.f), one = vdupq_n_f32(1.f);
   const float32x4_t ts = vdupq_n_f32(p.shadow), tc = vdupq_n_f32(p.contact),
@@ -54,9 +57,9 @@ SHADOWSENSE_STRICT_FP inline void relative_row_neon(const RelativeRowParams& p,
     quarters(s8, s);
     for (int j = 0; j < 4; ++j) {
       const int o = x + 4 * j;
-      const float32x4_t qb = vmulq_f32(vmulq_f32(vcvtq_f32_u32(b[j]), vld1q_f32(ipb + o)), gb);
-      const float32x4_t qg = vmulq_f32(vmulq_f32(vcvtq_f32_u32(g[j]), vld1q_f32(ipg + o)), gg);
-      const float32x4_t qr = vmulq_f32(vmulq_f32(vcvtq_f32_u32(r[j]), vld1q_f32(ipr + o)), gr);
+      const float32x4_t qb = vmulq_f32(vmulq_f32(vcvtq_f32_u32(b[j]), halves(ipb + o)), gb);
+      const float32x4_t qg = vmulq_f32(vmulq_f32(vcvtq_f32_u32(g[j]), halves(ipg + o)), gg);
+      const float32x4_t qr = vmulq_f32(vmulq_f32(vcvtq_f32_u32(r[j]), halves(ipr + o)), gr);
       const float32x4_t on_skin =
           vreinterpretq_f32_u32(vandq_u32(vtstq_u32(s[j], s[j]), vreinterpretq_u32_f32(one)));
       const float32x4_t d = vsubq_f32(on_skin, vmulq_f32(vaddq_f32(vaddq_f32(qb, qg), qr), third));
@@ -75,7 +78,17 @@ SHADOWSENSE_STRICT_FP inline void relative_row_neon(const RelativeRowParams& p,
     vst1q_u8(cm + x, c);
     vst1q_u8(sm + x, vorrq_u8(vandq_u8(to_bytes(sq), s8), c));
   }
-  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+  if (x < w) { // the last 1-15 pixels: their halves converted four at a time, then alone
+    std::uint16_t h[3][16] = {};
+    float inv[3][16];
+    const std::uint16_t* ip[3] = {ipb, ipg, ipr};
+    for (int c = 0; c < 3; ++c) {
+      for (int i = 0; x + i < w; ++i) h[c][i] = ip[c][x + i];
+      for (int q = 0; q < 16; q += 4) vst1q_f32(inv[c] + q, halves(h[c] + q));
+    }
+    relative_pixels(
+        p, bgr, [&inv, x](int c, int px) { return inv[c][px - x]; }, skin, x, w, dk, wm, sm, cm);
+  }
 }
 
 } // namespace detail

@@ -5,15 +5,20 @@
 // OpenCV: raw pointers only (so the aarch64 build under emulation can test them alone).
 //
 // relative_row_portable(p, bgr, ipb, ipg, ipr, skin, w, darkness, warmth, shadow, contact)
-//   requires: bgr holds 3 w bytes (B, G, R per pixel); ipb, ipg, ipr, darkness, warmth w floats;
-//             skin, shadow, contact w bytes; outputs do not overlap the inputs.
-//   ensures:  for every pixel x, in this order of float operations (no fused multiply-add):
-//               qb = (B * ipb[x]) * p.gb, qg = (G * ipg[x]) * p.gg, qr = (R * ipr[x]) * p.gr
+//   requires: bgr holds 3 w bytes (B, G, R per pixel); ipb, ipg, ipr w IEEE binary16 values (the
+//             inverse empty-skin model, as bits: half the bytes of floats, and the segmenter reads
+//             them every frame); darkness, warmth w floats; skin, shadow, contact w bytes; outputs
+//             do not overlap the inputs.
+//   ensures:  for every pixel x, with ib = half_to_float(ipb[x]) (exact), likewise ig and ir, in
+//             this order of float operations (no fused multiply-add):
+//               qb = (B * ib) * p.gb, qg = (G * ig) * p.gg, qr = (R * ir) * p.gr
 //               darkness[x] = s - ((qb + qg) + qr) * (1 / 3), s = 1 when skin[x] != 0 else 0
 //               warmth[x] = qr - qb
 //               contact[x] = skin[x] when darkness >= p.contact and warmth >= p.warmth, else 0
 //               shadow[x] = (skin[x] when darkness >= p.shadow, else 0) | contact[x]
 //             (RelativeRule's definition, pixel_rule.hpp).
+// half_to_float(h): the float of the IEEE binary16 value with bits h, exactly (every binary16
+//   value, subnormals, infinities and NaNs included, is a float).
 // hsum_row<K>(pad, w, out), K = 3 or 5
 //   requires: pad holds w + K - 1 bytes (a row with K / 2 replicated pixels at each end).
 //   ensures:  out[x] = sum over t of wt[t] pad[x + t], wt = (1 2 1) or (1 4 6 4 1) (exact in 16
@@ -39,11 +44,32 @@
 #include <shadowsense/core/version.hpp>
 
 #include <array>
+#include <bit>
 #include <cstddef>
 #include <cstdint>
 
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
+
+// IEEE binary16 to float by the bits: 5 exponent bits (bias 15) and 10 fraction bits become 8
+// (bias 127) and 23; a subnormal half (exponent 0) is normalised first. Normal values first:
+// they are the model's (its inverse lies in 0.05 to 20, or is 0 off the skin).
+constexpr float half_to_float(std::uint16_t h) {
+  const std::uint32_t sign = static_cast<std::uint32_t>(h & 0x8000u) << 16;
+  const std::uint32_t exponent = (h >> 10) & 0x1Fu;
+  std::uint32_t fraction = h & 0x3FFu;
+  if (exponent - 1u < 30u) // normal: 1 to 30
+    return std::bit_cast<float>(sign | ((exponent + 112u) << 23) | (fraction << 13));
+  if (exponent == 0x1Fu) // infinity or NaN (the payload kept)
+    return std::bit_cast<float>(sign | 0x7F800000u | (fraction << 13));
+  if (fraction == 0) return std::bit_cast<float>(sign); // +-0
+  std::uint32_t e = 113; // subnormal: fraction x 2^-24; shift its top bit to the implicit one
+  while ((fraction & 0x400u) == 0) {
+    fraction <<= 1;
+    --e;
+  }
+  return std::bit_cast<float>(sign | (e << 23) | ((fraction & 0x3FFu) << 13));
+}
 
 // One frame's constants of the relative rule.
 struct RelativeRowParams {
@@ -52,20 +78,23 @@ struct RelativeRowParams {
 };
 
 using RelativeRowFn = void (*)(const RelativeRowParams& p, const std::uint8_t* bgr,
-                               const float* ipb, const float* ipg, const float* ipr,
-                               const std::uint8_t* skin, int w, float* darkness, float* warmth,
-                               std::uint8_t* shadow, std::uint8_t* contact);
+                               const std::uint16_t* ipb, const std::uint16_t* ipg,
+                               const std::uint16_t* ipr, const std::uint8_t* skin, int w,
+                               float* darkness, float* warmth, std::uint8_t* shadow,
+                               std::uint8_t* contact);
 
-// Pixels [x0, w) of relative_row (the vector kernels finish their rows with it).
-SHADOWSENSE_STRICT_FP inline void
-relative_row_tail(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
-                  const float* ipg, const float* ipr, const std::uint8_t* skin, int x0, int w,
-                  float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+// Pixels [x0, w) of relative_row with channel k's inverse model at pixel x read as
+// inverse(k, x), a float (the rule's definition, one pixel at a time).
+template <class Inverse>
+SHADOWSENSE_STRICT_FP SHADOWSENSE_ALWAYS_INLINE void
+relative_pixels(const RelativeRowParams& p, const std::uint8_t* bgr, const Inverse& inverse,
+                const std::uint8_t* skin, int x0, int w, float* dk, float* wm, std::uint8_t* sm,
+                std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
   for (int x = x0; x < w; ++x) {
-    const float qb = static_cast<float>(bgr[3 * x]) * ipb[x] * p.gb;
-    const float qg = static_cast<float>(bgr[3 * x + 1]) * ipg[x] * p.gg;
-    const float qr = static_cast<float>(bgr[3 * x + 2]) * ipr[x] * p.gr;
+    const float qb = static_cast<float>(bgr[3 * x]) * inverse(0, x) * p.gb;
+    const float qg = static_cast<float>(bgr[3 * x + 1]) * inverse(1, x) * p.gg;
+    const float qr = static_cast<float>(bgr[3 * x + 2]) * inverse(2, x) * p.gr;
     const float s = skin[x] != 0 ? 1.f : 0.f;
     const float d = s - (qb + qg + qr) * (1.f / 3.f);
     const float wt = qr - qb;
@@ -77,10 +106,23 @@ relative_row_tail(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
   }
 }
 
+// Pixels [x0, w) of relative_row, each binary16 converted alone. Strict here too: the rule's
+// arithmetic, inlined from relative_pixels, takes the flags of the function it lands in.
+SHADOWSENSE_STRICT_FP inline void
+relative_row_tail(const RelativeRowParams& p, const std::uint8_t* bgr, const std::uint16_t* ipb,
+                  const std::uint16_t* ipg, const std::uint16_t* ipr, const std::uint8_t* skin,
+                  int x0, int w, float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+  SHADOWSENSE_STRICT_FP_BODY
+  const std::array<const std::uint16_t*, 3> ip{ipb, ipg, ipr};
+  relative_pixels(
+      p, bgr, [&ip](int k, int x) { return half_to_float(ip[static_cast<std::size_t>(k)][x]); },
+      skin, x0, w, dk, wm, sm, cm);
+}
+
 inline void relative_row_portable(const RelativeRowParams& p, const std::uint8_t* bgr,
-                                  const float* ipb, const float* ipg, const float* ipr,
-                                  const std::uint8_t* skin, int w, float* dk, float* wm,
-                                  std::uint8_t* sm, std::uint8_t* cm) {
+                                  const std::uint16_t* ipb, const std::uint16_t* ipg,
+                                  const std::uint16_t* ipr, const std::uint8_t* skin, int w,
+                                  float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
   relative_row_tail(p, bgr, ipb, ipg, ipr, skin, 0, w, dk, wm, sm, cm);
 }
 

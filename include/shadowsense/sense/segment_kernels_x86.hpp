@@ -83,10 +83,16 @@ __attribute__((target("avx2"))) inline void store_u16_avx2(std::uint16_t* dst, _
   _mm_storeu_si128(reinterpret_cast<__m128i*>(dst), packed);
 }
 
-__attribute__((target("avx2"))) SHADOWSENSE_STRICT_FP inline void
-relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
-                  const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
-                  float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+// Eight binary16 values (bits) at p as floats, exactly (F16C, which every AVX2 CPU has; the
+// avx2 kind requires it).
+__attribute__((target("avx2,f16c"))) inline __m256 load_halves_avx2(const std::uint16_t* p) {
+  return _mm256_cvtph_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)));
+}
+
+__attribute__((target("avx2,f16c"))) SHADOWSENSE_STRICT_FP inline void
+relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const std::uint16_t* ipb,
+                  const std::uint16_t* ipg, const std::uint16_t* ipr, const std::uint8_t* skin,
+                  int w, float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
   const __m256 gb = _mm256_set1_ps(p.gb), gg = _mm256_set1_ps(p.gg), gr = _mm256_set1_ps(p.gr);
   const __m256 third = _mm256_set1_ps(1.f / 3.f), one = _mm256_set1_ps(1.f);
   const __m256 ts = _mm256_set1_ps(p.shadow), tc = _mm256_set1_ps(p.contact),
@@ -123,11 +129,11 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
                     gh = h == 0 ? g8 : _mm_srli_si128(g8, 8),
                     rh = h == 0 ? r8 : _mm_srli_si128(r8, 8);
       const __m256 qb =
-          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(bh), _mm256_loadu_ps(ipb + o)), gb);
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(bh), load_halves_avx2(ipb + o)), gb);
       const __m256 qg =
-          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(gh), _mm256_loadu_ps(ipg + o)), gg);
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(gh), load_halves_avx2(ipg + o)), gg);
       const __m256 qr =
-          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(rh), _mm256_loadu_ps(ipr + o)), gr);
+          _mm256_mul_ps(_mm256_mul_ps(widen_bytes_avx2(rh), load_halves_avx2(ipr + o)), gr);
       const __m256i s32 = _mm256_cvtepu8_epi32(h == 0 ? s8 : _mm_srli_si128(s8, 8));
       const __m256 on_skin =
           _mm256_andnot_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(s32, zero)), one);
@@ -145,7 +151,19 @@ relative_row_avx2(const RelativeRowParams& p, const std::uint8_t* bgr, const flo
     _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
     _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), s);
   }
-  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+  if (x < w) { // the last 1-15 pixels: their halves converted by F16C (16 at a time), then alone
+    alignas(32) std::uint16_t h[3][16] = {};
+    alignas(32) float inv[3][16];
+    const std::array<const std::uint16_t*, 3> ip{ipb, ipg, ipr};
+    for (std::size_t c = 0; c < 3; ++c) {
+      std::copy(ip[c] + x, ip[c] + w, h[c]);
+      _mm256_store_ps(inv[c], load_halves_avx2(h[c]));
+      _mm256_store_ps(inv[c] + 8, load_halves_avx2(h[c] + 8));
+    }
+    relative_pixels(
+        p, bgr, [&inv, x](int c, int px) { return inv[static_cast<std::size_t>(c)][px - x]; }, skin,
+        x, w, dk, wm, sm, cm);
+  }
 }
 
 // A gather does not train the hardware prefetcher, and reference_bins is among the first code
@@ -286,54 +304,94 @@ SHADOWSENSE_AVX512 inline RelativeConsts512 relative_consts_avx512(const Relativ
           _mm512_set1_ps(p.contact),
           _mm512_set1_ps(p.warmth)};
 }
+// Tail: only the pixels in `lanes` are read and written (masked loads and stores, which do not
+// touch the memory of the other lanes): a row's last 1-15 pixels take the same vector operations
+// as the others (a scalar tail converting each binary16 alone cost a tenth of the rule).
+template <bool Tail>
 SHADOWSENSE_AVX512 SHADOWSENSE_STRICT_FP inline void
-relative_pixels16_avx512(const RelativeConsts512& k, const __m512* f, const float* ipb,
-                         const float* ipg, const float* ipr, const std::uint8_t* skin, int x,
-                         float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+relative_pixels16_avx512(const RelativeConsts512& k, const __m512* f, const std::uint16_t* ipb,
+                         const std::uint16_t* ipg, const std::uint16_t* ipr,
+                         const std::uint8_t* skin, int x, __mmask16 lanes, float* dk, float* wm,
+                         std::uint8_t* sm, std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
-  // B, G, R over the model, times the frame's gains.
-  const __m512 qb = _mm512_mul_ps(_mm512_mul_ps(f[0], _mm512_loadu_ps(ipb + x)), k.g[0]);
-  const __m512 qg = _mm512_mul_ps(_mm512_mul_ps(f[1], _mm512_loadu_ps(ipg + x)), k.g[1]);
-  const __m512 qr = _mm512_mul_ps(_mm512_mul_ps(f[2], _mm512_loadu_ps(ipr + x)), k.g[2]);
-  const __m128i s8 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
+  // B, G, R over the model (16 binary16 values each, converted exactly), times the frame's gains.
+  const auto halves = [x, lanes](const std::uint16_t* ip) {
+    const __m256i h = Tail ? _mm256_maskz_loadu_epi16(lanes, ip + x)
+                           : _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ip + x));
+    return _mm512_maskz_cvtph_ps(kAll16, h);
+  };
+  const __m512 qb = _mm512_mul_ps(_mm512_mul_ps(f[0], halves(ipb)), k.g[0]);
+  const __m512 qg = _mm512_mul_ps(_mm512_mul_ps(f[1], halves(ipg)), k.g[1]);
+  const __m512 qr = _mm512_mul_ps(_mm512_mul_ps(f[2], halves(ipr)), k.g[2]);
+  const __m128i s8 = Tail ? _mm_maskz_loadu_epi8(lanes, skin + x)
+                          : _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
   const __mmask16 on_skin = _mm_test_epi8_mask(s8, s8);
   const __m512 d = _mm512_sub_ps(_mm512_maskz_mov_ps(on_skin, k.one),
                                  _mm512_mul_ps(_mm512_add_ps(_mm512_add_ps(qb, qg), qr), k.third));
   const __m512 wt = _mm512_sub_ps(qr, qb);
-  _mm512_storeu_ps(dk + x, d);
-  _mm512_storeu_ps(wm + x, wt);
   const __mmask16 contact =
       _mm512_cmp_ps_mask(d, k.tc, _CMP_GE_OQ) & _mm512_cmp_ps_mask(wt, k.tw, _CMP_GE_OQ);
   const __mmask16 shadow = _mm512_cmp_ps_mask(d, k.ts, _CMP_GE_OQ);
   const __m128i c = _mm_maskz_mov_epi8(contact, s8);
-  _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
-  _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x),
-                   _mm_or_si128(_mm_maskz_mov_epi8(shadow, s8), c));
+  const __m128i sc = _mm_or_si128(_mm_maskz_mov_epi8(shadow, s8), c);
+  if constexpr (Tail) {
+    _mm512_mask_storeu_ps(dk + x, lanes, d);
+    _mm512_mask_storeu_ps(wm + x, lanes, wt);
+    _mm_mask_storeu_epi8(cm + x, lanes, c);
+    _mm_mask_storeu_epi8(sm + x, lanes, sc);
+  } else {
+    _mm512_storeu_ps(dk + x, d);
+    _mm512_storeu_ps(wm + x, wt);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(cm + x), c);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(sm + x), sc);
+  }
+}
+
+// The lanes of a row's last `left` (1-15) pixels, and the mask of their 3 x left bytes.
+inline __mmask16 tail_lanes16(int left) {
+  return static_cast<__mmask16>((1u << left) - 1);
+}
+inline __mmask64 tail_bytes48(int left) {
+  return (__mmask64{1} << (3 * left)) - 1;
+}
+
+// B, G, R of 16 pixels (48 bytes in three vectors) as floats, by byte shuffles.
+SHADOWSENSE_AVX512 inline void split_bgr16_avx512(__m128i a0, __m128i a1, __m128i a2,
+                                                  const __m128i (&split)[3][3], __m512* f) {
+  for (std::size_t c = 0; c < 3; ++c)
+    f[c] = widen_bytes_avx512(_mm_or_si128(
+        _mm_or_si128(_mm_shuffle_epi8(a0, split[c][0]), _mm_shuffle_epi8(a1, split[c][1])),
+        _mm_shuffle_epi8(a2, split[c][2])));
 }
 
 SHADOWSENSE_AVX512 SHADOWSENSE_STRICT_FP inline void
-relative_row_avx512(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
-                    const float* ipg, const float* ipr, const std::uint8_t* skin, int w, float* dk,
-                    float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+relative_row_avx512(const RelativeRowParams& p, const std::uint8_t* bgr, const std::uint16_t* ipb,
+                    const std::uint16_t* ipg, const std::uint16_t* ipr, const std::uint8_t* skin,
+                    int w, float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
   const RelativeConsts512 k = relative_consts_avx512(p);
   __m128i split[3][3];
   for (std::size_t c = 0; c < 3; ++c)
     for (std::size_t j = 0; j < 3; ++j)
       split[c][j] = _mm_loadu_si128(reinterpret_cast<const __m128i*>(kBgrSplit[c][j].data()));
+  __m512 f[3];
   int x = 0;
   for (; x + 16 <= w; x += 16) {
     const auto* src = reinterpret_cast<const __m128i*>(bgr + 3 * x);
-    const __m128i a0 = _mm_loadu_si128(src), a1 = _mm_loadu_si128(src + 1),
-                  a2 = _mm_loadu_si128(src + 2);
-    __m512 f[3];
-    for (std::size_t c = 0; c < 3; ++c)
-      f[c] = widen_bytes_avx512(_mm_or_si128(
-          _mm_or_si128(_mm_shuffle_epi8(a0, split[c][0]), _mm_shuffle_epi8(a1, split[c][1])),
-          _mm_shuffle_epi8(a2, split[c][2])));
-    relative_pixels16_avx512(k, f, ipb, ipg, ipr, skin, x, dk, wm, sm, cm);
+    split_bgr16_avx512(_mm_loadu_si128(src), _mm_loadu_si128(src + 1), _mm_loadu_si128(src + 2),
+                       split, f);
+    relative_pixels16_avx512<false>(k, f, ipb, ipg, ipr, skin, x, kAll16, dk, wm, sm, cm);
   }
-  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+  if (x < w) {
+    const __mmask64 bytes = tail_bytes48(w - x);
+    const std::uint8_t* src = bgr + 3 * x;
+    split_bgr16_avx512(_mm_maskz_loadu_epi8(static_cast<__mmask16>(bytes), src),
+                       _mm_maskz_loadu_epi8(static_cast<__mmask16>(bytes >> 16), src + 16),
+                       _mm_maskz_loadu_epi8(static_cast<__mmask16>(bytes >> 32), src + 32), split,
+                       f);
+    relative_pixels16_avx512<true>(k, f, ipb, ipg, ipr, skin, x, tail_lanes16(w - x), dk, wm, sm,
+                                   cm);
+  }
 }
 
 // vpermb index taking channel c of 16 packed BGR pixels into byte 0 of 32-bit lane i (the other
@@ -352,24 +410,30 @@ constexpr __mmask64 kLowByteOfLanes = 0x1111111111111111ull;
 // into 32-bit lanes: 3 permutes where the other kernel takes 9 shuffles, 6 ORs and 3 widenings
 // (16 pixels' 48 bytes read by one masked load, nothing past them). The same floats and bytes.
 __attribute__((target("avx512f,avx512bw,avx512vl,avx512vbmi"))) SHADOWSENSE_STRICT_FP inline void
-relative_row_avx512_vbmi(const RelativeRowParams& p, const std::uint8_t* bgr, const float* ipb,
-                         const float* ipg, const float* ipr, const std::uint8_t* skin, int w,
-                         float* dk, float* wm, std::uint8_t* sm, std::uint8_t* cm) {
+relative_row_avx512_vbmi(const RelativeRowParams& p, const std::uint8_t* bgr,
+                         const std::uint16_t* ipb, const std::uint16_t* ipg,
+                         const std::uint16_t* ipr, const std::uint8_t* skin, int w, float* dk,
+                         float* wm, std::uint8_t* sm, std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
   const RelativeConsts512 k = relative_consts_avx512(p);
   __m512i index[3];
   for (std::size_t c = 0; c < 3; ++c) index[c] = _mm512_loadu_si512(kBgrLaneIndex[c].data());
-  constexpr __mmask64 pixels16 = (__mmask64{1} << 48) - 1;
-  int x = 0;
-  for (; x + 16 <= w; x += 16) {
-    const __m512i v = _mm512_maskz_loadu_epi8(pixels16, bgr + 3 * x);
-    __m512 f[3];
+  const auto split = [&index](__m512i v, __m512* f) {
     for (std::size_t c = 0; c < 3; ++c)
       f[c] = _mm512_maskz_cvtepi32_ps(kAll16,
                                       _mm512_maskz_permutexvar_epi8(kLowByteOfLanes, index[c], v));
-    relative_pixels16_avx512(k, f, ipb, ipg, ipr, skin, x, dk, wm, sm, cm);
+  };
+  __m512 f[3];
+  int x = 0;
+  for (; x + 16 <= w; x += 16) {
+    split(_mm512_maskz_loadu_epi8(tail_bytes48(16), bgr + 3 * x), f);
+    relative_pixels16_avx512<false>(k, f, ipb, ipg, ipr, skin, x, kAll16, dk, wm, sm, cm);
   }
-  relative_row_tail(p, bgr, ipb, ipg, ipr, skin, x, w, dk, wm, sm, cm);
+  if (x < w) { // the last 1-15 pixels, masked (the same operations)
+    split(_mm512_maskz_loadu_epi8(tail_bytes48(w - x), bgr + 3 * x), f);
+    relative_pixels16_avx512<true>(k, f, ipb, ipg, ipr, skin, x, tail_lanes16(w - x), dk, wm, sm,
+                                   cm);
+  }
 }
 
 inline bool segment_cpu_has_vbmi() {

@@ -28,7 +28,11 @@
 // interior, box walls) and are never classified. The reference of each frame is a high
 // percentile of each channel of the frame over the model, so every frame, at any light, is
 // judged against its own light. With Config::adaptive the model is also updated slowly on pixels
-// outside any shadow, so it follows slow changes in a video.
+// outside any shadow, so it follows slow changes in a video. The rule reads the model's inverse,
+// 1 / model per channel, rounded to the nearest IEEE binary16 (relative error at most 2^-11): it
+// reads it every frame, and half precision halves those bytes (the largest share of what a frame
+// moves; docs/densenet.md, "The empty-skin model in half precision"). darkness(), warmth(), the
+// masks and the reference all follow from the rounded values.
 //
 // Constructors
 //   requires: a valid Config (validate_calibration; pre_blur in [0, 15]; mask_blur 0, 1 or odd
@@ -164,6 +168,7 @@ public:
     // frame is ever held in float (memory: the frames plus a fixed budget, not a float copy of
     // every frame). Values are those of the whole-frame computation, element by element.
     for (cv::Mat& p : inv_planes_) p.release(); // each frame's reference over the whole frame
+    for (cv::Mat& p : inv_half_) p.release();
     const std::size_t n = empty_frames.size();
     std::vector<cv::Vec3f> refs(n);
     std::vector<cv::Mat> blurred; // the pre-blurred frames (Config::pre_blur > 1 only)
@@ -331,8 +336,10 @@ private:
       }
     }
     profile_.create(model_.size(), CV_32FC3);
-    for (int k = 0; k < 3; ++k)
-      inv_planes_[static_cast<std::size_t>(k)].create(model_.size(), CV_32F);
+    for (std::size_t k = 0; k < 3; ++k) {
+      inv_planes_[k].create(model_.size(), CV_32F);
+      inv_half_[k].create(model_.size(), CV_16F);
+    }
     for (int y = 0; y < model_.rows; ++y) {
       const cv::Vec3f* n = num.ptr<cv::Vec3f>(y);
       const float* d = den.ptr<float>(y);
@@ -341,8 +348,7 @@ private:
       for (int x = 0; x < model_.cols; ++x)
         for (int k = 0; k < 3; ++k) {
           p[x][k] = v[x] && d[x] > 1e-6f ? std::max(n[x][k] / d[x], 0.05f) : 0.f;
-          inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] =
-              p[x][k] > 0 ? 1.f / p[x][k] : 0.f;
+          set_inverse(k, y, x, p[x][k] > 0 ? 1.f / p[x][k] : 0.f);
         }
     }
     num.release();
@@ -357,6 +363,14 @@ private:
                                         std::to_string(m.rows) + "; expected at most " +
                                         std::to_string(config_.max_image_side) +
                                         " px per side (Config::max_image_side)"));
+  }
+
+  // Pixel (y, x) of channel k's inverse model: v rounded to the nearest binary16 (ties to even,
+  // cv::float16_t), in both the half plane the rule reads and the float plane.
+  void set_inverse(int k, int y, int x, float v) {
+    const cv::float16_t h(v);
+    inv_half_[static_cast<std::size_t>(k)].ptr<cv::float16_t>(y)[x] = h;
+    inv_planes_[static_cast<std::size_t>(k)].ptr<float>(y)[x] = static_cast<float>(h);
   }
 
   // Points src_ at the frame, or at its box-blurred copy (never writes into the caller's image).
@@ -439,11 +453,16 @@ private:
         p.create(size, CV_32F);
         p.setTo(1.0);
       }
+      for (cv::Mat& p : uniform_half_) {
+        p.create(size, CV_16F);
+        p.setTo(1.0);
+      }
       uniform_valid_.create(size, CV_8UC1);
       uniform_valid_.setTo(255);
     }
     if (detail::rule_uses_reference(rule_)) gain_ = global_reference();
-    return {*src_, prof ? inv_planes_ : uniform_planes_, prof ? valid_ : uniform_valid_, gain_};
+    return {*src_, prof ? inv_planes_ : uniform_planes_, prof ? valid_ : uniform_valid_, gain_,
+            prof ? &inv_half_ : &uniform_half_};
   }
 
   // The multi-pass way: the rule over the whole frame (then the masks are smoothed and scanned
@@ -626,13 +645,12 @@ private:
       const cv::Vec3b* in = src_->ptr<cv::Vec3b>(y);
       const uchar* m = dilated_.ptr<uchar>(y);
       cv::Vec3f* p = profile_.ptr<cv::Vec3f>(y);
-      const std::array<float*, 3> ip{inv_planes_[0].ptr<float>(y), inv_planes_[1].ptr<float>(y),
-                                     inv_planes_[2].ptr<float>(y)};
+      const float* ip0 = inv_planes_[0].ptr<float>(y);
       for (int x = 0; x < src_->cols; ++x) {
-        if (m[x] || ip[0][x] == 0.f) continue;
+        if (m[x] || ip0[x] == 0.f) continue;
         for (int k = 0; k < 3; ++k) {
           p[x][k] = std::max(p[x][k] + a * (in[x][k] * inv[k] - p[x][k]), 0.05f);
-          ip[static_cast<std::size_t>(k)][x] = 1.f / p[x][k];
+          set_inverse(k, y, x, 1.f / p[x][k]);
         }
       }
     }
@@ -677,7 +695,9 @@ private:
   cv::Mat model_;                         // the model as set (unsmoothed)
   cv::Mat profile_, valid_;               // empty-skin model in use (smoothed) and its skin
   std::array<cv::Mat, 4> inv_planes_;     // inverse model per channel (CV_32F) + skin weight (1/0)
+  std::array<cv::Mat, 3> inv_half_;       // the inverse model's planes as read: CV_16F
   std::array<cv::Mat, 4> uniform_planes_; // stand-ins without a model
+  std::array<cv::Mat, 3> uniform_half_;
   cv::Mat uniform_valid_;
   // The reference's samples (row, column, inverse model per channel), one array each for the
   // vector kernel, and their histogram bins per channel (scratch).
