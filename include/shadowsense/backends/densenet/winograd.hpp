@@ -60,6 +60,12 @@
 //   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
 //     (j < n <= winograd_max_run) to the T x T outputs
 //     y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
+//   output4_image(m, xs, tiles_x, t0, cols, h, w, o) [F(4x4)], optional (the AVX-512 kernel
+//     only; when null, output4 and interleave4 per run): tiles t0 .. t0 + cols - 1 of an h x w
+//     image's tile grid (tiles_x a row), their products m[xi * xs + j] for tile t0 + j, to the
+//     image o (row stride w): A^T M A [i][k] of tile (ty, tx) to o[(4 ty + i) * w + 4 tx + k]
+//     where that is inside the image, nothing else written; reads m[xi * xs + j] for j up to
+//     the next multiple of 16 above cols - 1 (values there are not used).
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
 //   interleave4(y, d, n): d[4i + k] = y[k * winograd_max_run + i] for 4i + k < n.
 //   interleave3_bias_relu(y, d, n, b): d[3i + k] = relu(y[k * winograd_max_run + i] + b) for
@@ -975,6 +981,98 @@ winograd_input6_panel_avx512(const float* __restrict in, std::size_t plane, int 
     }
   }
 }
+
+// F(4x4)'s z = A^T x on six vectors of tiles (winograd4_at's factored form, its three
+// multiply-adds fused as GCC fuses them in the compiled loops).
+__attribute__((target("avx512f"))) SHADOWSENSE_ALWAYS_INLINE void
+winograd4_at_avx512(const __m512 (&x)[6], __m512 (&z)[4]) {
+  const __m512 p = _mm512_add_ps(x[1], x[2]), m = _mm512_sub_ps(x[1], x[2]);
+  const __m512 p2 = _mm512_add_ps(x[3], x[4]), m2 = _mm512_sub_ps(x[3], x[4]);
+  z[0] = _mm512_add_ps(_mm512_add_ps(x[0], p), p2);
+  z[1] = _mm512_fmadd_ps(_mm512_set1_ps(2.0f), m2, m);
+  z[2] = _mm512_fmadd_ps(_mm512_set1_ps(4.0f), p2, p);
+  z[3] = _mm512_add_ps(_mm512_fmadd_ps(_mm512_set1_ps(8.0f), m2, m), x[5]);
+}
+
+// Four vectors of 16 tiles' outputs (z[k]: column k of each tile) to 64 consecutive floats
+// (v[c]: tiles 4 c .. 4 c + 3, four columns each): a 4 x 16 transpose by in-lane unpacks and
+// 128-bit block shuffles.
+__attribute__((target("avx512f"))) SHADOWSENSE_ALWAYS_INLINE void
+winograd4_interleave_avx512(const __m512 (&z)[4], __m512 (&v)[4]) {
+  const __m512 t0 = _mm512_maskz_unpacklo_ps(0xFFFF, z[0], z[1]); // per 4 tiles: z0 z1 of 0, 1
+  const __m512 t1 = _mm512_maskz_unpackhi_ps(0xFFFF, z[0], z[1]); // of 2, 3
+  const __m512 t2 = _mm512_maskz_unpacklo_ps(0xFFFF, z[2], z[3]);
+  const __m512 t3 = _mm512_maskz_unpackhi_ps(0xFFFF, z[2], z[3]);
+  // u[r]: block L holds tile 4 L + r's four columns
+  const __m512d a0 = _mm512_castps_pd(t0), a1 = _mm512_castps_pd(t1), a2 = _mm512_castps_pd(t2),
+                a3 = _mm512_castps_pd(t3);
+  const __m512 u0 = _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(0xFF, a0, a2));
+  const __m512 u1 = _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(0xFF, a0, a2));
+  const __m512 u2 = _mm512_castpd_ps(_mm512_maskz_unpacklo_pd(0xFF, a1, a3));
+  const __m512 u3 = _mm512_castpd_ps(_mm512_maskz_unpackhi_pd(0xFF, a1, a3));
+  const __m512 w0 = _mm512_maskz_shuffle_f32x4(0xFFFF, u0, u1, 0x44); // u0.0 u0.1 u1.0 u1.1
+  const __m512 w1 = _mm512_maskz_shuffle_f32x4(0xFFFF, u2, u3, 0x44);
+  const __m512 w2 = _mm512_maskz_shuffle_f32x4(0xFFFF, u0, u1, 0xEE); // u0.2 u0.3 u1.2 u1.3
+  const __m512 w3 = _mm512_maskz_shuffle_f32x4(0xFFFF, u2, u3, 0xEE);
+  v[0] = _mm512_maskz_shuffle_f32x4(0xFFFF, w0, w1, 0x88); // u0.0 u1.0 u2.0 u3.0
+  v[1] = _mm512_maskz_shuffle_f32x4(0xFFFF, w0, w1, 0xDD); // u0.1 u1.1 u2.1 u3.1
+  v[2] = _mm512_maskz_shuffle_f32x4(0xFFFF, w2, w3, 0x88);
+  v[3] = _mm512_maskz_shuffle_f32x4(0xFFFF, w2, w3, 0xDD);
+}
+
+// F(4x4)'s output transform and the interleave into the image in one (WinogradOps::
+// output4_image): 16 tiles a step, A^T M A in registers (the compiled loops' output4 goes through
+// a stack array, then interleave4 gathers its rows), each output row's 16 x 4 values transposed
+// to 64 consecutive floats and stored with one mask per segment of tiles in one tile row.
+__attribute__((target("avx512f"))) inline void
+winograd_output4_image_avx512(const float* __restrict m, std::size_t xs, int tiles_x, int t0,
+                              int cols, int h, int w, float* __restrict o) {
+  for (int j = 0; j < cols; j += 16) {
+    __m512 s[4][6]; // A^T M: row i of the tiles' 4 x 6
+    for (int q = 0; q < 6; ++q) {
+      __m512 x[6], z[4];
+      for (int p = 0; p < 6; ++p)
+        x[p] = _mm512_loadu_ps(m + static_cast<std::size_t>(6 * p + q) * xs + j);
+      winograd4_at_avx512(x, z);
+      for (int i = 0; i < 4; ++i) s[i][q] = z[i];
+    }
+    // Segments: runs of the step's tiles within one tile row (lane, tiles, first tile's place).
+    int n = 0, lane[16], count[16], ty[16], tx[16];
+    for (int l = j; l < std::min(cols, j + 16);) {
+      const int y = (t0 + l) / tiles_x, x = (t0 + l) % tiles_x;
+      const int run = std::min({cols - l, tiles_x - x, j + 16 - l});
+      lane[n] = l - j;
+      count[n] = run;
+      ty[n] = y;
+      tx[n++] = x;
+      l += run;
+    }
+    for (int i = 0; i < 4; ++i) {
+      __m512 z[4], v[4];
+      winograd4_at_avx512(s[i], z);
+      winograd4_interleave_avx512(z, v);
+      for (int g = 0; g < n; ++g) {
+        const int y = 4 * ty[g] + i;
+        if (y >= h) continue;
+        // Floats a .. a + len - 1 of the 64 go to the row from column 4 tx on (the image's last
+        // tile may hold fewer than 4 columns).
+        const int a = 4 * lane[g], len = std::min(4 * count[g], w - 4 * tx[g]);
+        const std::uintptr_t dst = reinterpret_cast<std::uintptr_t>(
+            o + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + 4 * tx[g]);
+        for (int c = 0; c < 4; ++c) {
+          const int lo = std::max(a, 16 * c), hi = std::min(a + len, 16 * c + 16);
+          if (lo >= hi) continue;
+          const auto mask = static_cast<__mmask16>(((1u << (hi - lo)) - 1) << (lo - 16 * c));
+          // Float 16 c + e to dst + (16 c + e - a): an address only (the mask skips e < lo).
+          const auto at = reinterpret_cast<float*>(
+              dst + static_cast<std::uintptr_t>(static_cast<std::intptr_t>(16 * c - a) *
+                                                static_cast<std::intptr_t>(sizeof(float))));
+          _mm512_mask_storeu_ps(at, mask, v[c]);
+        }
+      }
+    }
+  }
+}
 #endif
 
 struct WinogradOps {
@@ -996,6 +1094,9 @@ struct WinogradOps {
   PanelInput input_panel = nullptr;
   PanelInput input4_panel = nullptr;
   PanelInput input3_panel = nullptr;
+  // F(4x4), optional (AVX-512 only; when null, output4 then interleave4 per run): the output
+  // transform of a tile panel written straight into the image (the header comment).
+  void (*output4_image)(const float*, std::size_t, int, int, int, int, int, float*) = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -1012,7 +1113,8 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_interleave3_bias_relu_avx512,
             &winograd_input_panel_avx512,
             &winograd_input6_panel_avx512<4>,
-            &winograd_input6_panel_avx512<3>};
+            &winograd_input6_panel_avx512<3>,
+            &winograd_output4_image_avx512};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
             &winograd_output_avx2_loops,
@@ -1112,6 +1214,12 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
                           s.m.data() + xi * xs_m + static_cast<std::size_t>(mp) * mr * nr);
     for (int mp = mp0; mp < mp1; ++mp) {
       const int rows = std::min(mr, u.m - mp * mr);
+      if (T == 4 && ops.output4_image && nr % 16 == 0) {
+        for (int r = 0; r < rows; ++r)
+          ops.output4_image(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, tiles_x,
+                            t0, cols, h, w, out + static_cast<std::size_t>(mp * mr + r) * image);
+        continue;
+      }
       for (int r = 0; r < rows; ++r) {
         output(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, cols, s.y.data());
         float* o = out + static_cast<std::size_t>(mp * mr + r) * image;
