@@ -51,7 +51,7 @@ inline bool segment_cpu_has(SegmentKernelKind kind) {
     return true;
 #if SHADOWSENSE_SEGMENT_X86
   case SegmentKernelKind::avx2: // F16C: the relative rule reads the model as binary16
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("f16c");
+    return __builtin_cpu_supports("avx2") && detail::segment_cpu_has_f16c();
   case SegmentKernelKind::avx512:
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
            __builtin_cpu_supports("avx512vl");

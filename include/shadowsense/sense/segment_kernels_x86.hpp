@@ -1,13 +1,15 @@
 // The segmenter's per-row kernels for x86-64 with AVX2 and with AVX-512 (F + BW + VL)
 // (segment_kernels_portable.hpp has the contracts; the results are the same bytes and floats).
 // Each function carries a function-level target attribute, so the library needs no -march flag;
-// segment_kernels.hpp calls them only after checking the CPU (__builtin_cpu_supports). AVX2
-// without FMA; the AVX-512 target implies FMA, so its relative rule is compiled with contraction
-// off (SHADOWSENSE_STRICT_FP): both round after every multiply and add, as the portable kernel
-// does. Compiled only with GCC/Clang on x86 (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
+// segment_kernels.hpp calls them only after checking the CPU (__builtin_cpu_supports, and
+// segment_cpu_has_f16c() for the AVX2 relative rule's F16C). AVX2 without FMA; the AVX-512 target
+// implies FMA, so its relative rule is compiled with contraction off (SHADOWSENSE_STRICT_FP): both
+// round after every multiply and add, as the portable kernel does. Compiled only with GCC/Clang on
+// x86 (SHADOWSENSE_SEGMENT_X86 is 1), empty elsewhere.
 //
-// relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves), the
-//   rest with the portable loop.
+// relative_row_avx2: 16 pixels a step (SSSE3 shuffles split B, G, R; two 8-float halves; the
+//   model's binary16 values converted by F16C), the last 1-15 pixels' halves converted by F16C
+//   into a stack array, then the portable loop body.
 // reference_bins_avx2: 8 samples a step (a 32-bit gather per sample), the frame bytes of later
 //   samples prefetched (prefetch_reference_samples: gathers do not train the prefetcher).
 // hsum_row_avx2<K>, vsum_row_avx2<K>: 16 lanes of 16 bits a step, written with intrinsics (left
@@ -16,7 +18,8 @@
 //   the portable loop body. The sums cannot overflow 16 bits (at most 16 * 16 * 255), so the
 //   lane arithmetic is exact.
 // relative_row_avx512: 16 pixels a step (the same byte shuffles; one 16-float vector per
-//   channel, compares into mask registers), the rest with the portable loop.
+//   channel, compares into mask registers), the last 1-15 pixels the same way with masked loads
+//   and stores.
 // relative_row_avx512_vbmi: the same, each channel split by one byte permute (AVX-512 VBMI);
 //   segment_kernels.hpp picks it for the avx512 kind where the CPU has VBMI
 //   (segment_cpu_has_vbmi()).
@@ -35,6 +38,7 @@
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define SHADOWSENSE_SEGMENT_X86 1
+#include <cpuid.h>
 #include <immintrin.h>
 #else
 #define SHADOWSENSE_SEGMENT_X86 0
@@ -304,6 +308,14 @@ SHADOWSENSE_AVX512 inline RelativeConsts512 relative_consts_avx512(const Relativ
           _mm512_set1_ps(p.contact),
           _mm512_set1_ps(p.warmth)};
 }
+// 16 binary16 values (bits) at h as floats, exactly; Tail: only the lanes in `lanes` read.
+template <bool Tail>
+SHADOWSENSE_AVX512 inline __m512 load_halves16_avx512(const std::uint16_t* h, __mmask16 lanes) {
+  const __m256i v = Tail ? _mm256_maskz_loadu_epi16(lanes, h)
+                         : _mm256_loadu_si256(reinterpret_cast<const __m256i*>(h));
+  return _mm512_maskz_cvtph_ps(kAll16, v);
+}
+
 // Tail: only the pixels in `lanes` are read and written (masked loads and stores, which do not
 // touch the memory of the other lanes): a row's last 1-15 pixels take the same vector operations
 // as the others (a scalar tail converting each binary16 alone cost a tenth of the rule).
@@ -315,14 +327,12 @@ relative_pixels16_avx512(const RelativeConsts512& k, const __m512* f, const std:
                          std::uint8_t* sm, std::uint8_t* cm) {
   SHADOWSENSE_STRICT_FP_BODY
   // B, G, R over the model (16 binary16 values each, converted exactly), times the frame's gains.
-  const auto halves = [x, lanes](const std::uint16_t* ip) {
-    const __m256i h = Tail ? _mm256_maskz_loadu_epi16(lanes, ip + x)
-                           : _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ip + x));
-    return _mm512_maskz_cvtph_ps(kAll16, h);
-  };
-  const __m512 qb = _mm512_mul_ps(_mm512_mul_ps(f[0], halves(ipb)), k.g[0]);
-  const __m512 qg = _mm512_mul_ps(_mm512_mul_ps(f[1], halves(ipg)), k.g[1]);
-  const __m512 qr = _mm512_mul_ps(_mm512_mul_ps(f[2], halves(ipr)), k.g[2]);
+  const __m512 qb =
+      _mm512_mul_ps(_mm512_mul_ps(f[0], load_halves16_avx512<Tail>(ipb + x, lanes)), k.g[0]);
+  const __m512 qg =
+      _mm512_mul_ps(_mm512_mul_ps(f[1], load_halves16_avx512<Tail>(ipg + x, lanes)), k.g[1]);
+  const __m512 qr =
+      _mm512_mul_ps(_mm512_mul_ps(f[2], load_halves16_avx512<Tail>(ipr + x, lanes)), k.g[2]);
   const __m128i s8 = Tail ? _mm_maskz_loadu_epi8(lanes, skin + x)
                           : _mm_loadu_si128(reinterpret_cast<const __m128i*>(skin + x));
   const __mmask16 on_skin = _mm_test_epi8_mask(s8, s8);
@@ -406,6 +416,14 @@ constexpr std::array<std::array<std::uint8_t, 64>, 3> bgr_lane_index() {
 inline constexpr auto kBgrLaneIndex = bgr_lane_index();
 constexpr __mmask64 kLowByteOfLanes = 0x1111111111111111ull;
 
+// B, G, R of 16 pixels (48 packed bytes in v) as floats, one byte permute each.
+__attribute__((target("avx512f,avx512bw,avx512vl,avx512vbmi"))) inline void
+split_bgr16_vbmi(__m512i v, const __m512i (&index)[3], __m512* f) {
+  for (std::size_t c = 0; c < 3; ++c)
+    f[c] = _mm512_maskz_cvtepi32_ps(kAll16,
+                                    _mm512_maskz_permutexvar_epi8(kLowByteOfLanes, index[c], v));
+}
+
 // As relative_row_avx512, the channels split by one byte permute each (AVX-512 VBMI) straight
 // into 32-bit lanes: 3 permutes where the other kernel takes 9 shuffles, 6 ORs and 3 widenings
 // (16 pixels' 48 bytes read by one masked load, nothing past them). The same floats and bytes.
@@ -418,22 +436,24 @@ relative_row_avx512_vbmi(const RelativeRowParams& p, const std::uint8_t* bgr,
   const RelativeConsts512 k = relative_consts_avx512(p);
   __m512i index[3];
   for (std::size_t c = 0; c < 3; ++c) index[c] = _mm512_loadu_si512(kBgrLaneIndex[c].data());
-  const auto split = [&index](__m512i v, __m512* f) {
-    for (std::size_t c = 0; c < 3; ++c)
-      f[c] = _mm512_maskz_cvtepi32_ps(kAll16,
-                                      _mm512_maskz_permutexvar_epi8(kLowByteOfLanes, index[c], v));
-  };
   __m512 f[3];
   int x = 0;
   for (; x + 16 <= w; x += 16) {
-    split(_mm512_maskz_loadu_epi8(tail_bytes48(16), bgr + 3 * x), f);
+    split_bgr16_vbmi(_mm512_maskz_loadu_epi8(tail_bytes48(16), bgr + 3 * x), index, f);
     relative_pixels16_avx512<false>(k, f, ipb, ipg, ipr, skin, x, kAll16, dk, wm, sm, cm);
   }
   if (x < w) { // the last 1-15 pixels, masked (the same operations)
-    split(_mm512_maskz_loadu_epi8(tail_bytes48(w - x), bgr + 3 * x), f);
+    split_bgr16_vbmi(_mm512_maskz_loadu_epi8(tail_bytes48(w - x), bgr + 3 * x), index, f);
     relative_pixels16_avx512<true>(k, f, ipb, ipg, ipr, skin, x, tail_lanes16(w - x), dk, wm, sm,
                                    cm);
   }
+}
+
+// F16C (half-precision conversions) by CPUID leaf 1, ECX bit 29: Clang's __builtin_cpu_supports
+// has no name for it.
+inline bool segment_cpu_has_f16c() {
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  return __get_cpuid(1, &a, &b, &c, &d) != 0 && (c & bit_F16C) != 0;
 }
 
 inline bool segment_cpu_has_vbmi() {
