@@ -3,7 +3,9 @@
 // .ci/steps/50_aarch64.sh): every kernel the CPU runs must give the portable kernel's floats
 // and bytes exactly, on random rows of every width up to 70 (all the vector tails), with
 // thresholds hit exactly, skin values 0, 255 and others, and extreme pixel and model values;
-// the smoothing rows must equal their sums written out.
+// the smoothing rows must equal their sums written out. detail::run_end (the contour scan's run
+// walk, SSE2 / NEON / 64-bit words) against the byte loop.
+#include <shadowsense/sense/byte_runs.hpp>
 #include <shadowsense/sense/segment_kernels.hpp>
 
 #include <doctest/doctest.h>
@@ -321,4 +323,37 @@ TEST_CASE("reference_bins: every kernel equals the definition, clamped at both e
       CHECK(bad == 0);
     }
   }
+}
+
+TEST_CASE("run_end: the first byte that differs, at every start and end of rows up to 80 bytes") {
+  std::mt19937 rng(41);
+  int checked = 0;
+  for (const std::int8_t value :
+       {std::int8_t{0}, std::int8_t{1}, std::int8_t{2}, std::int8_t{-126}})
+    for (int trial = 0; trial < 40; ++trial) {
+      // Runs of value broken by a few other bytes (0, 1, 2, -126 or any), then bytes equal to
+      // value past the end: a kernel that looked beyond end would run on into them.
+      std::vector<std::int8_t> row(80 + 16, value);
+      std::uniform_int_distribution<int> where(0, 79), kind(0, 4), any(-128, 127);
+      const int breaks = trial % 5;
+      for (int b = 0; b < breaks; ++b) {
+        const std::int8_t pick[] = {0, 1, 2, -126, static_cast<std::int8_t>(any(rng))};
+        const std::int8_t v = pick[kind(rng)];
+        row[static_cast<std::size_t>(where(rng))] = v;
+      }
+      for (int end = 0; end <= 80; ++end)
+        for (int x = 0; x <= end; ++x) {
+          int want = x;
+          while (want < end && row[static_cast<std::size_t>(want)] == value) ++want;
+          const int got = detail::run_end(row.data(), x, end, value);
+          if (got != want) {
+            CAPTURE(static_cast<int>(value));
+            CAPTURE(x);
+            CAPTURE(end);
+            CHECK(got == want);
+          }
+          ++checked;
+        }
+    }
+  MESSAGE("run_end calls checked: " << checked);
 }

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <shadowsense/core/error.hpp>
+#include <shadowsense/sense/byte_runs.hpp>
 
 #include <opencv2/core.hpp>
 
@@ -93,7 +94,7 @@ public:
       std::int8_t* row = img + static_cast<std::size_t>(y) * uw;
       int prev = 0, lnbd = 0; // lnbd: column of the last met border pixel in this row
       for (int x = 1; x < w - 1; ++x) {
-        x = skip_run(row, x, w - 1, prev);
+        x = detail::run_end(row, x, w - 1, static_cast<std::int8_t>(prev));
         if (x >= w - 1) break;
         const int p = row[x];
         bool outer = prev == 0 && p == 1;
@@ -123,19 +124,6 @@ private:
     std::size_t begin, end; // range in points_
     cv::Rect box;
   };
-
-  // The first column >= x (and < end) whose value differs from prev, or end; 8 bytes at a time.
-  static int skip_run(const std::int8_t* row, int x, int end, int prev) {
-    const std::uint64_t pattern = 0x0101010101010101ull * static_cast<std::uint8_t>(prev);
-    while (x + 8 <= end) {
-      std::uint64_t v;
-      std::memcpy(&v, row + x, 8);
-      if (v != pattern) break;
-      x += 8;
-    }
-    while (x < end && row[x] == prev) ++x;
-    return x;
-  }
 
   // OpenCV's icvFetchContour for an outer border with CHAIN_APPROX_SIMPLE.
   void trace(std::int8_t* start, int step, cv::Point pt) {
