@@ -729,6 +729,52 @@ TEST_CASE("Winograd's panel input transforms (AVX-512: F(2x2), F(4x4), F(3x3, 4x
   }
   MESSAGE("panels compared: " << compared);
 }
+
+TEST_CASE("Winograd's image output (AVX-512: output4_image) gives the per-run output and "
+          "interleave's bits, and writes nothing else") {
+  if (!detail::cpu_has(GemmKernelKind::avx512)) return;
+  const detail::MicroKernel mk = detail::select_micro_kernel(GemmKernelKind::avx512);
+  const detail::WinogradOps with = detail::select_winograd_ops(GemmKernelKind::avx512);
+  REQUIRE(static_cast<bool>(with.output4_image));
+  detail::WinogradOps without = with;
+  without.output4_image = nullptr;
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  struct Shape {
+    int m, c, h, w;
+  };
+  // One tile, tile rows of 1 to 21 tiles (steps and panels across rows), partial tiles at the
+  // right and bottom edges, the shipped model's blocks 1 (22 x 40) and 2 (11 x 20), several
+  // row panels of output channels (m > mr) and a last one that does not fill its rows.
+  const Shape shapes[] = {{3, 2, 1, 1},     {5, 3, 4, 4},   {8, 4, 7, 66},  {12, 5, 22, 40},
+                          {12, 48, 11, 20}, {9, 3, 13, 50}, {20, 2, 30, 5}, {4, 3, 9, 81}};
+  int compared = 0;
+  for (const auto& sh : shapes) {
+    CAPTURE(sh.m);
+    CAPTURE(sh.h);
+    CAPTURE(sh.w);
+    const int pw = detail::winograd_padded(sh.w, 4);
+    const std::size_t plane = static_cast<std::size_t>(detail::winograd_padded(sh.h, 4)) * pw;
+    const std::vector<float> in = winograd_input_planes(sh.c, plane, pw, 1, sh.h, sh.w, rng);
+    std::vector<float> w(static_cast<std::size_t>(sh.m) * sh.c * 9);
+    for (auto& v : w) v = ud(rng);
+    detail::WinogradWeights u;
+    u.set(w.data(), sh.m, sh.c, mk.mr, 4);
+    detail::ThreadPool pool(1);
+    std::vector<detail::WinogradScratch> scratch(1, detail::make_winograd_scratch(sh.c, sh.m, mk));
+    const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
+    std::vector<float> want(n_out + 64, -7.0f), got(n_out + 64, -7.0f);
+    detail::winograd_conv3x3(mk, without, u, in.data(), pw, plane, sh.h, sh.w, want.data(), pool,
+                             scratch);
+    detail::winograd_conv3x3(mk, with, u, in.data(), pw, plane, sh.h, sh.w, got.data(), pool,
+                             scratch);
+    CHECK(std::memcmp(want.data(), got.data(), want.size() * sizeof(float)) == 0);
+    CHECK(std::all_of(got.begin() + static_cast<std::ptrdiff_t>(n_out), got.end(),
+                      [](float v) { return v == -7.0f; }));
+    ++compared;
+  }
+  MESSAGE("convolutions compared: " << compared);
+}
 #endif
 
 TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU after, for "

@@ -60,12 +60,11 @@
 //   output(m, xs, n, y) [F(2x2)], output4 [F(4x4)] and output3 [F(3x3, 4x4)]: m[xi * xs + j]
 //     (j < n <= winograd_max_run) to the T x T outputs
 //     y[(T i + k) * winograd_max_run + j] = A^T M A [i][k].
-//   output4_image(m, xs, tiles_x, t0, cols, h, w, o) [F(4x4)], optional (the AVX-512 kernel
-//     only; when null, output4 and interleave4 per run): tiles t0 .. t0 + cols - 1 of an h x w
-//     image's tile grid (tiles_x a row), their products m[xi * xs + j] for tile t0 + j, to the
-//     image o (row stride w): A^T M A [i][k] of tile (ty, tx) to o[(4 ty + i) * w + 4 tx + k]
-//     where that is inside the image, nothing else written; reads m[xi * xs + j] for j up to
-//     the next multiple of 16 above cols - 1 (values there are not used).
+//   output4_image(a) [F(4x4)], optional (the AVX-512 kernel only; when null, output4 and
+//     interleave4 per run and channel): for the tiles and channels of a (WinogradImageOutput),
+//     A^T M A [i][k] of tile (ty, tx) of channel r to a.o[r * a.image + (4 ty + i) * a.w + 4 tx +
+//     k] where that is inside the h x w image, nothing else written; reads m[r * mc + xi * xs +
+//     j] for j up to the next multiple of 16 above cols - 1 (values there are not used).
 //   interleave(a, b, d, n): d[2i] = a[i], d[2i + 1] = b[i] for 2i < n, 2i + 1 < n (n outputs).
 //   interleave4(y, d, n): d[4i + k] = y[k * winograd_max_run + i] for 4i + k < n.
 //   interleave3_bias_relu(y, d, n, b): d[3i + k] = relu(y[k * winograd_max_run + i] + b) for
@@ -391,6 +390,18 @@ inline void winograd6_at(float x0, float x1, float x2, float x3, float x4, float
   }
 
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(portable, SHADOWSENSE_VECTORISE)
+
+// WinogradOps::output4_image's arguments: tiles t0 .. t0 + cols - 1 of an h x w image's tile grid
+// (tiles_x a row), for `rows` output channels; channel r's products m[r * mc + xi * xs + j] for
+// tile t0 + j, its image at o + r * image (row stride w).
+struct WinogradImageOutput {
+  const float* m = nullptr;
+  std::size_t xs = 0, mc = 0;
+  int rows = 0, tiles_x = 0, t0 = 0, cols = 0, h = 0, w = 0;
+  float* o = nullptr;
+  std::size_t image = 0;
+};
+
 #if SHADOWSENSE_X86_KERNELS
 SHADOWSENSE_DEFINE_WINOGRAD_OPS(avx512_loops,
                                 __attribute__((target("avx512f"))) SHADOWSENSE_VECTORISE)
@@ -574,6 +585,7 @@ struct WinogradSegment {
   std::ptrdiff_t at = 0;
   int lane = 0, tiles = 0;
 };
+
 template <int T>
 inline int winograd_step_segments(int pw, int tiles_x, int t0, int cols, int j,
                                   std::array<WinogradSegment, 16>& seg) {
@@ -1020,55 +1032,80 @@ winograd4_interleave_avx512(const __m512 (&z)[4], __m512 (&v)[4]) {
   v[3] = _mm512_maskz_shuffle_f32x4(0xFFFF, w2, w3, 0xDD);
 }
 
+// A step's segments (winograd_step_segments with the image's row stride w as pw) as places in
+// an image of T x T output tiles: where the segment's first output row starts (at, from the
+// image's start), that row's index, and which of the step's T x 16 interleaved floats of an
+// output row it takes (first, count: T lane .., clipped at the image's right edge, where the
+// last tile may hold fewer than T columns).
+struct WinogradImageSegment {
+  std::ptrdiff_t at = 0;
+  int row = 0, first = 0, count = 0;
+};
+template <int T>
+inline int winograd_image_segments(int tiles_x, int t0, int cols, int j, int w,
+                                   std::array<WinogradImageSegment, 16>& out) {
+  std::array<WinogradSegment, 16> seg{};
+  const int n = winograd_step_segments<T>(w, tiles_x, t0, cols, j, seg);
+  for (std::size_t g = 0; g < static_cast<std::size_t>(n); ++g) {
+    const int tile = t0 + j + seg[g].lane;
+    out[g] = {seg[g].at, T * (tile / tiles_x), T * seg[g].lane,
+              std::min(T * seg[g].tiles, w - T * (tile % tiles_x))};
+  }
+  return n;
+}
+
+// Output row i of a step (v: its V x 16 floats, the T outputs of each tile in turn, lane order)
+// into the segments of image o, one masked store per vector a segment touches; nothing for a
+// segment whose row is past the image's bottom (h).
+template <int V>
+__attribute__((target("avx512f"))) SHADOWSENSE_ALWAYS_INLINE void
+winograd_store_image_row_avx512(const __m512 (&v)[V],
+                                const std::array<WinogradImageSegment, 16>& seg, int n, int i,
+                                int h, int w, float* o) {
+  for (std::size_t g = 0; g < static_cast<std::size_t>(n); ++g) {
+    const WinogradImageSegment& s = seg[g];
+    if (s.row + i >= h) continue;
+    const std::uintptr_t dst =
+        reinterpret_cast<std::uintptr_t>(o + s.at + static_cast<std::ptrdiff_t>(i) * w);
+    for (int c = 0; c < V; ++c) {
+      const int lo = std::max(s.first, 16 * c), hi = std::min(s.first + s.count, 16 * c + 16);
+      if (lo >= hi) continue;
+      const auto mask = static_cast<__mmask16>(((1u << (hi - lo)) - 1) << (lo - 16 * c));
+      // Float 16 c + e to dst + (16 c + e - first): an address only (the mask skips e < lo).
+      const auto at = reinterpret_cast<float*>(
+          dst + static_cast<std::uintptr_t>(static_cast<std::intptr_t>(16 * c - s.first) *
+                                            static_cast<std::intptr_t>(sizeof(float))));
+      _mm512_mask_storeu_ps(at, mask, v[c]);
+    }
+  }
+}
+
 // F(4x4)'s output transform and the interleave into the image in one (WinogradOps::
 // output4_image): 16 tiles a step, A^T M A in registers (the compiled loops' output4 goes through
 // a stack array, then interleave4 gathers its rows), each output row's 16 x 4 values transposed
-// to 64 consecutive floats and stored with one mask per segment of tiles in one tile row.
+// to 64 consecutive floats and stored with one mask per segment of tiles in one tile row; the
+// step's segments found once for all the output channels.
 __attribute__((target("avx512f"))) inline void
-winograd_output4_image_avx512(const float* __restrict m, std::size_t xs, int tiles_x, int t0,
-                              int cols, int h, int w, float* __restrict o) {
-  for (int j = 0; j < cols; j += 16) {
-    __m512 s[4][6]; // A^T M: row i of the tiles' 4 x 6
-    for (int q = 0; q < 6; ++q) {
-      __m512 x[6], z[4];
-      for (int p = 0; p < 6; ++p)
-        x[p] = _mm512_loadu_ps(m + static_cast<std::size_t>(6 * p + q) * xs + j);
-      winograd4_at_avx512(x, z);
-      for (int i = 0; i < 4; ++i) s[i][q] = z[i];
-    }
-    // Segments: runs of the step's tiles within one tile row (lane, tiles, first tile's place).
-    int n = 0, lane[16], count[16], ty[16], tx[16];
-    for (int l = j; l < std::min(cols, j + 16);) {
-      const int y = (t0 + l) / tiles_x, x = (t0 + l) % tiles_x;
-      const int run = std::min({cols - l, tiles_x - x, j + 16 - l});
-      lane[n] = l - j;
-      count[n] = run;
-      ty[n] = y;
-      tx[n++] = x;
-      l += run;
-    }
-    for (int i = 0; i < 4; ++i) {
-      __m512 z[4], v[4];
-      winograd4_at_avx512(s[i], z);
-      winograd4_interleave_avx512(z, v);
-      for (int g = 0; g < n; ++g) {
-        const int y = 4 * ty[g] + i;
-        if (y >= h) continue;
-        // Floats a .. a + len - 1 of the 64 go to the row from column 4 tx on (the image's last
-        // tile may hold fewer than 4 columns).
-        const int a = 4 * lane[g], len = std::min(4 * count[g], w - 4 * tx[g]);
-        const std::uintptr_t dst = reinterpret_cast<std::uintptr_t>(
-            o + static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + 4 * tx[g]);
-        for (int c = 0; c < 4; ++c) {
-          const int lo = std::max(a, 16 * c), hi = std::min(a + len, 16 * c + 16);
-          if (lo >= hi) continue;
-          const auto mask = static_cast<__mmask16>(((1u << (hi - lo)) - 1) << (lo - 16 * c));
-          // Float 16 c + e to dst + (16 c + e - a): an address only (the mask skips e < lo).
-          const auto at = reinterpret_cast<float*>(
-              dst + static_cast<std::uintptr_t>(static_cast<std::intptr_t>(16 * c - a) *
-                                                static_cast<std::intptr_t>(sizeof(float))));
-          _mm512_mask_storeu_ps(at, mask, v[c]);
-        }
+winograd_output4_image_avx512(const WinogradImageOutput& a) {
+  std::array<WinogradImageSegment, 16> seg{};
+  for (int j = 0; j < a.cols; j += 16) {
+    const int n = winograd_image_segments<4>(a.tiles_x, a.t0, a.cols, j, a.w, seg);
+    for (int r = 0; r < a.rows; ++r) {
+      const float* m = a.m + static_cast<std::size_t>(r) * a.mc + j;
+      __m512 s[4][6]; // A^T M: row i of the tiles' 4 x 6
+      for (int q = 0; q < 6; ++q) {
+        __m512 x[6], z[4];
+        for (int p = 0; p < 6; ++p)
+          x[p] = _mm512_loadu_ps(m + static_cast<std::size_t>(6 * p + q) * a.xs);
+        winograd4_at_avx512(x, z);
+        for (int i = 0; i < 4; ++i) s[i][q] = z[i];
+      }
+      float* o = a.o + static_cast<std::size_t>(r) * a.image;
+      for (int i = 0; i < 4; ++i) {
+        __m512 z[4], v[4];
+        winograd4_at_avx512(s[i], z);
+        winograd4_interleave_avx512(z, v);
+        winograd_store_image_row_avx512(v, seg, n, i, a.h, a.w, o);
       }
     }
   }
@@ -1096,7 +1133,7 @@ struct WinogradOps {
   PanelInput input3_panel = nullptr;
   // F(4x4), optional (AVX-512 only; when null, output4 then interleave4 per run): the output
   // transform of a tile panel written straight into the image (the header comment).
-  void (*output4_image)(const float*, std::size_t, int, int, int, int, int, float*) = nullptr;
+  void (*output4_image)(const WinogradImageOutput&) = nullptr;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -1215,9 +1252,9 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
     for (int mp = mp0; mp < mp1; ++mp) {
       const int rows = std::min(mr, u.m - mp * mr);
       if (T == 4 && ops.output4_image && nr % 16 == 0) {
-        for (int r = 0; r < rows; ++r)
-          ops.output4_image(s.m.data() + static_cast<std::size_t>(mp * mr + r) * nr, xs_m, tiles_x,
-                            t0, cols, h, w, out + static_cast<std::size_t>(mp * mr + r) * image);
+        ops.output4_image({s.m.data() + static_cast<std::size_t>(mp * mr) * nr, xs_m,
+                           static_cast<std::size_t>(nr), rows, tiles_x, t0, cols, h, w,
+                           out + static_cast<std::size_t>(mp * mr) * image, image});
         continue;
       }
       for (int r = 0; r < rows; ++r) {
