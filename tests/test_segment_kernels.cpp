@@ -327,7 +327,7 @@ TEST_CASE("reference_bins: every kernel equals the definition, clamped at both e
 
 TEST_CASE("run_end: the first byte that differs, at every start and end of rows up to 80 bytes") {
   std::mt19937 rng(41);
-  int checked = 0;
+  int checked = 0, wrong = 0;
   for (const std::int8_t value :
        {std::int8_t{0}, std::int8_t{1}, std::int8_t{2}, std::int8_t{-126}})
     for (int trial = 0; trial < 40; ++trial) {
@@ -346,7 +346,7 @@ TEST_CASE("run_end: the first byte that differs, at every start and end of rows 
           int want = x;
           while (want < end && row[static_cast<std::size_t>(want)] == value) ++want;
           const int got = detail::run_end(row.data(), x, end, value);
-          if (got != want) {
+          if (got != want && wrong++ < 5) { // the first few, with their place
             CAPTURE(static_cast<int>(value));
             CAPTURE(x);
             CAPTURE(end);
@@ -355,5 +355,6 @@ TEST_CASE("run_end: the first byte that differs, at every start and end of rows 
           ++checked;
         }
     }
+  CHECK(wrong == 0);
   MESSAGE("run_end calls checked: " << checked);
 }
