@@ -128,26 +128,42 @@ std::pair<std::vector<float>, std::vector<float>> random_panels(const detail::Mi
 }
 } // namespace
 
-TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others untouched") {
+TEST_CASE("narrow kernels: the first quarters of nr columns and / or mr / 2 rows bit for bit, "
+          "the others untouched") {
   std::mt19937 rng(12);
   int tested = 0;
   for (const auto& mk : kernels_under_test()) {
-    if (!mk.half) continue;
+    if (!mk.narrow[1] && !mk.half_rows[3]) continue;
     const std::string name = mk.name;
     CAPTURE(name);
     ++tested;
     for (int K : {0, 1, 9, 300}) {
       CAPTURE(K);
       const auto [a, b] = random_panels(mk, K, rng);
-      std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), half(full.size(), 7.0f);
+      std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr);
       mk.fn(K, a.data(), b.data(), full.data());
-      mk.half(K, a.data(), b.data(), half.data());
-      for (int r = 0; r < mk.mr; ++r)
-        for (int j = 0; j < mk.nr; ++j) {
-          const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
-          CAPTURE(r);
-          CAPTURE(j);
-          CHECK(half[i] == (j < mk.nr / 2 ? full[i] : 7.0f));
+      for (int few_rows = 0; few_rows < 2; ++few_rows)
+        for (int quarters = 1; quarters <= 4; ++quarters) {
+          const detail::MicroKernelFn f = few_rows       ? mk.half_rows[quarters - 1]
+                                          : quarters < 4 ? mk.narrow[quarters - 1]
+                                                         : mk.fn;
+          CAPTURE(few_rows);
+          CAPTURE(quarters);
+          REQUIRE_UNARY(f != nullptr);
+          std::vector<float> got(full.size(), 7.0f);
+          f(K, a.data(), b.data(), got.data());
+          int bad = 0;
+          for (int r = 0; r < mk.mr; ++r)
+            for (int j = 0; j < mk.nr; ++j) {
+              const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
+              const bool in = (!few_rows || r < mk.mr / 2) && j < quarters * mk.nr / 4;
+              bad += got[i] != (in ? full[i] : 7.0f);
+            }
+          CHECK(bad == 0);
+          // The choice: the least work that covers the rows and columns in use.
+          const int rows = few_rows ? mk.mr / 2 : mk.mr / 2 + 1, cols = quarters * mk.nr / 4;
+          CHECK_UNARY(detail::tile_kernel(mk, rows, cols) == f);
+          CHECK_UNARY(detail::tile_kernel(mk, few_rows ? 1 : mk.mr, cols - mk.nr / 4 + 1) == f);
         }
     }
   }
@@ -156,43 +172,14 @@ TEST_CASE("half-width kernels: the first nr / 2 columns bit for bit, the others 
 #endif
 }
 
-TEST_CASE("half-height kernels: the first mr / 2 rows bit for bit, the others untouched") {
-  std::mt19937 rng(13);
-  int tested = 0;
+TEST_CASE("tile_kernel: kernels without narrow variants run fn everywhere") {
   for (const auto& mk : kernels_under_test()) {
-    if (!mk.half_rows) continue;
+    if (mk.narrow[1] || mk.half_rows[3]) continue;
     const std::string name = mk.name;
     CAPTURE(name);
-    ++tested;
-    REQUIRE_UNARY(mk.quarter != nullptr);
-    for (int K : {0, 1, 9, 300}) {
-      CAPTURE(K);
-      const auto [a, b] = random_panels(mk, K, rng);
-      std::vector<float> full(static_cast<std::size_t>(mk.mr) * mk.nr), rows(full.size(), 7.0f),
-          quarter(full.size(), 7.0f);
-      mk.fn(K, a.data(), b.data(), full.data());
-      mk.half_rows(K, a.data(), b.data(), rows.data());
-      mk.quarter(K, a.data(), b.data(), quarter.data());
-      int bad = 0;
-      for (int r = 0; r < mk.mr; ++r)
-        for (int j = 0; j < mk.nr; ++j) {
-          const std::size_t i = static_cast<std::size_t>(r) * mk.nr + j;
-          const bool in_rows = r < mk.mr / 2, in_cols = j < mk.nr / 2;
-          bad += rows[i] != (in_rows ? full[i] : 7.0f);
-          bad += quarter[i] != (in_rows && in_cols ? full[i] : 7.0f);
-        }
-      CHECK(bad == 0);
-    }
-    // The choice: the least work that covers the rows and columns in use.
+    CHECK_UNARY(detail::tile_kernel(mk, 1, 1) == mk.fn);
     CHECK_UNARY(detail::tile_kernel(mk, mk.mr, mk.nr) == mk.fn);
-    CHECK_UNARY(detail::tile_kernel(mk, mk.mr / 2 + 1, mk.nr / 2 + 1) == mk.fn);
-    CHECK_UNARY(detail::tile_kernel(mk, mk.mr / 2, mk.nr) == mk.half_rows);
-    CHECK_UNARY(detail::tile_kernel(mk, mk.mr, mk.nr / 2) == mk.half);
-    CHECK_UNARY(detail::tile_kernel(mk, 1, 1) == mk.quarter);
   }
-#if SHADOWSENSE_X86_KERNELS
-  if (detail::cpu_has(GemmKernelKind::avx512)) CHECK(tested == 1);
-#endif
 }
 
 TEST_CASE("image_row_segments: the runs of a panel over image rows, exactly") {
@@ -238,7 +225,7 @@ TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by 
   const float sentinel = 1234.5f;
   for (int K : {0, 1, 64, 333})
     for (int width : {1, 5, 13, 40})
-      for (int cols : {32, 16, 9})
+      for (int cols : {32, 24, 17, 16, 9, 8, 1})
         for (int rows : {8, 3})
           for (bool bias_relu : {true, false})
             for (bool in_place : {false, true}) {
@@ -273,15 +260,15 @@ TEST_CASE("fused AVX-512 kernel: micro_kernel_avx512 + bias + ReLU, laid out by 
                                           bias_relu,  rows, &seg};
               std::vector<int> offsets(static_cast<std::size_t>(K) + 1);
               for (int k = 0; k < K; ++k) offsets[static_cast<std::size_t>(k)] = k * 32;
-              if (in_place) {
-                const detail::OffsetRows rb{b.data(), offsets.data()};
-                cols <= 16 ? detail::micro_kernel_avx512_fused<1>(K, a.data(), rb, dest)
-                           : detail::micro_kernel_avx512_fused<2>(K, a.data(), rb, dest);
-              } else {
-                const detail::PackedRows rb{b.data()};
-                cols <= 16 ? detail::micro_kernel_avx512_fused<1>(K, a.data(), rb, dest)
-                           : detail::micro_kernel_avx512_fused<2>(K, a.data(), rb, dest);
-              }
+              // The narrowest kernel that covers the rows and columns, as gemm_fused_avx512
+              // runs it.
+              auto run = [&](const auto& rb) {
+                detail::micro_kernel_avx512_fused_fit(cols, K, a.data(), rb, dest);
+              };
+              if (in_place)
+                run(detail::OffsetRows{b.data(), offsets.data()});
+              else
+                run(detail::PackedRows{b.data()});
               int mismatches = 0;
               for (std::size_t i = 0; i < got.size(); ++i) {
                 const bool same = std::isnan(want[i]) ? std::isnan(got[i]) : got[i] == want[i];

@@ -23,8 +23,9 @@
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints); scratch[0].shared grows on
 //   the first multi-thread call with few column panels (every B panel packed once) and is reused.
-// MicroKernel::half (optional): the kernel for the first nr / 2 columns only; gemm() and the
-//   Winograd GEMMs run it on a last panel of at most nr / 2 columns (half the multiply-adds).
+// MicroKernel::narrow, half_rows (optional): kernels for the first quarter, half or three
+//   quarters of nr columns and / or mr / 2 rows only; gemm() and the Winograd GEMMs run the
+//   narrowest that covers a last panel (tile_kernel), doing only those multiply-adds.
 // gemm_fused_avx512(a, n, pack, base, offsets, segments, dst, row_stride, bias, relu, pool,
 //   scratch): gemm() on the AVX-512 kernel with no tile and no store calls (or, offsets set, with
 //   B read in place at base + n0 + offsets[k], nothing packed: the direct 3x3 convolution):
@@ -66,22 +67,24 @@ struct MicroKernel {
   int nr; // columns of C per tile (B panel width)
   MicroKernelFn fn;
   const char* name;
-  // Optional: fn for the first nr / 2 columns only (out's other columns untouched), for a last
-  // panel of at most nr / 2 columns.
-  MicroKernelFn half = nullptr;
-  // Optional: fn and half for the first mr / 2 rows only (out's other rows untouched), for a
-  // last row panel of at most mr / 2 rows.
-  MicroKernelFn half_rows = nullptr;
-  MicroKernelFn quarter = nullptr;
+  // Optional narrower variants (out's other columns and rows untouched, the same values in
+  // the rest), for a last column panel of few columns or a last row panel of at most mr / 2
+  // rows: narrow[i] is fn for the first (i + 1) * nr / 4 columns only (i = 0, 1, 2; narrow[1]
+  // is the half-width kernel); half_rows[i] is narrow[i] (half_rows[3]: fn) for the first
+  // mr / 2 rows only.
+  MicroKernelFn narrow[3] = {};
+  MicroKernelFn half_rows[4] = {};
 };
 
 // The kernel for a tile whose first `rows` rows and `cols` columns are used: the variant with
 // the least work that covers them (each gives those rows and columns the same values).
 inline MicroKernelFn tile_kernel(const MicroKernel& k, int rows, int cols) {
-  const bool few_rows = rows <= k.mr / 2, few_cols = cols <= k.nr / 2;
-  if (few_rows && few_cols && k.quarter) return k.quarter;
-  if (few_cols && k.half) return k.half;
-  if (few_rows && k.half_rows) return k.half_rows;
+  const int quarters = std::clamp((4 * cols + k.nr - 1) / k.nr, 1, 4); // of nr, rounded up
+  const bool few_rows = rows <= k.mr / 2;
+  for (int i = quarters - 1; i < 4; ++i) { // the narrowest variant there is
+    const MicroKernelFn f = few_rows ? k.half_rows[i] : i < 3 ? k.narrow[i] : nullptr;
+    if (f) return f;
+  }
   return k.fn;
 }
 
@@ -135,7 +138,8 @@ inline bool cpu_has(GemmKernelKind kind) {
     return true;
 #if SHADOWSENSE_X86_KERNELS
   case GemmKernelKind::avx512:
-    return __builtin_cpu_supports("avx512f");
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+           __builtin_cpu_supports("fma");
   case GemmKernelKind::avx2:
     return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
 #endif
@@ -199,9 +203,10 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
             32,
             &micro_kernel_avx512,
             "avx512",
-            &micro_kernel_avx512_half,
-            &micro_kernel_avx512_half_rows,
-            &micro_kernel_avx512_quarter};
+            {&micro_kernel_avx512_cols<8>, &micro_kernel_avx512_cols<16>,
+             &micro_kernel_avx512_cols<24>},
+            {&micro_kernel_avx512_cols<8, 4>, &micro_kernel_avx512_cols<16, 4>,
+             &micro_kernel_avx512_cols<24, 4>, &micro_kernel_avx512_cols<32, 4>}};
   case GemmKernelKind::avx2:
     return {kind, 4, 24, &micro_kernel_avx2, "avx2+fma"};
 #endif
@@ -466,16 +471,10 @@ inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const f
                          relu,
                          std::min(kernel.mr, a.m - m0),
                          &s.segments};
-        // The 8 x 16 kernel for a last panel of at most 16 columns, and 4 rows for a last row
-        // panel of at most 4 (12 or 36 output channels).
+        // A last panel of at most 8, 16 or 24 columns runs the kernel of that width, and a
+        // last row panel of at most 4 rows (12 or 36 output channels) the 4-row one.
         auto run = [&](const auto& rows) {
-          const bool half = s.cols <= 16, few = d.rows <= 4;
-          if (half)
-            few ? micro_kernel_avx512_fused<1, 4>(a.k, a.panel(mp), rows, d)
-                : micro_kernel_avx512_fused<1>(a.k, a.panel(mp), rows, d);
-          else
-            few ? micro_kernel_avx512_fused<2, 4>(a.k, a.panel(mp), rows, d)
-                : micro_kernel_avx512_fused<2>(a.k, a.panel(mp), rows, d);
+          micro_kernel_avx512_fused_fit(s.cols, a.k, a.panel(mp), rows, d);
         };
         if (offsets)
           run(OffsetRows{base + n0, offsets});

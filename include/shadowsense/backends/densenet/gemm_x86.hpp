@@ -10,21 +10,24 @@
 //   them only through gemm.hpp's selection).
 // micro_kernel_avx2_in_place(K, a, b, offsets, out): micro_kernel_avx2 with B row k read in
 //   place at b + offsets[k] (24 readable floats each) instead of from a packed panel.
-// micro_kernel_avx512_half(K, a, b, out): as micro_kernel_avx512 for the first 16 columns
-//   only (B rows still 32 floats apart); columns 16..31 of out are not written. For a last
-//   panel of at most 16 columns: half the multiply-adds.
-// micro_kernel_avx512_half_rows(K, a, b, out), micro_kernel_avx512_quarter(K, a, b, out): as
-//   micro_kernel_avx512 and micro_kernel_avx512_half for the first 4 rows only (A panels still
-//   8 floats a k); rows 4..7 of out are not written. For a last row panel of at most 4 rows
-//   (12 output channels: 8 + 4): half the multiply-adds, the same values in those rows.
-// micro_kernel_avx512_fused<NV, MR>(K, a, rows, dest): the MR x 16NV block (NV = 1 or 2, MR = 8
-//   or 4 of the A panel's 8 rows; MR defaults to 8) over B
+// micro_kernel_avx512_cols<Cols, MR>(K, a, b, out), Cols = 8, 16, 24 or 32: as
+//   micro_kernel_avx512 for the first Cols columns and MR (8 or 4) rows only (B rows and A
+//   panels still 32 and 8 floats apart); the other columns and rows of out are not written.
+//   For a last panel of at most Cols columns or a last row panel of at most 4 rows (12 output
+//   channels: 8 + 4): the multiply-adds of those columns only, the same values. An 8-column
+//   part runs on 256-bit vectors: a core that splits 512-bit operations in two (AMD Zen 4)
+//   issues those at twice the rate, so 24 columns cost three quarters of 32.
+// micro_kernel_avx512_fused<Cols, MR>(K, a, rows, dest): the MR x Cols block (Cols = 8, 16, 24
+//   or 32, MR = 8 or 4 of the A panel's 8 rows; MR defaults to 8) over B
 //   rows rows(k) (PackedRows or OffsetRows), accumulated with FMA in k order, then written
 //   from the registers to dest (TileDest) instead of to a tile: row r < dest.rows gets
 //   dest.bias[r] added (when bias is set) and ReLU (when relu), and column j goes to
 //   dest.dst + r * dest.row_stride + seg.offset[s] + j for the segment s whose mask has bit j.
-//   Columns in no segment are dropped; NV = 1 writes columns < 16 only.
-//   requires: segments disjoint, every written address valid; mask bits >= 16 NV clear.
+//   Columns in no segment are dropped; columns >= Cols are not written.
+//   requires: segments disjoint, every written address valid; mask bits >= Cols clear; the
+//   CPU has AVX-512 F and VL and FMA (cpu_has(GemmKernelKind::avx512) in gemm.hpp).
+// micro_kernel_avx512_fused_fit(cols, K, a, rows, dest): the fused kernel of the least width
+//   (8, 16, 24 or 32) and height (4 or 8) covering cols columns and dest.rows rows.
 // TileSegments: how a tile's columns map to destination offsets (at most 33 runs: a 32-column
 //   panel crosses at most 32 row ends). Plain data, defined for every target.
 // pack_affine_relu_avx2: VectorOps::pack_affine_relu (gemm.hpp) with AVX2 + FMA, the values of
@@ -87,45 +90,59 @@ struct OffsetRows {
   const float* operator()(int k) const { return b + offsets[k]; }
 };
 
-// The fused kernel (see the header comment). The accumulators are an array the unrolled loops
-// index with constants only, so they live in registers (8 x NV of the 32).
-template <int NV, int MR = 8, class RowB>
-__attribute__((target("avx512f"))) inline void
+// The target of the AVX-512 GEMM kernels: VL and FMA for the 256-bit part of a 24- or
+// 8-column block.
+#define SHADOWSENSE_AVX512_GEMM_TARGET __attribute__((target("avx512f,avx512vl,fma")))
+
+// The fused kernel (see the header comment). The accumulators are arrays the unrolled loops
+// index with constants only, so they live in registers (8 x Cols / 16 of the 32).
+template <int Cols, int MR = 8, class RowB>
+SHADOWSENSE_AVX512_GEMM_TARGET inline void
 micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& dest) {
-  static_assert(NV == 1 || NV == 2, "16 or 32 columns");
+  static_assert(Cols == 8 || Cols == 16 || Cols == 24 || Cols == 32, "8 to 32 columns");
   static_assert(MR == 8 || MR == 4, "8 or the first 4 of the A panel's 8 rows");
-  constexpr int panel_rows = 8; // A's panel height whatever MR
-  __m512 c[MR][NV];
+  constexpr int panel_rows = 8;            // A's panel height whatever MR
+  constexpr int NV = Cols / 16;            // 512-bit vectors a row
+  constexpr bool quarter = Cols % 16 != 0; // and one 256-bit vector after them
+  __m512 c[MR][NV > 0 ? NV : 1];
+  __m256 q[MR];
   SHADOWSENSE_UNROLL(8)
   for (int r = 0; r < MR; ++r) {
     SHADOWSENSE_UNROLL(2)
     for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
+    q[r] = _mm256_setzero_ps();
   }
   for (int k = 0; k < K; ++k, a += panel_rows) {
     const float* bk = row_b(k);
-    __m512 b[NV];
+    __m512 b[NV > 0 ? NV : 1];
     SHADOWSENSE_UNROLL(2)
     for (int v = 0; v < NV; ++v) b[v] = _mm512_loadu_ps(bk + 16 * v);
+    const __m256 bq = quarter ? _mm256_loadu_ps(bk + 16 * NV) : _mm256_setzero_ps();
     SHADOWSENSE_UNROLL(8)
     for (int r = 0; r < MR; ++r) {
-      const __m512 x = _mm512_set1_ps(a[r]);
-      SHADOWSENSE_UNROLL(2)
-      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_fmadd_ps(x, b[v], c[r][v]);
+      if constexpr (NV > 0) {
+        const __m512 x = _mm512_set1_ps(a[r]);
+        SHADOWSENSE_UNROLL(2)
+        for (int v = 0; v < NV; ++v) c[r][v] = _mm512_fmadd_ps(x, b[v], c[r][v]);
+      }
+      if constexpr (quarter) q[r] = _mm256_fmadd_ps(_mm256_set1_ps(a[r]), bq, q[r]);
     }
   }
   const __m512 z = _mm512_setzero_ps();
+  const __m256 zq = _mm256_setzero_ps();
   const TileSegments& seg = *dest.segments;
   SHADOWSENSE_UNROLL(8)
   for (int r = 0; r < MR; ++r) {
     if (r >= dest.rows) break;
     if (dest.bias) {
-      const __m512 bias = _mm512_set1_ps(dest.bias[r]);
       SHADOWSENSE_UNROLL(2)
-      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_add_ps(c[r][v], bias);
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_add_ps(c[r][v], _mm512_set1_ps(dest.bias[r]));
+      if constexpr (quarter) q[r] = _mm256_add_ps(q[r], _mm256_set1_ps(dest.bias[r]));
     }
     if (dest.relu) { // max(0, v) keeps a NaN (the second operand), as relu_reference does
       SHADOWSENSE_UNROLL(2)
       for (int v = 0; v < NV; ++v) c[r][v] = _mm512_maskz_max_ps(0xFFFF, z, c[r][v]);
+      if constexpr (quarter) q[r] = _mm256_maskz_max_ps(0xFF, zq, q[r]);
     }
     float* row =
         dest.dst + static_cast<std::ptrdiff_t>(r) * static_cast<std::ptrdiff_t>(dest.row_stride);
@@ -134,34 +151,44 @@ micro_kernel_avx512_fused(int K, const float* a, RowB row_b, const TileDest& des
       SHADOWSENSE_UNROLL(2)
       for (int v = 0; v < NV; ++v)
         _mm512_mask_storeu_ps(p + 16 * v, static_cast<__mmask16>(seg.mask[s] >> (16 * v)), c[r][v]);
+      if constexpr (quarter)
+        _mm256_mask_storeu_ps(p + 16 * NV, static_cast<__mmask8>(seg.mask[s] >> (16 * NV)), q[r]);
     }
   }
 }
 
-// The fused kernel writing a plain 8 x 32 tile (its first 16 NV columns and MR rows): one run,
+// The fused kernel of the least width and height that cover cols columns and dest.rows rows.
+template <class RowB>
+SHADOWSENSE_AVX512_GEMM_TARGET inline void
+micro_kernel_avx512_fused_fit(int cols, int K, const float* a, RowB row_b, const TileDest& dest) {
+  auto with_cols = [&]<int Cols>() {
+    if (dest.rows <= 4)
+      micro_kernel_avx512_fused<Cols, 4>(K, a, row_b, dest);
+    else
+      micro_kernel_avx512_fused<Cols>(K, a, row_b, dest);
+  };
+  if (cols <= 8)
+    with_cols.template operator()<8>();
+  else if (cols <= 16)
+    with_cols.template operator()<16>();
+  else if (cols <= 24)
+    with_cols.template operator()<24>();
+  else
+    with_cols.template operator()<32>();
+}
+
+// The fused kernel writing a plain 8 x 32 tile (its first Cols columns and MR rows): one run,
 // no bias.
-template <int NV, int MR = 8>
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_tile(int K, const float* a, const float* b, float* out) {
-  static constexpr TileSegments whole{1, {NV == 2 ? ~0u : 0xFFFFu}, {0}};
-  micro_kernel_avx512_fused<NV, MR>(K, a, PackedRows{b},
-                                    TileDest{out, 32, nullptr, false, MR, &whole});
+template <int Cols, int MR = 8>
+SHADOWSENSE_AVX512_GEMM_TARGET inline void micro_kernel_avx512_cols(int K, const float* a,
+                                                                    const float* b, float* out) {
+  static constexpr TileSegments whole{1, {Cols == 32 ? ~0u : (1u << Cols) - 1u}, {0}};
+  micro_kernel_avx512_fused<Cols, MR>(K, a, PackedRows{b},
+                                      TileDest{out, 32, nullptr, false, MR, &whole});
 }
-__attribute__((target("avx512f"))) inline void micro_kernel_avx512(int K, const float* a,
-                                                                   const float* b, float* out) {
-  micro_kernel_avx512_tile<2>(K, a, b, out);
-}
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_half(int K, const float* a, const float* b, float* out) {
-  micro_kernel_avx512_tile<1>(K, a, b, out);
-}
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_half_rows(int K, const float* a, const float* b, float* out) {
-  micro_kernel_avx512_tile<2, 4>(K, a, b, out);
-}
-__attribute__((target("avx512f"))) inline void
-micro_kernel_avx512_quarter(int K, const float* a, const float* b, float* out) {
-  micro_kernel_avx512_tile<1, 4>(K, a, b, out);
+SHADOWSENSE_AVX512_GEMM_TARGET inline void micro_kernel_avx512(int K, const float* a,
+                                                               const float* b, float* out) {
+  micro_kernel_avx512_cols<32>(K, a, b, out);
 }
 
 // The AVX2 kernel over B rows row_b(k) (24 floats each): a packed panel (micro_kernel_avx2) or
