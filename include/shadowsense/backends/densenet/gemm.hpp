@@ -23,9 +23,9 @@
 // gemm(kernel, a, n, pack, store, pool, scratch): see below; scratch holds pool.size() entries
 //   sized for the largest K (K x nr panel, mr x nr tile, nr ints); scratch[0].shared grows on
 //   the first multi-thread call with few column panels (every B panel packed once) and is reused.
-// MicroKernel::narrow, half_rows (optional): kernels for the first quarter, half or three
-//   quarters of nr columns and / or mr / 2 rows only; gemm() and the Winograd GEMMs run the
-//   narrowest that covers a last panel (tile_kernel), doing only those multiply-adds.
+// MicroKernel::narrow, half_rows (optional): kernels for the first multiples of step columns
+//   and / or mr / 2 rows only; gemm() and the Winograd GEMMs run the narrowest that covers a
+//   last panel (tile_kernel), doing only those multiply-adds.
 // gemm_fused_avx512(a, n, pack, base, offsets, segments, dst, row_stride, bias, relu, pool,
 //   scratch): gemm() on the AVX-512 kernel with no tile and no store calls (or, offsets set, with
 //   B read in place at base + n0 + offsets[k], nothing packed: the direct 3x3 convolution):
@@ -69,9 +69,10 @@ struct MicroKernel {
   const char* name;
   // Optional narrower variants (out's other columns and rows untouched, the same values in
   // the rest), for a last column panel of few columns or a last row panel of at most mr / 2
-  // rows: narrow[i] is fn for the first (i + 1) * nr / 4 columns only (i = 0, 1, 2; narrow[1]
-  // is the half-width kernel); half_rows[i] is narrow[i] (half_rows[3]: fn) for the first
-  // mr / 2 rows only.
+  // rows: with step > 0, narrow[i] is fn for the first (i + 1) * step columns only (i + 1 <
+  // nr / step); half_rows[i] is narrow[i] (half_rows[nr / step - 1]: fn) for the first mr / 2
+  // rows only. Null entries fall back to the next wider variant, then to fn.
+  int step = 0;
   MicroKernelFn narrow[3] = {};
   MicroKernelFn half_rows[4] = {};
 };
@@ -79,10 +80,11 @@ struct MicroKernel {
 // The kernel for a tile whose first `rows` rows and `cols` columns are used: the variant with
 // the least work that covers them (each gives those rows and columns the same values).
 inline MicroKernelFn tile_kernel(const MicroKernel& k, int rows, int cols) {
-  const int quarters = std::clamp((4 * cols + k.nr - 1) / k.nr, 1, 4); // of nr, rounded up
+  if (k.step <= 0) return k.fn;
+  const int widths = k.nr / k.step; // variants of 1 .. widths steps
   const bool few_rows = rows <= k.mr / 2;
-  for (int i = quarters - 1; i < 4; ++i) { // the narrowest variant there is
-    const MicroKernelFn f = few_rows ? k.half_rows[i] : i < 3 ? k.narrow[i] : nullptr;
+  for (int i = std::clamp((cols + k.step - 1) / k.step, 1, widths) - 1; i < widths; ++i) {
+    const MicroKernelFn f = few_rows ? k.half_rows[i] : i + 1 < widths ? k.narrow[i] : nullptr;
     if (f) return f;
   }
   return k.fn;
@@ -203,12 +205,19 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
             32,
             &micro_kernel_avx512,
             "avx512",
+            8,
             {&micro_kernel_avx512_cols<8>, &micro_kernel_avx512_cols<16>,
              &micro_kernel_avx512_cols<24>},
             {&micro_kernel_avx512_cols<8, 4>, &micro_kernel_avx512_cols<16, 4>,
              &micro_kernel_avx512_cols<24, 4>, &micro_kernel_avx512_cols<32, 4>}};
   case GemmKernelKind::avx2:
-    return {kind, 4, 24, &micro_kernel_avx2, "avx2+fma"};
+    return {kind,
+            4,
+            24,
+            &micro_kernel_avx2,
+            "avx2+fma",
+            8,
+            {&micro_kernel_avx2_cols<8>, &micro_kernel_avx2_cols<16>}};
 #endif
 #if SHADOWSENSE_NEON_KERNELS
   case GemmKernelKind::neon:

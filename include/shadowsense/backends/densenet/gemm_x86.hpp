@@ -10,6 +10,9 @@
 //   them only through gemm.hpp's selection).
 // micro_kernel_avx2_in_place(K, a, b, offsets, out): micro_kernel_avx2 with B row k read in
 //   place at b + offsets[k] (24 readable floats each) instead of from a packed panel.
+// micro_kernel_avx2_cols<Cols>(K, a, b, out), Cols = 8 or 16: micro_kernel_avx2 for the first
+//   Cols columns only (B rows still 24 floats apart); the other columns of out are not
+//   written. For a last panel of at most Cols columns: the multiply-adds of those only.
 // micro_kernel_avx512_cols<Cols, MR>(K, a, b, out), Cols = 8, 16, 24 or 32: as
 //   micro_kernel_avx512 for the first Cols columns and MR (8 or 4) rows only (B rows and A
 //   panels still 32 and 8 floats apart); the other columns and rows of out are not written.
@@ -192,47 +195,43 @@ SHADOWSENSE_AVX512_GEMM_TARGET inline void micro_kernel_avx512(int K, const floa
 }
 
 // The AVX2 kernel over B rows row_b(k) (24 floats each): a packed panel (micro_kernel_avx2) or
-// rows read in place (micro_kernel_avx2_in_place: conv0's taps, nothing packed).
-template <class RowB>
+// rows read in place (micro_kernel_avx2_in_place: conv0's taps, nothing packed); its first
+// Cols (8, 16 or 24) columns only (micro_kernel_avx2_cols), the rest of out not written. The
+// accumulators are an array the unrolled loops index with constants only: 12, 3 B vectors and
+// a broadcast fill the 16 registers with no spill.
+template <int Cols = 24, class RowB>
 __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2_rows(int K, const float* a,
                                                                        RowB row_b, float* out) {
-  constexpr int MR = 4;
-  __m256 c00 = _mm256_setzero_ps(), c01 = c00, c02 = c00, c10 = c00, c11 = c00, c12 = c00,
-         c20 = c00, c21 = c00, c22 = c00, c30 = c00, c31 = c00, c32 = c00;
-  for (int k = 0; k < K; ++k, a += MR) {
-    const float* b = row_b(k);
-    const __m256 b0 = _mm256_loadu_ps(b);
-    const __m256 b1 = _mm256_loadu_ps(b + 8);
-    const __m256 b2 = _mm256_loadu_ps(b + 16);
-    __m256 x = _mm256_broadcast_ss(a + 0);
-    c00 = _mm256_fmadd_ps(x, b0, c00);
-    c01 = _mm256_fmadd_ps(x, b1, c01);
-    c02 = _mm256_fmadd_ps(x, b2, c02);
-    x = _mm256_broadcast_ss(a + 1);
-    c10 = _mm256_fmadd_ps(x, b0, c10);
-    c11 = _mm256_fmadd_ps(x, b1, c11);
-    c12 = _mm256_fmadd_ps(x, b2, c12);
-    x = _mm256_broadcast_ss(a + 2);
-    c20 = _mm256_fmadd_ps(x, b0, c20);
-    c21 = _mm256_fmadd_ps(x, b1, c21);
-    c22 = _mm256_fmadd_ps(x, b2, c22);
-    x = _mm256_broadcast_ss(a + 3);
-    c30 = _mm256_fmadd_ps(x, b0, c30);
-    c31 = _mm256_fmadd_ps(x, b1, c31);
-    c32 = _mm256_fmadd_ps(x, b2, c32);
+  static_assert(Cols == 8 || Cols == 16 || Cols == 24, "8, 16 or 24 columns");
+  constexpr int MR = 4, NV = Cols / 8;
+  __m256 c[MR][NV];
+  SHADOWSENSE_UNROLL(4)
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(3)
+    for (int v = 0; v < NV; ++v) c[r][v] = _mm256_setzero_ps();
   }
-  _mm256_storeu_ps(out + 0, c00);
-  _mm256_storeu_ps(out + 8, c01);
-  _mm256_storeu_ps(out + 16, c02);
-  _mm256_storeu_ps(out + 24, c10);
-  _mm256_storeu_ps(out + 32, c11);
-  _mm256_storeu_ps(out + 40, c12);
-  _mm256_storeu_ps(out + 48, c20);
-  _mm256_storeu_ps(out + 56, c21);
-  _mm256_storeu_ps(out + 64, c22);
-  _mm256_storeu_ps(out + 72, c30);
-  _mm256_storeu_ps(out + 80, c31);
-  _mm256_storeu_ps(out + 88, c32);
+  for (int k = 0; k < K; ++k, a += MR) {
+    const float* bk = row_b(k);
+    __m256 b[NV];
+    SHADOWSENSE_UNROLL(3)
+    for (int v = 0; v < NV; ++v) b[v] = _mm256_loadu_ps(bk + 8 * v);
+    SHADOWSENSE_UNROLL(4)
+    for (int r = 0; r < MR; ++r) {
+      const __m256 x = _mm256_broadcast_ss(a + r);
+      SHADOWSENSE_UNROLL(3)
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm256_fmadd_ps(x, b[v], c[r][v]);
+    }
+  }
+  SHADOWSENSE_UNROLL(4)
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(3)
+    for (int v = 0; v < NV; ++v) _mm256_storeu_ps(out + 24 * r + 8 * v, c[r][v]);
+  }
+}
+template <int Cols>
+__attribute__((target("avx2,fma"))) inline void micro_kernel_avx2_cols(int K, const float* a,
+                                                                       const float* b, float* out) {
+  micro_kernel_avx2_rows<Cols>(K, a, PackedRowsOf<24>{b}, out);
 }
 __attribute__((target("avx2,fma"))) inline void micro_kernel_avx2(int K, const float* a,
                                                                   const float* b, float* out) {
