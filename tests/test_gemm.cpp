@@ -175,6 +175,9 @@ TEST_CASE("narrow kernels: the first steps of nr columns and / or mr / 2 rows bi
 #if SHADOWSENSE_X86_KERNELS
   if (detail::cpu_has(GemmKernelKind::avx512)) CHECK(tested == 2); // AVX-512 and AVX2
 #endif
+#if SHADOWSENSE_NEON_KERNELS
+  CHECK(tested == 1);
+#endif
 }
 
 TEST_CASE("tile_kernel: kernels without narrow variants run fn everywhere") {

@@ -221,7 +221,13 @@ inline MicroKernel select_micro_kernel(GemmKernelKind wanted) {
 #endif
 #if SHADOWSENSE_NEON_KERNELS
   case GemmKernelKind::neon:
-    return {kind, 8, 12, &micro_kernel_neon, "neon"};
+    return {kind,
+            8,
+            12,
+            &micro_kernel_neon<12>,
+            "neon",
+            4,
+            {&micro_kernel_neon<4>, &micro_kernel_neon<8>}};
 #endif
   case GemmKernelKind::reference:
     return {kind, 4, 8, &micro_kernel_reference<4, 8>, "reference"};

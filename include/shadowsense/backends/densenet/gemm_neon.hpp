@@ -3,8 +3,10 @@
 // mandatory on aarch64, so these are chosen at compile time: SHADOWSENSE_NEON_KERNELS is 1 on
 // aarch64 with GCC/Clang and the functions exist only there.
 //
-// micro_kernel_neon(K, a, b, out): same contract as micro_kernel_reference<8, 12>
-//   (gemm_reference.hpp), accumulated with fused multiply-add in k order.
+// micro_kernel_neon<Cols>(K, a, b, out): same contract as micro_kernel_reference<8, 12>
+//   (gemm_reference.hpp), accumulated with fused multiply-add in k order, for the first Cols
+//   (4, 8 or 12, the default) columns only: the other columns of out are not written. For a
+//   last panel of at most 4 or 8 columns: the multiply-adds of those only.
 // affine_relu_neon, bias_relu_neon, pack3x3_neon, pool_affine_relu_neon: same contracts as the
 //   portable loops (gemm_portable.hpp, documented in gemm.hpp's VectorOps); ReLU is vmaxq_f32,
 //   which propagates NaN like PyTorch's ReLU.
@@ -24,18 +26,22 @@
 SHADOWSENSE_NAMESPACE_BEGIN
 namespace detail {
 
+template <int Cols = 12>
 inline void micro_kernel_neon(int K, const float* a, const float* b, float* out) {
+  static_assert(Cols == 4 || Cols == 8 || Cols == 12, "4, 8 or 12 columns");
+  constexpr int NV = Cols / 4; // vectors a row; the others are neither computed nor stored
   const float32x4_t z = vdupq_n_f32(0.0f);
   float32x4_t c00 = z, c01 = z, c02 = z, c10 = z, c11 = z, c12 = z, c20 = z, c21 = z, c22 = z,
               c30 = z, c31 = z, c32 = z, c40 = z, c41 = z, c42 = z, c50 = z, c51 = z, c52 = z,
               c60 = z, c61 = z, c62 = z, c70 = z, c71 = z, c72 = z;
   for (int k = 0; k < K; ++k, a += 8, b += 12) {
-    const float32x4_t b0 = vld1q_f32(b), b1 = vld1q_f32(b + 4), b2 = vld1q_f32(b + 8);
+    const float32x4_t b0 = vld1q_f32(b);
+    const float32x4_t b1 = NV > 1 ? vld1q_f32(b + 4) : z, b2 = NV > 2 ? vld1q_f32(b + 8) : z;
     const float32x4_t a0 = vld1q_f32(a), a1 = vld1q_f32(a + 4);
 #define SHADOWSENSE_NEON_ROW(R, A, L)                                                              \
   c##R##0 = vfmaq_laneq_f32(c##R##0, b0, A, L);                                                    \
-  c##R##1 = vfmaq_laneq_f32(c##R##1, b1, A, L);                                                    \
-  c##R##2 = vfmaq_laneq_f32(c##R##2, b2, A, L)
+  if constexpr (NV > 1) c##R##1 = vfmaq_laneq_f32(c##R##1, b1, A, L);                              \
+  if constexpr (NV > 2) c##R##2 = vfmaq_laneq_f32(c##R##2, b2, A, L)
     SHADOWSENSE_NEON_ROW(0, a0, 0);
     SHADOWSENSE_NEON_ROW(1, a0, 1);
     SHADOWSENSE_NEON_ROW(2, a0, 2);
@@ -48,8 +54,8 @@ inline void micro_kernel_neon(int K, const float* a, const float* b, float* out)
   }
 #define SHADOWSENSE_NEON_STORE(R)                                                                  \
   vst1q_f32(out + R * 12, c##R##0);                                                                \
-  vst1q_f32(out + R * 12 + 4, c##R##1);                                                            \
-  vst1q_f32(out + R * 12 + 8, c##R##2)
+  if constexpr (NV > 1) vst1q_f32(out + R * 12 + 4, c##R##1);                                      \
+  if constexpr (NV > 2) vst1q_f32(out + R * 12 + 8, c##R##2)
   SHADOWSENSE_NEON_STORE(0);
   SHADOWSENSE_NEON_STORE(1);
   SHADOWSENSE_NEON_STORE(2);
