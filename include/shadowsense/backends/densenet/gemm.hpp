@@ -462,9 +462,10 @@ inline void gemm_in_place_avx2(const PackedMatrix& a, int n, const float* base, 
 // when offsets is set, read in place at base + n0 + offsets[k] (the caller guarantees 32
 // readable floats there, past n included). Row m of C goes to dst + m * row_stride, plus bias[m]
 // when bias is set, through ReLU when relu; its columns are laid out by segments(n0, cols,
-// TileSegments&), called once per column panel and thread. A last panel of at most 16 columns
-// runs the 8 x 16 kernel. Same split over threads as gemm() (packed) or as the in-place tiles
-// of gemm_over_panels (offsets).
+// TileSegments&), called once per column panel and thread. A last panel of at most 8, 16 or 24
+// columns runs the kernel of that width (micro_kernel_avx512_fused_fit). Split over threads by
+// gemm_over_panels (packed with few column panels: by rows, every thread packing every panel,
+// unlike gemm(); docs/densenet.md measured sharing them slower on a busy second core).
 template <class Pack, class Segments>
 inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const float* base,
                               const int* offsets, Segments&& segments, float* dst,

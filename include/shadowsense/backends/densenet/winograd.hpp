@@ -1242,8 +1242,8 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
         j += run;
       }
     // xi outer: each V_xi slab stays in L1 while every row panel multiplies it.
-    // (A last panel of at most nr / 2 tiles, or a last row panel of at most mr / 2 output
-    // channels, runs the half-width or half-height kernel where there is one.)
+    // (A last panel of few tiles, or a last row panel of at most mr / 2 output channels, runs
+    // the narrowest kernel that covers it where there is one: tile_kernel.)
     for (std::size_t xi = 0; xi < products; ++xi)
       for (int mp = mp0; mp < mp1; ++mp)
         tile_kernel(kernel, u.m - mp * mr,
