@@ -487,15 +487,12 @@ inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const f
                          relu,
                          std::min(kernel.mr, a.m - m0),
                          &s.segments};
-        // A last panel of at most 8, 16 or 24 columns runs the kernel of that width, and a
-        // last row panel of at most 4 rows (12 or 36 output channels) the 4-row one.
-        auto run = [&](const auto& rows) {
-          micro_kernel_avx512_fused_fit(s.cols, a.k, a.panel(mp), rows, d);
-        };
+        // The narrowest kernel that covers the panel's columns and rows.
         if (offsets)
-          run(OffsetRows{base + n0, offsets});
+          micro_kernel_avx512_fused_fit(s.cols, a.k, a.panel(mp), OffsetRows{base + n0, offsets},
+                                        d);
         else
-          run(PackedRows{s.panel.data()});
+          micro_kernel_avx512_fused_fit(s.cols, a.k, a.panel(mp), PackedRows{s.panel.data()}, d);
       },
       [](int, int, int, const float*) {}, pool, scratch, /*free_prepare=*/offsets != nullptr);
 }
