@@ -42,6 +42,7 @@
 #include <shadowsense/backends/densenet/gemm_reference.hpp>
 #include <shadowsense/backends/densenet/gemm_x86.hpp>
 #include <shadowsense/backends/densenet/thread_pool.hpp>
+#include <shadowsense/core/codegen.hpp>
 #include <shadowsense/core/error.hpp>
 #include <shadowsense/core/version.hpp>
 
@@ -294,7 +295,13 @@ struct GemmScratch {
   TileSegments segments;     // the fused kernels' column runs for the current column panel
   int cols = 0;              // columns of the current column panel
   std::vector<float> shared; // (thread 0's only) every B panel of a row-split gemm(), packed once
+  bool a_cold = false;       // gemm_over_panels: no column panel of this call's A done yet
 };
+
+// Row panel mp of A towards the cache (prefetch_range_for_read), to be multiplied soon.
+inline void prefetch_a_panel(const PackedMatrix& a, int mp) {
+  prefetch_range_for_read(a.panel(mp), static_cast<std::size_t>(a.k) * a.mr * sizeof(float));
+}
 
 // The split shared by gemm() and gemm_fused_avx512(). For every column panel, prepare(s, n0, cols)
 // readies B in the thread's scratch s, then multiply(mp, s, n0) writes the MR x NR tile of row
@@ -314,16 +321,27 @@ inline void gemm_over_panels(const MicroKernel& kernel, const PackedMatrix& a, i
   const int n_panels = (n + nr - 1) / nr;
   const int m_panels = (a.m + mr - 1) / mr;
   const int threads = pool.size();
+  // A thread's first column panel reads its rows of A from beyond the L2: a large DenseNet's
+  // weights (32 MB for DenseNet-121) do not stay in the caches from one pass to the next (its
+  // stages take 2-25% longer in a pass than each repeated alone). So there, row panel mp0 is
+  // asked for before B is packed and each next one while the one before it is multiplied
+  // (docs/densenet.md, "A's row panels prefetched"). Later column panels find A in the L2.
   auto tile = [&](GemmScratch& s, int np, int mp0, int mp1) {
     const int n0 = np * nr;
     const int cols = std::min(nr, n - n0);
+    const bool cold = s.a_cold;
+    if (cold) prefetch_a_panel(a, mp0);
     prepare(s, n0, cols);
     for (int mp = mp0; mp < mp1; ++mp) {
+      if (cold && mp + 1 < mp1) prefetch_a_panel(a, mp + 1);
       multiply(mp, s, n0);
       const int rows = std::min(mr, a.m - mp * mr);
       for (int r = 0; r < rows; ++r) store(mp * mr + r, n0, cols, s.tile.data() + r * nr);
     }
+    s.a_cold = false;
   };
+  // Set here, before the pool runs the tasks (which orders this write before their reads).
+  for (int t = 0; t < threads; ++t) scratch[static_cast<std::size_t>(t)].a_cold = true;
   if (free_prepare) {
     run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
       tile(scratch[static_cast<std::size_t>(t)], np, mp0, mp1);
@@ -379,9 +397,11 @@ inline void gemm(const MicroKernel& kernel, const PackedMatrix& a, int n, Pack&&
     auto multiply_rows = [&](int t) {
       GemmScratch& s = scratch[static_cast<std::size_t>(t)];
       const int mp0 = m_panels * t / threads, mp1 = m_panels * (t + 1) / threads;
+      if (mp0 < mp1) prefetch_a_panel(a, mp0); // A's rows as in gemm_over_panels
       for (int np = 0; np < n_panels; ++np) {
         const int n0 = np * nr, cols = std::min(nr, n - n0);
         for (int mp = mp0; mp < mp1; ++mp) {
+          if (np == 0 && mp + 1 < mp1) prefetch_a_panel(a, mp + 1);
           const int rows = std::min(mr, a.m - mp * mr);
           tile_kernel(kernel, rows, cols)(a.k, a.panel(mp), shared.data() + stride * np,
                                           s.tile.data());
