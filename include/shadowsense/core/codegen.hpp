@@ -62,6 +62,7 @@ inline void prefetch_for_read(const void* p) {
   (void)p;
 #endif
 }
+
 inline void prefetch_range_for_read(const void* p, std::size_t bytes) {
 #if defined(__GNUC__) || defined(__clang__)
   const char* c = static_cast<const char*>(p);
