@@ -8,10 +8,12 @@
 #include <doctest/doctest.h>
 
 #include <algorithm>
+#include <array>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <mutex>
 #include <random>
 #include <string>
 #include <tuple>
@@ -633,8 +635,11 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
       winograd_abs_scale(tile, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, wscale);
       const double eps = std::numeric_limits<float>::epsilon();
       const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
-      for (const auto& mk : kernels_under_test())
-        for (int threads : {1, 3}) {
+      for (const auto& mk : kernels_under_test()) {
+        std::vector<float> one_thread;
+        // 2 and 3 threads split by row panels, by tile panels, or by tile ranges
+        // (panel_units_share_a_panel): every output the same bit for bit as on 1 thread.
+        for (int threads : {1, 2, 3}) {
           const std::string name = mk.name;
           CAPTURE(name);
           CAPTURE(threads);
@@ -658,7 +663,12 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
           CHECK(bad == 0);
           CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
                             [](float v) { return v == -7.0f; }));
+          if (threads == 1)
+            one_thread = out;
+          else
+            CHECK(out == one_thread);
         }
+      }
     }
     MESSAGE("Winograd F(", tile, "x", tile,
             ", 3x3) vs direct (double): max |diff| / sum |w x| = ", worst,
@@ -804,8 +814,9 @@ TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU
     winograd_abs_scale(3, w, in, sh.m, sh.c, sh.h, sh.w, pw, plane, wscale);
     const double eps = std::numeric_limits<float>::epsilon();
     const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
-    for (const auto& mk : kernels_under_test())
-      for (int threads : {1, 3}) {
+    for (const auto& mk : kernels_under_test()) {
+      std::vector<float> one_thread;
+      for (int threads : {1, 2, 3}) { // 2 and 3: the 1-thread outputs bit for bit
         const std::string name = mk.name;
         CAPTURE(name);
         CAPTURE(threads);
@@ -834,7 +845,12 @@ TEST_CASE("Winograd F(3x3, 4x4) equals the direct 4x4 correlation, bias and ReLU
         CHECK(bad == 0);
         CHECK(std::all_of(out.begin() + static_cast<std::ptrdiff_t>(n_out), out.end(),
                           [](float v) { return v == -7.0f; }));
+        if (threads == 1)
+          one_thread = out;
+        else
+          CHECK(out == one_thread);
       }
+    }
   }
   MESSAGE("Winograd F(3x3, 4x4) vs direct (double): max |diff| / sum |w x| = ", worst,
           ", max |diff| / bound = ", worst_bound);
@@ -857,6 +873,40 @@ TEST_CASE("winograd_tile: F(4x4) on large images and where its GEMM costs at mos
   CHECK(detail::winograd_tile(10, 5, 12, 32) == 2);  // 6 tiles of 4x4: 36 > 1.2 x 16
   CHECK(detail::winograd_tile(40, 22, 11, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 32, 16) == 4); // AVX2's 16 columns
+}
+
+TEST_CASE("panel_units_share_a_panel and run_column_ranges: which splits share a panel, and "
+          "the ranges exactly") {
+  // DenseNet-121 at 3x150x220, 2 threads, 4 row panels: block 3's one tile panel is shared,
+  // block 2's two are not, block 1's five are (the middle one)
+  CHECK(detail::panel_units_share_a_panel(2, 1, 4));
+  CHECK_FALSE(detail::panel_units_share_a_panel(2, 2, 4));
+  CHECK(detail::panel_units_share_a_panel(2, 5, 4));
+  CHECK_FALSE(detail::panel_units_share_a_panel(1, 5, 4)); // one thread shares nothing
+  CHECK_FALSE(detail::panel_units_share_a_panel(3, 3, 4)); // 12 units: 4 / 4 / 4
+  CHECK(detail::panel_units_share_a_panel(3, 2, 4));       // 8 units: 2 / 3 / 3
+  CHECK_FALSE(detail::panel_units_share_a_panel(2, 3, 1)); // one row panel: whole panels
+  CHECK(detail::panel_units_share_a_panel(4, 1, 2));       // 2 units, 2 tasks: one row panel each
+  // The ranges: (task, first column, columns) of every call, sorted.
+  auto calls = [](int threads, int n, int nr) {
+    detail::ThreadPool pool(threads);
+    std::mutex mutex;
+    std::vector<std::array<int, 3>> seen;
+    detail::run_column_ranges(pool, n, nr, [&](int t, int n0, int cols) {
+      std::lock_guard<std::mutex> lock(mutex);
+      seen.push_back({t, n0, cols});
+    });
+    std::sort(seen.begin(), seen.end());
+    return seen;
+  };
+  using Calls = std::vector<std::array<int, 3>>;
+  CHECK(calls(2, 12, 32) == Calls{{0, 0, 6}, {1, 6, 6}});
+  CHECK(calls(2, 140, 32) ==
+        Calls{{0, 0, 32}, {0, 32, 32}, {0, 64, 6}, {1, 70, 32}, {1, 102, 32}, {1, 134, 6}});
+  CHECK(calls(3, 35, 16) == Calls{{0, 0, 11}, {1, 11, 12}, {2, 23, 12}});
+  CHECK(calls(1, 40, 32) == Calls{{0, 0, 32}, {0, 32, 8}});
+  CHECK(calls(3, 2, 32) == Calls{{0, 0, 1}, {1, 1, 1}}); // fewer columns than threads
+  CHECK(calls(2, 0, 32).empty());
 }
 
 TEST_CASE("PackedMatrix::unpack returns the packed matrix") {
