@@ -338,7 +338,7 @@ std::vector<Stage> densenet_stages(const ss::DenseNet& net, int h, int w) {
     Stage s{"block" + std::to_string(b + 1)};
     const double hw = double(H) * W;
     double wts = 0;
-    const int tile = ss::detail::winograd_tile(H, W, k, nr);
+    const int tile = ss::detail::winograd_tile(H, W, k, nr, net.weights_stream());
     const double conv3x3 = tile ? 2.0 * (tile + 2) * (tile + 2) * k * inner *
                                       (double((H + tile - 1) / tile) * ((W + tile - 1) / tile))
                                 : 2.0 * k * inner * 9.0 * H * (W + 2);
@@ -389,7 +389,7 @@ std::string describe(const ss::DenseNet& net, int h, int w) {
       sizes += ", ";
     }
     blocks += std::to_string(a.block_config[b]);
-    const int tile = ss::detail::winograd_tile(H, W, a.growth_rate, nr);
+    const int tile = ss::detail::winograd_tile(H, W, a.growth_rate, nr, net.weights_stream());
     sizes += "block";
     sizes += std::to_string(b + 1);
     sizes += ' ';

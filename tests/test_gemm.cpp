@@ -873,6 +873,17 @@ TEST_CASE("winograd_tile: F(4x4) on large images and where its GEMM costs at mos
   CHECK(detail::winograd_tile(10, 5, 12, 32) == 2);  // 6 tiles of 4x4: 36 > 1.2 x 16
   CHECK(detail::winograd_tile(40, 22, 11, 32) == 0);
   CHECK(detail::winograd_tile(38, 55, 32, 16) == 4); // AVX2's 16 columns
+  // Weights read from memory: one more panel pass per method. Block 3 goes direct (6 x 9 = 54
+  // against F(2x2) 3 x 16 = 48 > 3/4 of it, F(4x4) 2 x 36 = 72); blocks 1 and 2 stay F(4x4)
+  // (6 x 36 = 216 against 18 x 16, 3 x 36 = 108 <= 1.2 x 6 x 16).
+  CHECK(detail::winograd_tile(9, 13, 32, 32, true) == 0);
+  CHECK(detail::winograd_tile(9, 13, 48, 32, true) == 0);
+  CHECK(detail::winograd_tile(19, 27, 32, 32, true) == 4);
+  CHECK(detail::winograd_tile(19, 27, 48, 32, true) == 4);
+  CHECK(detail::winograd_tile(38, 55, 32, 32, true) == 4);
+  CHECK(detail::winograd_tile(4, 6, 32, 32, true) == 0);
+  CHECK(detail::winograd_tile(20, 11, 12, 32, true) == 2); // 2 x 36 > 1.2 x 3 x 16
+  CHECK(detail::winograd_tile(20, 11, 12, 32, false) == 4);
 }
 
 TEST_CASE("panel_units_share_a_panel and run_column_ranges: which splits share a panel, and "

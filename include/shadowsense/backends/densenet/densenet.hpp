@@ -70,7 +70,8 @@ SHADOWSENSE_NAMESPACE_BEGIN
 class DenseNet {
 public:
   // How the dense layers' 3x3 convolutions are computed: automatic picks per block what
-  // detail::winograd_tile(h, w, growth_rate, nr) says (direct, F(2x2, 3x3) or F(4x4, 3x3));
+  // detail::winograd_tile(h, w, growth_rate, nr, weights_stream) says (direct, F(2x2, 3x3) or
+  // F(4x4, 3x3); weights_stream: the model's weights exceed detail::winograd_stream_bytes);
   // direct, winograd (F(2x2, 3x3)) and winograd4x4 (F(4x4, 3x3)) force one method on every
   // block (tests, benchmarks; direct also saves the memory of the transformed weights, 16/9 of
   // the 3x3 weights for F(2x2) and 36/9 for F(4x4)).
@@ -123,6 +124,9 @@ public:
     fused_ = detail::has_fused_stores(kernel_);
     in_place_avx2_ = detail::has_in_place_avx2(kernel_);
     pool_ = std::make_unique<detail::ThreadPool>(config.threads, config.spin_us);
+    std::size_t weight_bytes = 0;
+    for (const auto& t : model.tensors) weight_bytes += t.values.size() * sizeof(float);
+    weights_stream_ = weight_bytes > detail::winograd_stream_bytes;
     build(model);
     if (config.run_self_test && model.self_test) check_self_test(*model.self_test);
     if (config.precision == Precision::int8 ||
@@ -147,6 +151,9 @@ public:
   bool int8() const { return int8_; }
   const char* int8_kernel_name() const { return int8_ ? int8_gemm_.name : ""; }
   int threads() const { return pool_->size(); }
+  // Whether the model's weights exceed detail::winograd_stream_bytes (read from memory on every
+  // pass), which the automatic 3x3 method counts (detail::winograd_tile).
+  bool weights_stream() const { return weights_stream_; }
 
   // Whether an h x w input survives conv0 (stride 2), pool0 (stride 2) and every
   // transition's 2x2 pool (floor) with at least one pixel, as torchvision requires.
@@ -416,7 +423,7 @@ private:
     case Conv3x3::automatic:
       break;
     }
-    return detail::winograd_tile(H, W, arch_.growth_rate, kernel_.nr);
+    return detail::winograd_tile(H, W, arch_.growth_rate, kernel_.nr, weights_stream_);
   }
 
   Affine affine(const ModelFile& m, const std::string& prefix) const {
@@ -1192,6 +1199,7 @@ private:
   detail::MicroKernel kernel_{};
   detail::VectorOps ops_{};
   detail::WinogradOps winograd_ops_{};
+  bool weights_stream_ = false; // the weights exceed detail::winograd_stream_bytes
   bool fused_ = false;         // the AVX-512 kernel writes C from its registers (gemm_fused_avx512)
   bool in_place_avx2_ = false; // the AVX2 kernel reads conv0's taps in place (gemm_in_place_avx2)
   bool int8_ = false;          // the quantised convolutions run in int8 (set after the self-test)

@@ -28,10 +28,12 @@
 //   PyTorch's conv weight) or 3 (m x c x 4 x 4); ensures u[xi] is the m x c matrix
 //   (G g G^T)[xi / alpha][xi % alpha] packed in mr-row panels (alpha = winograd_alpha(tile): 4
 //   or 6). empty() until set.
-// winograd_tile(h, w, m, nr): the method for an h x w image with m output channels and a kernel
-//   of nr columns: 0 (direct), 2 or 4. Each method is costed in micro-kernel panel passes times
-//   the multiply-adds per pass (direct 9, F(2x2) 16, F(4x4) 36 per tile column), the last,
-//   partly empty panel counted whole; Winograd is taken where it costs at most 3/4 of the direct
+// winograd_tile(h, w, m, nr, weights_stream = false): the method for an h x w image with m output
+//   channels and a kernel of nr columns: 0 (direct), 2 or 4. Each method is costed in
+//   micro-kernel panel passes times the multiply-adds per pass (direct 9, F(2x2) 16, F(4x4) 36
+//   per tile column), the last, partly empty panel counted whole, plus one pass more where
+//   weights_stream says the layer's weights come from memory (a model larger than
+//   winograd_stream_bytes); Winograd is taken where it costs at most 3/4 of the direct
 //   convolution (the transforms are not free) and F(4x4) where it costs at most
 //   winograd4_share of F(2x2). Layers with fewer than 12 output channels stay direct: there the
 //   transforms' additions per tile cost as much as the multiply-adds they save (measured on
@@ -199,13 +201,24 @@ inline constexpr int winograd_min_outputs = 12; // output channels below which d
 // 27.0 -> 26.3 ms, DenseNet-161 74.2 -> 73.7 ms; with the AVX2 kernels no change either way.
 inline constexpr double winograd4_share = 1.2;
 
-inline int winograd_tile(int h, int w, int m, int nr) {
+// A model whose weights take more than this does not keep them in a core's caches from one pass
+// to the next (DenseNet-121's 32 MB; the shipped model's 0.6 MB stay): each layer reads its
+// weights from memory. Reading one row panel of them (mr x c floats, per Winograd product) then
+// takes about as long as one micro-kernel pass over it (8 x 128 floats: 4 KB at about 20 GB/s,
+// 0.2 us, against 0.25 us for the pass on a Zen 5 core), so winograd_tile counts one pass more
+// per method: F(4x4) reads 36 of them, F(2x2) 16, direct 9. On DenseNet-121's block 3 (9 x 13,
+// 12 tiles of 4x4 in one panel) that takes direct (6 x 9 = 54) over F(4x4) (2 x 36 = 72):
+// docs/densenet.md, "Block 3 direct where the weights stream".
+inline constexpr std::size_t winograd_stream_bytes = std::size_t(4) << 20;
+
+inline int winograd_tile(int h, int w, int m, int nr, bool weights_stream = false) {
   if (m < winograd_min_outputs) return 0;
+  const long read = weights_stream ? 1 : 0; // passes' worth of reading the weights
   auto cost = [&](int tile, int per_column) {
     const long tiles = long((h + tile - 1) / tile) * ((w + tile - 1) / tile);
-    return double((tiles + nr - 1) / nr * per_column);
+    return double(((tiles + nr - 1) / nr + read) * per_column);
   };
-  const double direct = double((long(h) * (w + 2) + nr - 1) / nr * 9);
+  const double direct = double(((long(h) * (w + 2) + nr - 1) / nr + read) * 9);
   const double f2 = cost(2, 16), f4 = cost(4, 36);
   if (4 * std::min(f2, f4) > 3 * direct) return 0;
   return f4 <= winograd4_share * f2 ? 4 : 2;
