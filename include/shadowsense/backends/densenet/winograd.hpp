@@ -208,7 +208,7 @@ inline constexpr double winograd4_share = 1.2;
 // 0.2 us, against 0.25 us for the pass on a Zen 5 core), so winograd_tile counts one pass more
 // per method: F(4x4) reads 36 of them, F(2x2) 16, direct 9. On DenseNet-121's block 3 (9 x 13,
 // 12 tiles of 4x4 in one panel) that takes direct (6 x 9 = 54) over F(4x4) (2 x 36 = 72):
-// docs/densenet.md, "Block 3 direct where the weights stream".
+// docs/densenet.md, "Two threads on one tile panel; block 3 direct where the weights stream".
 inline constexpr std::size_t winograd_stream_bytes = std::size_t(4) << 20;
 
 inline int winograd_tile(int h, int w, int m, int nr, bool weights_stream = false) {
