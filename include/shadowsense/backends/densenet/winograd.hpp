@@ -71,6 +71,8 @@
 //   interleave4(y, d, n): d[4i + k] = y[k * winograd_max_run + i] for 4i + k < n.
 //   interleave3_bias_relu(y, d, n, b): d[3i + k] = relu(y[k * winograd_max_run + i] + b) for
 //     3i + k < n (v < 0 ? 0 : v: a NaN stays).
+//   same_bits_anywhere: the transforms give a tile the same bits at any column of a panel (the
+//     x86 sets, tested); only then may winograd_conv3x3/4x4 start a thread's panels at any tile.
 // winograd_conv3x3(kernel, ops, u, in, pw, plane, h, w, out, pool, scratch):
 //   requires: in holds u.c channels of padded images, plane floats apart, each with the image at
 //             row 1, column 1, row stride pw >= winograd_padded(w, u.tile), at least
@@ -1147,6 +1149,11 @@ struct WinogradOps {
   // F(4x4), optional (AVX-512 only; when null, output4 then interleave4 per run): the output
   // transform of a tile panel written straight into the image (the header comment).
   void (*output4_image)(const WinogradImageOutput&) = nullptr;
+  // Whether a tile gets the same bits at any column of a panel: the x86 sets (tested bit for
+  // bit). Not the portable loops: compiled for aarch64, the compiler fuses multiplies and adds
+  // differently in a loop's vector body and in its tail, so there a tile's bits depend on where
+  // in a run it falls (tile ranges at 2 and 3 threads differed from 1 thread under qemu).
+  bool same_bits_anywhere = false;
 };
 
 inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
@@ -1164,7 +1171,8 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_input_panel_avx512,
             &winograd_input6_panel_avx512<4>,
             &winograd_input6_panel_avx512<3>,
-            &winograd_output4_image_avx512};
+            &winograd_output4_image_avx512,
+            true};
   if (kind == GemmKernelKind::avx2)
     return {&winograd_input_avx2_loops,
             &winograd_output_avx2_loops,
@@ -1174,7 +1182,12 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_interleave4_avx2_loops,
             &winograd_input6_avx2_loops<3>,
             &winograd_output6_avx2_loops<3>,
-            &winograd_interleave3_bias_relu_avx2_loops};
+            &winograd_interleave3_bias_relu_avx2_loops,
+            nullptr,
+            nullptr,
+            nullptr,
+            nullptr,
+            true};
 #endif
   (void)kind; // NEON is aarch64's baseline: the portable loops compile to it
   return {&winograd_input_portable,
@@ -1294,8 +1307,9 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
   // Work units (tile panel, row panel) in equal shares (run_panel_units), unless two threads
   // would share a tile panel and both run its input transform: then each thread takes an equal
   // range of tiles with every row panel (DenseNet-121's block 3 has 12 tiles, one panel; its 3x3
-  // convolutions at 2 threads took 1.45 ms a pass split by row panels and 1.04 ms by tiles).
-  if (panel_units_share_a_panel(pool.size(), n_panels, m_panels))
+  // convolutions at 2 threads took 1.45 ms a pass split by row panels and 1.04 ms by tiles),
+  // where the transforms give the same bits at any offset.
+  if (ops.same_bits_anywhere && panel_units_share_a_panel(pool.size(), n_panels, m_panels))
     run_column_ranges(pool, tiles, nr,
                       [&](int t, int t0, int cols) { panel(t, t0, cols, 0, m_panels); });
   else
