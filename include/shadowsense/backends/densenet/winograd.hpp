@@ -1173,21 +1173,19 @@ inline WinogradOps select_winograd_ops(GemmKernelKind kind) {
             &winograd_input6_panel_avx512<3>,
             &winograd_output4_image_avx512,
             true};
-  if (kind == GemmKernelKind::avx2)
-    return {&winograd_input_avx2_loops,
-            &winograd_output_avx2_loops,
-            &winograd_interleave_avx2_loops,
-            &winograd_input4_avx2,
-            &winograd_output6_avx2_loops<4>,
-            &winograd_interleave4_avx2_loops,
-            &winograd_input6_avx2_loops<3>,
-            &winograd_output6_avx2_loops<3>,
-            &winograd_interleave3_bias_relu_avx2_loops,
-            nullptr,
-            nullptr,
-            nullptr,
-            nullptr,
-            true};
+  if (kind == GemmKernelKind::avx2) {
+    WinogradOps ops{&winograd_input_avx2_loops,
+                    &winograd_output_avx2_loops,
+                    &winograd_interleave_avx2_loops,
+                    &winograd_input4_avx2,
+                    &winograd_output6_avx2_loops<4>,
+                    &winograd_interleave4_avx2_loops,
+                    &winograd_input6_avx2_loops<3>,
+                    &winograd_output6_avx2_loops<3>,
+                    &winograd_interleave3_bias_relu_avx2_loops};
+    ops.same_bits_anywhere = true; // (no panel transforms: those stay null)
+    return ops;
+  }
 #endif
   (void)kind; // NEON is aarch64's baseline: the portable loops compile to it
   return {&winograd_input_portable,
