@@ -29,7 +29,7 @@ namespace {
 
 constexpr std::string_view usage =
     "usage: forward_time MODEL.ssm INPUT.f32 H W THREADS ITERATIONS [SPIN_US [CONV3X3 [KERNEL\n"
-    "                    [CONV0]]]]\n"
+    "                    [CONV0 [CONV1X1]]]]]\n"
     "Times the DenseNet forward pass on a 1 x 3 x H x W float32 input (raw little-endian CHW)\n"
     "and prints {\"ms\": [...], \"macs\": ..., \"kernel\": ..., \"logits\": [...]} on stdout.\n"
     "SPIN_US: how long idle worker threads poll before they sleep (DenseNet::Config::spin_us,\n"
@@ -40,7 +40,9 @@ constexpr std::string_view usage =
     "  for a model with an int8 section, int8-vnni, int8-avx2, int8-neon or int8-reference\n"
     "  picks the int8 kernel instead (Config::int8_kernel).\n"
     "CONV0: automatic (default), direct or winograd (F(3x3, 4x4) over the input's stride-2\n"
-    "  phases) (DenseNet::Config::conv0).\n";
+    "  phases) (DenseNet::Config::conv0).\n"
+    "CONV1X1: automatic (default), channel_rows or pixel_rows (DenseNet::Config::conv1x1; the\n"
+    "  AVX-512 kernel only).\n";
 
 // The value named `value` in `names`, else InvalidArgument naming the argument and the choices.
 template <class T>
@@ -86,8 +88,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   try {
-    if (argc < 7 || argc > 11)
-      throw ss::InvalidArgument("expected 6 to 10 arguments, got " + std::to_string(argc - 1));
+    if (argc < 7 || argc > 12)
+      throw ss::InvalidArgument("expected 6 to 11 arguments, got " + std::to_string(argc - 1));
     const int h = positive_int(argv[3], "H"), w = positive_int(argv[4], "W");
     const int threads = positive_int(argv[5], "THREADS");
     const int iterations = positive_int(argv[6], "ITERATIONS");
@@ -122,12 +124,19 @@ int main(int argc, char** argv) {
                                                  {{"automatic", Conv0::automatic},
                                                   {"direct", Conv0::direct},
                                                   {"winograd", Conv0::winograd}});
+    using Conv1x1 = ss::DenseNet::Conv1x1;
+    const Conv1x1 conv1x1 = argc < 12 ? Conv1x1::automatic
+                                      : named<Conv1x1>(argv[11], "CONV1X1",
+                                                       {{"automatic", Conv1x1::automatic},
+                                                        {"channel_rows", Conv1x1::channel_rows},
+                                                        {"pixel_rows", Conv1x1::pixel_rows}});
     const ss::ModelFile model = ss::ModelFile::load(argv[1]);
     ss::DenseNet net(model, {.threads = threads,
                              .spin_us = spin_us,
                              .kernel = kernels.gemm,
                              .conv3x3 = conv3x3,
                              .conv0 = conv0,
+                             .conv1x1 = conv1x1,
                              .run_self_test = false,
                              .int8_kernel = kernels.int8});
     const ss::Tensor input = read_input(argv[2], h, w);

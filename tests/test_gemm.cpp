@@ -1006,3 +1006,94 @@ TEST_CASE("gemm(): every thread split gives the 1-thread result bit for bit") {
     }
   }
 }
+
+TEST_CASE("conv1x1_fmas and pixel_rows_pay: the FMA counts of both layouts, and which pays") {
+  // DenseNet-121 at 3 x 150 x 220 (128 channels; blocks of 2090, 513, 117 and 24 pixels).
+  CHECK(detail::conv1x1_fmas(128, 117, false) == 128 * 8);         // 3 x 32 + 21 pixels
+  CHECK(detail::conv1x1_fmas(128, 117, true) == (14 * 8 + 8) * 8); // 5 pixels: a full row panel
+  CHECK(detail::conv1x1_fmas(128, 24, false) == 128 * 2);
+  CHECK(detail::conv1x1_fmas(128, 24, true) == 24 * 8);
+  CHECK(detail::conv1x1_fmas(128, 513, true) == (64 * 8 + 4) * 8); // 1 pixel: 4 rows
+  CHECK(detail::conv1x1_fmas(48, 50, false) == 48 * 4);
+  CHECK(detail::conv1x1_fmas(48, 50, true) == (6 * 8 + 4) * 3);  // 32 + 16 channels
+  CHECK(detail::conv1x1_fmas(44, 32, false) == (5 * 8 + 4) * 2); // 4 channels: 4 rows
+  CHECK(detail::pixel_rows_pay(128, 117));                       // 0.94
+  CHECK(detail::pixel_rows_pay(128, 24));                        // 0.75
+  CHECK(!detail::pixel_rows_pay(128, 513));                      // 0.98
+  CHECK(!detail::pixel_rows_pay(128, 2090));                     // 1.00
+  CHECK(detail::pixel_rows_pay(48, 50));   // the shipped model's block 3: 0.81
+  CHECK(!detail::pixel_rows_pay(48, 220)); // its block 2: 0.98
+  CHECK(!detail::pixel_rows_pay(48, 880)); // its block 1: 1.00
+}
+
+#if SHADOWSENSE_X86_KERNELS
+TEST_CASE("gemm_pixel_rows_avx512: the bits of gemm_fused_avx512 for every output, at 1-3 "
+          "threads, laid out by the segments") {
+  if (!detail::cpu_has(GemmKernelKind::avx512)) return;
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> ud(-1.0f, 1.0f);
+  const float sentinel = -7.0f;
+  for (const auto& [m, k, n, width] : {std::tuple{128, 300, 117, 13},
+                                       {128, 64, 24, 6},
+                                       {48, 37, 50, 10},
+                                       {44, 9, 5, 5},
+                                       {12, 200, 33, 11},
+                                       {200, 17, 70, 7},
+                                       {16, 1, 8, 8}}) {
+    CAPTURE(m);
+    CAPTURE(k);
+    CAPTURE(n);
+    std::vector<float> w(static_cast<std::size_t>(m) * k), x(static_cast<std::size_t>(k) * n),
+        bias(static_cast<std::size_t>(m));
+    for (auto& v : w) v = ud(rng);
+    for (auto& v : x) v = ud(rng);
+    for (auto& v : bias) v = ud(rng);
+    x[5] = std::numeric_limits<float>::quiet_NaN(); // a NaN input pixel reaches every channel
+    detail::PackedMatrix a;
+    a.pack(w.data(), m, k, 8);
+    detail::PixelRowWeights wp;
+    wp.set(w.data(), m, k);
+    // x: k x n, the pixels of width-wide image rows; C goes to rows 2 wider with a lead of 3,
+    // one plane per output channel.
+    const int stride = width + 2, lead = 3, rows = (n + width - 1) / width;
+    const std::size_t plane = static_cast<std::size_t>(rows) * stride + lead + 8;
+    auto pack = [&](float* dst, int n0, int cols, int*) {
+      for (int r = 0; r < k; ++r)
+        for (int j = 0; j < 32; ++j)
+          dst[static_cast<std::size_t>(r) * 32 + j] =
+              j < cols ? x[static_cast<std::size_t>(r) * n + n0 + j] : 0.0f;
+    };
+    auto segments = [&](int n0, int cols, detail::TileSegments& seg) {
+      detail::image_row_segments(n0, cols, width, width, stride, lead, seg);
+    };
+    auto run = [&](int threads, bool pixel_rows) {
+      std::vector<float> c(static_cast<std::size_t>(m) * plane, sentinel);
+      detail::ThreadPool pool(threads);
+      std::vector<detail::GemmScratch> scratch(static_cast<std::size_t>(threads));
+      for (auto& s : scratch) {
+        s.panel.assign(static_cast<std::size_t>(k) * 32, 0.0f);
+        s.tile.assign(8 * 32, 0.0f);
+        s.index.assign(32, 0);
+      }
+      if (pixel_rows)
+        detail::gemm_pixel_rows_avx512(wp, n, pack, segments, c.data(), plane, bias.data(), true,
+                                       pool, scratch);
+      else
+        detail::gemm_fused_avx512(a, n, pack, nullptr, nullptr, segments, c.data(), plane,
+                                  bias.data(), true, pool, scratch);
+      return c;
+    };
+    auto same_bits = [](const std::vector<float>& p, const std::vector<float>& q) {
+      return p.size() == q.size() && std::memcmp(p.data(), q.data(), p.size() * 4) == 0;
+    };
+    const std::vector<float> want = run(1, false);
+    int written = 0;
+    for (float v : want) written += v == sentinel ? 0 : 1;
+    CHECK(written == m * n); // every output once, nothing beyond the segments
+    for (int threads : {1, 2, 3}) {
+      CAPTURE(threads);
+      CHECK(same_bits(run(threads, true), want));
+    }
+  }
+}
+#endif

@@ -80,6 +80,12 @@ public:
   // phases where detail::winograd_conv0_pays(h0, w0, nr) says so (a third of the multiply-adds
   // of the direct convolution on every input size but tiny ones); direct and winograd force one.
   enum class Conv0 { automatic, direct, winograd };
+  // The dense layers' 1x1 convolutions on the AVX-512 kernel: channel_rows puts 8 output
+  // channels on the kernel's rows and 32 pixels on its columns; pixel_rows the transpose (8
+  // pixels, 32 channels: detail::gemm_pixel_rows_avx512), which fills the kernel where a
+  // block has few pixels; automatic takes pixel rows where detail::pixel_rows_pay(channels,
+  // pixels) says so. Every choice gives the same logits bit for bit; other kernels ignore it.
+  enum class Conv1x1 { automatic, channel_rows, pixel_rows };
   // float32: every convolution in float; int8: the quantised convolutions of the model file's
   // int8 section (InvalidArgument without one); automatic: int8 when the file has the section.
   enum class Precision { automatic, float32, int8 };
@@ -92,6 +98,7 @@ public:
     GemmKernelKind kernel = GemmKernelKind::automatic;
     Conv3x3 conv3x3 = Conv3x3::automatic;
     Conv0 conv0 = Conv0::automatic;
+    Conv1x1 conv1x1 = Conv1x1::automatic;
     bool run_self_test = true; // run the model file's embedded self-test in the constructor
     // For benchmarks of kernels kept outside the library: when micro_kernel.fn is set, it and
     // vector_ops (the four required ones set) are used instead of `kernel`.
@@ -325,6 +332,7 @@ public:
       n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
       for (const auto& l : b.layers) {
         n += l.conv1.data.size() + l.conv2.data.size() + l.bias1.size() + 2 * l.norm1.scale.size();
+        n += l.conv1_pixels.data.size();
         for (const auto* wg : {&l.winograd2, &l.winograd4})
           for (const auto& u : wg->u) n += u.data.size();
       }
@@ -388,6 +396,8 @@ private:
     QConv q1, q2; // int8 path: conv1 (norm2's scale in deq), conv2
     Affine norm1;
     detail::PackedMatrix conv1; // norm2 folded in
+    // conv1 laid out for pixel rows; built when a block first uses them
+    detail::PixelRowWeights conv1_pixels;
     std::vector<float> bias1;
     std::vector<float> norm2_scale; // folded into conv1 (and into q1's deq)
     detail::PackedMatrix conv2;
@@ -815,6 +825,7 @@ private:
     block_tile_.clear();
     block_pw_.clear();
     block_plane_.clear();
+    block_pixel_rows_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -844,6 +855,16 @@ private:
           taps[static_cast<std::size_t>(c * 9 + t)] =
               static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * pw + t % 3;
       tap_offsets_.push_back(std::move(taps));
+      // The 1x1 convolutions' layout (Config::conv1x1), and its weights once.
+      const bool pixel_rows =
+          fused_ && !int8_ &&
+          (config_.conv1x1 == Conv1x1::pixel_rows ||
+           (config_.conv1x1 == Conv1x1::automatic && detail::pixel_rows_pay(inner, H * W)));
+      block_pixel_rows_.push_back(pixel_rows);
+      if (pixel_rows)
+        for (Layer& layer : blocks_[b].layers)
+          if (layer.conv1_pixels.empty())
+            layer.conv1_pixels.set(layer.conv1.unpack().data(), layer.conv1.m, layer.conv1.k);
       if (tile) // this block's transformed weights, once per tile size
         for (Layer& layer : blocks_[b].layers) {
           detail::WinogradWeights& u = tile == 2 ? layer.winograd2 : layer.winograd4;
@@ -1009,13 +1030,18 @@ private:
       }
     };
 #if SHADOWSENSE_X86_KERNELS
-    if (fused_) { // pixel (y, x) to the padded position (y + 1, x + 1)
-      detail::gemm_fused_avx512(
-          layer.conv1, n, pack, nullptr, nullptr,
-          [&](int n0, int cols, detail::TileSegments& seg) {
-            detail::image_row_segments(n0, cols, bw, bw, pw, pw + 1, seg);
-          },
-          bott, plane, layer.bias1.data(), true, *pool_, scratch_);
+    // pixel (y, x) to the padded position (y + 1, x + 1)
+    auto segments = [&](int n0, int cols, detail::TileSegments& seg) {
+      detail::image_row_segments(n0, cols, bw, bw, pw, pw + 1, seg);
+    };
+    if (fused_ && block_pixel_rows_[b]) {
+      detail::gemm_pixel_rows_avx512(layer.conv1_pixels, n, pack, segments, bott, plane,
+                                     layer.bias1.data(), true, *pool_, scratch_);
+      return;
+    }
+    if (fused_) {
+      detail::gemm_fused_avx512(layer.conv1, n, pack, nullptr, nullptr, segments, bott, plane,
+                                layer.bias1.data(), true, *pool_, scratch_);
       return;
     }
 #endif
@@ -1231,8 +1257,9 @@ private:
   std::vector<int> block_h_, block_w_;
   std::vector<std::vector<float>> block_buf_, bottleneck_;
   std::vector<std::vector<int>> tap_offsets_; // per block: the 3x3 taps' offsets (inner x 9)
-  std::vector<int> block_tile_; // per block: its 3x3 method, 0 (direct) or the Winograd tile
-  std::vector<int> block_pw_;   // per block: the padded bottleneck's row stride
+  std::vector<int> block_tile_;        // per block: its 3x3 method, 0 (direct) or the Winograd tile
+  std::vector<int> block_pw_;          // per block: the padded bottleneck's row stride
+  std::vector<char> block_pixel_rows_; // per block: its 1x1 convolutions by pixel rows
   std::vector<std::size_t>
       block_plane_;                    // per block: floats from one bottleneck channel to the next
   const float* stage_input_ = nullptr; // the staged run's image (begin_stages), or none

@@ -267,6 +267,55 @@ struct PackedMatrix {
   }
 };
 
+// A 1x1 convolution's m x k weights laid out for the pixel-rows GEMM (gemm_pixel_rows_avx512):
+// panels of 32 output channels, each k x 32, channel p * 32 + j of input c at
+// data[(p * k + c) * 32 + j] (0 for channels >= m).
+struct PixelRowWeights {
+  static constexpr int nr = 32;
+  int m = 0, k = 0;
+  std::vector<float> data;
+
+  bool empty() const { return data.empty(); }
+  // w: m x k row-major.
+  void set(const float* w, int rows, int cols) {
+    m = rows;
+    k = cols;
+    const int panels = (m + nr - 1) / nr;
+    data.assign(static_cast<std::size_t>(panels) * k * nr, 0.0f);
+    for (int o = 0; o < m; ++o)
+      for (int c = 0; c < k; ++c)
+        data[(static_cast<std::size_t>(o / nr) * k + c) * nr + o % nr] =
+            w[static_cast<std::size_t>(o) * k + c];
+  }
+  const float* panel(int p) const { return data.data() + static_cast<std::size_t>(p) * k * nr; }
+};
+
+// FMA instructions per input channel of a 1x1 convolution's GEMM with m output channels over
+// n pixels on the AVX-512 kernels: channel rows (gemm_fused_avx512: 8 channels a row panel,
+// 4 for a last one of at most 4; 32 pixels a column panel, two 512-bit FMAs a row for more
+// than 16 columns, one for 16 or fewer) or pixel rows (gemm_pixel_rows_avx512: 8 pixels a
+// row, 4 for a last one of at most 4; 32 channels two FMAs a row, 16 or fewer one). On a core
+// with full-width 512-bit units a 24-column panel costs as much as a 32-column one
+// (docs/densenet.md), so this count is the multiply-add time.
+inline long conv1x1_fmas(int m, int n, bool pixel_rows) {
+  auto side = [](int count, int width, int half) { // rows of the kernel's 8-row side
+    return long(count / width) * width + (count % width == 0      ? 0
+                                          : count % width <= half ? half
+                                                                  : width);
+  };
+  auto lanes = [](int count) { // FMAs a kernel row over count columns, 32 a panel
+    return long(count / 32) * 2 + (count % 32 == 0 ? 0 : count % 32 <= 16 ? 1 : 2);
+  };
+  return pixel_rows ? side(n, 8, 4) * lanes(m) : side(m, 8, 4) * lanes(n);
+}
+
+// Whether pixel rows do at least 5% fewer FMAs than channel rows (DenseNet-121 at 3 x 150 x
+// 220: blocks 3 (117 pixels, 0.94x) and 4 (24 pixels, 0.75x); the shipped model's block 3 (50
+// pixels, 48 channels: 0.81x)); both give every output the same bits.
+inline bool pixel_rows_pay(int m, int n) {
+  return 20 * conv1x1_fmas(m, n, true) <= 19 * conv1x1_fmas(m, n, false);
+}
+
 // Splits the (column panel, row panel) units of a GEMM, column panel major, into equal
 // contiguous shares over the pool's threads and calls fn(t, np, mp0, mp1) for each run of row
 // panels mp0..mp1-1 of column panel np in thread t's share (5 column panels x 4 row panels
@@ -541,6 +590,46 @@ inline void gemm_fused_avx512(const PackedMatrix& a, int n, Pack&& pack, const f
           micro_kernel_avx512_fused_fit(s.cols, a.k, a.panel(mp), PackedRows{s.panel.data()}, d);
       },
       [](int, int, int, const float*) {}, pool, scratch, /*free_prepare=*/offsets != nullptr);
+}
+#endif
+
+#if SHADOWSENSE_X86_KERNELS
+// The 1x1 convolution of gemm_fused_avx512 (B packed by pack, 32 columns a panel, the same
+// bias, ReLU and destination) with pixels on the kernel's rows and output channels on its
+// columns (micro_kernel_avx512_pixel_rows): for few pixels, where channel rows leave a last
+// column panel part-filled (conv1x1_fmas). Each packed panel of 32 pixels is read as four
+// sub-panels of 8; segments(p0, pixels, TileSegments&) lays out a sub-panel's pixels (at most
+// 8) as gemm_fused_avx512's segments lay out columns. The same bits as gemm_fused_avx512 for
+// every output. Split over threads as (pixel panel, channel panel) units (run_panel_units):
+// a thread packs each pixel panel of its share once.
+template <class Pack, class Segments>
+inline void gemm_pixel_rows_avx512(const PixelRowWeights& w, int n, Pack&& pack,
+                                   Segments&& segments, float* dst, std::size_t row_stride,
+                                   const float* bias, bool relu, ThreadPool& pool,
+                                   std::vector<GemmScratch>& scratch) {
+  constexpr int nr = PixelRowWeights::nr;
+  const int n_panels = (n + nr - 1) / nr, m_panels = (w.m + nr - 1) / nr;
+  run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
+    GemmScratch& s = scratch[static_cast<std::size_t>(t)];
+    const int n0 = np * nr, cols = std::min(nr, n - n0);
+    pack(s.panel.data(), n0, cols, s.index.data());
+    TileSegments seg[nr / 8];
+    const int subs = (cols + 7) / 8;
+    for (int q = 0; q < subs; ++q) segments(n0 + 8 * q, std::min(8, cols - 8 * q), seg[q]);
+    for (int mp = mp0; mp < mp1; ++mp) { // one weight panel over the sub-panels
+      const int m0 = mp * nr;
+      for (int q = 0; q < subs; ++q) {
+        const TileDest d{dst + static_cast<std::size_t>(m0) * row_stride,
+                         row_stride,
+                         bias ? bias + m0 : nullptr,
+                         relu,
+                         std::min(nr, w.m - m0),
+                         &seg[q]};
+        micro_kernel_avx512_pixel_rows_fit(std::min(8, cols - 8 * q), w.k, s.panel.data() + 8 * q,
+                                           w.panel(mp), d);
+      }
+    }
+  });
 }
 #endif
 

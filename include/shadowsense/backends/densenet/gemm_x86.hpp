@@ -31,6 +31,14 @@
 //   CPU has AVX-512 F and VL and FMA (cpu_has(GemmKernelKind::avx512) in gemm.hpp).
 // micro_kernel_avx512_fused_fit(cols, K, a, rows, dest): the fused kernel of the least width
 //   (8, 16, 24 or 32) and height (4 or 8) covering cols columns and dest.rows rows.
+// micro_kernel_avx512_pixel_rows<Cols, MR>(K, a, b, dest): the transposed product, pixels on
+//   the rows: the MR x Cols block (MR = 8 or 4 pixels, Cols = 16 or 32 output channels) of
+//   sum_k a[k * 32 + r] * b[k * 32 + j] (a: columns of a packed K x 32 input panel, 32 floats
+//   apart; b: a K x 32 weight panel), accumulated with FMA in k order, + dest.bias[j] (when
+//   set), ReLU (when relu); channel j < dest.rows goes to dest.dst + j * dest.row_stride, its
+//   pixel r to seg.offset[s] + r for the segment s whose mask has bit r (masks of 8 bits).
+//   Each output has the bits micro_kernel_avx512_fused gives it with the weights on the rows.
+//   micro_kernel_avx512_pixel_rows_fit(pixels, K, a, b, dest): the least width and height.
 // TileSegments: how a tile's columns map to destination offsets (at most 33 runs: a 32-column
 //   panel crosses at most 32 row ends). Plain data, defined for every target.
 // pack_affine_relu_avx2: VectorOps::pack_affine_relu (gemm.hpp) with AVX2 + FMA, the values of
@@ -286,6 +294,98 @@ pack_affine_relu_avx512(const float* __restrict s, std::size_t stride, int chann
       // ...so they are zeroed with the load mask: 0 beyond cols, as the contract says.
       _mm512_mask_storeu_ps(d + j, all, _mm512_maskz_max_ps(in, z, _mm512_fmadd_ps(x, vs, vh)));
     }
+  }
+}
+
+// The pixel-rows kernel (see the header comment): C transposed, 8 (or MR) pixels on the rows
+// and Cols output channels on the columns. a: the pixels' input, a K x 32 panel of
+// pack_affine_relu (its columns 0-7 from a's start, so a row of the kernel is one column of
+// the panel: broadcasts 32 floats apart); b: K x 32 packed weights (PixelRowWeights). Each
+// product is fma(input, weight, sum) in k order as in micro_kernel_avx512_fused (fma(weight,
+// input, sum) there: the same value), then + bias, ReLU: the same bits as the channel-rows
+// kernel for every output. The tile is transposed in 8 x 8 blocks on the way out, so channel
+// j's pixels are one masked store per segment.
+template <int Cols, int MR = 8>
+SHADOWSENSE_AVX512_GEMM_TARGET inline void
+micro_kernel_avx512_pixel_rows(int K, const float* a, const float* b, const TileDest& dest) {
+  static_assert(Cols == 16 || Cols == 32, "16 or 32 output channels");
+  static_assert(MR == 8 || MR == 4, "8 or the first 4 pixels of the sub-panel");
+  constexpr int NV = Cols / 16;
+  __m512 c[MR][NV];
+  SHADOWSENSE_UNROLL(8)
+  for (int r = 0; r < MR; ++r) {
+    SHADOWSENSE_UNROLL(2)
+    for (int v = 0; v < NV; ++v) c[r][v] = _mm512_setzero_ps();
+  }
+  for (int k = 0; k < K; ++k, a += 32, b += 32) {
+    __m512 w[NV];
+    SHADOWSENSE_UNROLL(2)
+    for (int v = 0; v < NV; ++v) w[v] = _mm512_loadu_ps(b + 16 * v);
+    SHADOWSENSE_UNROLL(8)
+    for (int r = 0; r < MR; ++r) {
+      const __m512 x = _mm512_set1_ps(a[r]);
+      SHADOWSENSE_UNROLL(2)
+      for (int v = 0; v < NV; ++v) c[r][v] = _mm512_fmadd_ps(x, w[v], c[r][v]);
+    }
+  }
+  // Bias and ReLU per channel (a column here), then the tile to memory pixel-major.
+  alignas(64) float t[8][32];
+  const __m512 z = _mm512_setzero_ps();
+  SHADOWSENSE_UNROLL(2)
+  for (int v = 0; v < NV; ++v) {
+    const __mmask16 in = tail_mask_avx512(dest.rows - 16 * v);
+    const __m512 bias = dest.bias ? _mm512_maskz_loadu_ps(in, dest.bias + 16 * v) : z;
+    SHADOWSENSE_UNROLL(8)
+    for (int r = 0; r < MR; ++r) {
+      __m512 y = dest.bias ? _mm512_add_ps(c[r][v], bias) : c[r][v];
+      if (dest.relu) y = _mm512_maskz_max_ps(0xFFFF, z, y); // NaN kept, as relu_reference
+      _mm512_store_ps(&t[r][16 * v], y);
+    }
+  }
+  const TileSegments& seg = *dest.segments;
+  for (int g = 0; g * 8 < dest.rows; ++g) { // channels 8g .. 8g + 7
+    __m256 x[8];
+    SHADOWSENSE_UNROLL(8)
+    for (int r = 0; r < 8; ++r) x[r] = r < MR ? _mm256_load_ps(&t[r][8 * g]) : _mm256_setzero_ps();
+    // 8 x 8 transpose: y[j] = pixels 0..7 of channel 8g + j.
+    const __m256 u0 = _mm256_unpacklo_ps(x[0], x[1]), u1 = _mm256_unpackhi_ps(x[0], x[1]);
+    const __m256 u2 = _mm256_unpacklo_ps(x[2], x[3]), u3 = _mm256_unpackhi_ps(x[2], x[3]);
+    const __m256 u4 = _mm256_unpacklo_ps(x[4], x[5]), u5 = _mm256_unpackhi_ps(x[4], x[5]);
+    const __m256 u6 = _mm256_unpacklo_ps(x[6], x[7]), u7 = _mm256_unpackhi_ps(x[6], x[7]);
+    const __m256 s0 = _mm256_shuffle_ps(u0, u2, 0x44), s1 = _mm256_shuffle_ps(u0, u2, 0xEE);
+    const __m256 s2 = _mm256_shuffle_ps(u1, u3, 0x44), s3 = _mm256_shuffle_ps(u1, u3, 0xEE);
+    const __m256 s4 = _mm256_shuffle_ps(u4, u6, 0x44), s5 = _mm256_shuffle_ps(u4, u6, 0xEE);
+    const __m256 s6 = _mm256_shuffle_ps(u5, u7, 0x44), s7 = _mm256_shuffle_ps(u5, u7, 0xEE);
+    const __m256 y[8] = {
+        _mm256_permute2f128_ps(s0, s4, 0x20), _mm256_permute2f128_ps(s1, s5, 0x20),
+        _mm256_permute2f128_ps(s2, s6, 0x20), _mm256_permute2f128_ps(s3, s7, 0x20),
+        _mm256_permute2f128_ps(s0, s4, 0x31), _mm256_permute2f128_ps(s1, s5, 0x31),
+        _mm256_permute2f128_ps(s2, s6, 0x31), _mm256_permute2f128_ps(s3, s7, 0x31)};
+    SHADOWSENSE_UNROLL(8)
+    for (int j = 0; j < 8; ++j) {
+      if (8 * g + j >= dest.rows) break;
+      float* row = dest.dst + static_cast<std::ptrdiff_t>(8 * g + j) *
+                                  static_cast<std::ptrdiff_t>(dest.row_stride);
+      for (int s = 0; s < seg.count; ++s)
+        _mm256_mask_storeu_ps(row + seg.offset[s], static_cast<__mmask8>(seg.mask[s]), y[j]);
+    }
+  }
+}
+
+// The pixel-rows kernel of the least width (16 or 32 channels) and height (4 or 8 pixels)
+// covering dest.rows channels and `pixels` pixels.
+SHADOWSENSE_AVX512_GEMM_TARGET inline void
+micro_kernel_avx512_pixel_rows_fit(int pixels, int K, const float* a, const float* b,
+                                   const TileDest& dest) {
+  if (dest.rows <= 16) {
+    if (pixels <= 4)
+      micro_kernel_avx512_pixel_rows<16, 4>(K, a, b, dest);
+    else
+      micro_kernel_avx512_pixel_rows<16>(K, a, b, dest);
+  } else if (pixels <= 4) {
+    micro_kernel_avx512_pixel_rows<32, 4>(K, a, b, dest);
+  } else {
+    micro_kernel_avx512_pixel_rows<32>(K, a, b, dest);
   }
 }
 __attribute__((target("avx512f"))) inline void
