@@ -637,8 +637,9 @@ TEST_CASE("Winograd F(2x2, 3x3) and F(4x4, 3x3) equal the direct 3x3 convolution
       const std::size_t n_out = static_cast<std::size_t>(sh.m) * sh.h * sh.w;
       for (const auto& mk : kernels_under_test()) {
         std::vector<float> one_thread;
-        // 2 and 3 threads split by row panels, by tile panels, or by tile ranges
-        // (panel_units_share_a_panel): every output the same bit for bit as on 1 thread.
+        // 2 and 3 threads split by (tile panel, row panel) units (the portable and NEON
+        // transforms) or by tile ranges (run_column_ranges, the x86 ones): every output the
+        // same bit for bit as on 1 thread.
         for (int threads : {1, 2, 3}) {
           const std::string name = mk.name;
           CAPTURE(name);
@@ -886,24 +887,13 @@ TEST_CASE("winograd_tile: F(4x4) on large images and where its GEMM costs at mos
   CHECK(detail::winograd_tile(20, 11, 12, 32, false) == 4);
 }
 
-TEST_CASE("panel_units_share_a_panel and run_column_ranges: which splits share a panel, and "
-          "the ranges exactly") {
-  // DenseNet-121 at 3x150x220, 2 threads, 4 row panels: block 3's one tile panel is shared,
-  // block 2's two are not, block 1's five are (the middle one)
-  CHECK(detail::panel_units_share_a_panel(2, 1, 4));
-  CHECK_FALSE(detail::panel_units_share_a_panel(2, 2, 4));
-  CHECK(detail::panel_units_share_a_panel(2, 5, 4));
-  CHECK_FALSE(detail::panel_units_share_a_panel(1, 5, 4)); // one thread shares nothing
-  CHECK_FALSE(detail::panel_units_share_a_panel(3, 3, 4)); // 12 units: 4 / 4 / 4
-  CHECK(detail::panel_units_share_a_panel(3, 2, 4));       // 8 units: 2 / 3 / 3
-  CHECK_FALSE(detail::panel_units_share_a_panel(2, 3, 1)); // one row panel: whole panels
-  CHECK(detail::panel_units_share_a_panel(4, 1, 2));       // 2 units, 2 tasks: one row panel each
-  // The ranges: (task, first column, columns) of every call, sorted.
-  auto calls = [](int threads, int n, int nr) {
+TEST_CASE("run_column_ranges: the ranges exactly, their ends on multiples of the step") {
+  // (task, first column, columns) of every call, sorted.
+  auto calls = [](int threads, int n, int nr, int step) {
     detail::ThreadPool pool(threads);
     std::mutex mutex;
     std::vector<std::array<int, 3>> seen;
-    detail::run_column_ranges(pool, n, nr, [&](int t, int n0, int cols) {
+    detail::run_column_ranges(pool, n, nr, step, [&](int t, int n0, int cols) {
       std::lock_guard<std::mutex> lock(mutex);
       seen.push_back({t, n0, cols});
     });
@@ -911,13 +901,30 @@ TEST_CASE("panel_units_share_a_panel and run_column_ranges: which splits share a
     return seen;
   };
   using Calls = std::vector<std::array<int, 3>>;
-  CHECK(calls(2, 12, 32) == Calls{{0, 0, 6}, {1, 6, 6}});
-  CHECK(calls(2, 140, 32) ==
-        Calls{{0, 0, 32}, {0, 32, 32}, {0, 64, 6}, {1, 70, 32}, {1, 102, 32}, {1, 134, 6}});
-  CHECK(calls(3, 35, 16) == Calls{{0, 0, 11}, {1, 11, 12}, {2, 23, 12}});
-  CHECK(calls(1, 40, 32) == Calls{{0, 0, 32}, {0, 32, 8}});
-  CHECK(calls(3, 2, 32) == Calls{{0, 0, 1}, {1, 1, 1}}); // fewer columns than threads
-  CHECK(calls(2, 0, 32).empty());
+  // DenseNet-121 at 3x150x220, 2 threads, steps of 8 (the AVX-512 kernels' widths): block 2's
+  // 35 tiles 16 / 19 (not the whole panels 32 / 3), block 3's 12 tiles 8 / 4, block 1's 140
+  // tiles 72 / 68.
+  CHECK(calls(2, 35, 32, 8) == Calls{{0, 0, 16}, {1, 16, 19}});
+  CHECK(calls(2, 12, 32, 8) == Calls{{0, 0, 8}, {1, 8, 4}});
+  CHECK(calls(2, 140, 32, 8) ==
+        Calls{{0, 0, 32}, {0, 32, 32}, {0, 64, 8}, {1, 72, 32}, {1, 104, 32}, {1, 136, 4}});
+  CHECK(calls(2, 925, 32, 8).size() == 30); // conv0's tiles: 464 / 461
+  CHECK(calls(2, 925, 32, 8)[14] == std::array<int, 3>{0, 448, 16});
+  CHECK(calls(2, 925, 32, 8)[15] == std::array<int, 3>{1, 464, 32});
+  // Step 1: equal ranges.
+  CHECK(calls(2, 12, 32, 1) == Calls{{0, 0, 6}, {1, 6, 6}});
+  CHECK(calls(3, 35, 16, 1) == Calls{{0, 0, 12}, {1, 12, 11}, {2, 23, 12}});
+  CHECK(calls(3, 35, 32, 8) == Calls{{0, 0, 8}, {1, 8, 16}, {2, 24, 11}});
+  CHECK(calls(1, 40, 32, 8) == Calls{{0, 0, 32}, {0, 32, 8}});
+  CHECK(calls(3, 2, 32, 1) == Calls{{0, 0, 1}, {1, 1, 1}}); // fewer columns than threads
+  CHECK(calls(2, 2, 32, 8) == Calls{{1, 0, 2}});            // the nearest multiple of 8 to 1 is 0
+  CHECK(calls(2, 0, 32, 8).empty());
+  // The boundaries themselves: nearest multiple of the step, never past n.
+  CHECK(detail::column_range_start(35, 2, 1, 8) == 16);
+  CHECK(detail::column_range_start(36, 2, 1, 8) == 16); // 18 / 8 = 2.25
+  CHECK(detail::column_range_start(40, 2, 1, 8) == 24); // 20 / 8 = 2.5 rounds up
+  CHECK(detail::column_range_start(5, 2, 2, 8) == 5);
+  CHECK(detail::column_range_start(7, 2, 1, 8) == 0); // 3.5 / 8 rounds to 0
 }
 
 TEST_CASE("PackedMatrix::unpack returns the packed matrix") {

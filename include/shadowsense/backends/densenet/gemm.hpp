@@ -336,27 +336,24 @@ inline void run_panel_units(ThreadPool& pool, int n_panels, int m_panels, Fn&& f
   pool.run(tasks, task);
 }
 
-// Whether run_panel_units(threads, n_panels, m_panels) gives two threads parts of one column
-// panel: whatever a panel needs before its multiplications (packing, a Winograd input transform)
-// then runs on both.
-inline bool panel_units_share_a_panel(int threads, int n_panels, int m_panels) {
-  const long units = long(n_panels) * m_panels;
-  const int tasks = static_cast<int>(std::min<long>(threads, units));
-  for (int t = 1; t < tasks; ++t)
-    if (units * t / tasks % m_panels != 0) return true;
-  return false;
+// Splits n columns into contiguous ranges over the pool's threads and calls fn(t, n0, cols) for
+// each run of at most nr columns of thread t's range, in order: each thread prepares only its
+// own columns (12 columns over 2 threads: 0-8 and 8-12, where run_panel_units would give both
+// threads the one panel). The boundary between threads t - 1 and t is the multiple of step
+// nearest to n * t / threads (step: the kernel's narrowest width, MicroKernel::step), so no
+// thread pays a kernel width it does not fill twice over: 35 columns in steps of 8 are 0-16 and
+// 16-35 (two and three steps, 16- and 24-column kernels) where whole panels are 32 and 3
+// (four steps and one).
+inline int column_range_start(int n, int tasks, int t, int step) {
+  const long s = std::max(step, 1);
+  return static_cast<int>(std::min<long>(n, (long(n) * t * 2 + tasks * s) / (tasks * s * 2) * s));
 }
-
-// Splits n columns into equal contiguous ranges over the pool's threads and calls fn(t, n0, cols)
-// for each run of at most nr columns of thread t's range, in order: each thread prepares only
-// its own columns (12 columns over 2 threads: 0-5 and 6-11, where run_panel_units would give
-// both threads the one panel).
 template <class Fn>
-inline void run_column_ranges(ThreadPool& pool, int n, int nr, Fn&& fn) {
+inline void run_column_ranges(ThreadPool& pool, int n, int nr, int step, Fn&& fn) {
   const int tasks = std::min(pool.size(), n);
   auto task = [&](int t) {
-    const int c0 = static_cast<int>(long(n) * t / tasks);
-    const int c1 = static_cast<int>(long(n) * (t + 1) / tasks);
+    const int c0 = column_range_start(n, tasks, t, step);
+    const int c1 = t + 1 == tasks ? n : column_range_start(n, tasks, t + 1, step);
     for (int n0 = c0; n0 < c1; n0 += nr) fn(t, n0, std::min(nr, c1 - n0));
   };
   pool.run(tasks, task);

@@ -1302,13 +1302,14 @@ void winograd_conv_tile(const MicroKernel& kernel, const WinogradOps& ops, const
       }
     }
   };
-  // Work units (tile panel, row panel) in equal shares (run_panel_units), unless two threads
-  // would share a tile panel and both run its input transform: then each thread takes an equal
-  // range of tiles with every row panel (DenseNet-121's block 3 has 12 tiles, one panel; its 3x3
-  // convolutions at 2 threads took 1.45 ms a pass split by row panels and 1.04 ms by tiles),
-  // where the transforms give the same bits at any offset.
-  if (ops.same_bits_anywhere && panel_units_share_a_panel(pool.size(), n_panels, m_panels))
-    run_column_ranges(pool, tiles, nr,
+  // Where a tile gets the same bits at any offset (the x86 transforms), each thread takes a
+  // range of tiles with every row panel, the ranges' ends on multiples of the narrowest kernel
+  // (run_column_ranges): (tile panel, row panel) units in equal shares gave DenseNet-121's
+  // block 3 (12 tiles, one panel) to both threads, each transforming the whole panel (1.45 ms a
+  // pass at 2 threads, 1.04 ms by tiles), and its block 2 (35 tiles: panels of 32 and 3) to one
+  // thread nearly alone. The portable and NEON transforms keep the unit split.
+  if (ops.same_bits_anywhere)
+    run_column_ranges(pool, tiles, nr, kernel.step,
                       [&](int t, int t0, int cols) { panel(t, t0, cols, 0, m_panels); });
   else
     run_panel_units(pool, n_panels, m_panels, [&](int t, int np, int mp0, int mp1) {
