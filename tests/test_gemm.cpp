@@ -1031,6 +1031,17 @@ TEST_CASE("conv1x1_fmas and pixel_rows_pay: the FMA counts of both layouts, and 
   CHECK(detail::pixel_rows_pay(48, 50));   // the shipped model's block 3: 0.81
   CHECK(!detail::pixel_rows_pay(48, 220)); // its block 2: 0.98
   CHECK(!detail::pixel_rows_pay(48, 880)); // its block 1: 1.00
+  // The transitions (output channels, pooled pixels): DenseNet-121's 1 to 3, the shipped
+  // model's 1 and 2.
+  CHECK(detail::conv1x1_fmas(256, 117, false) == 256 * 8);
+  CHECK(detail::conv1x1_fmas(256, 117, true) == 120 * 16);
+  CHECK(!detail::pixel_rows_pay(128, 513));
+  CHECK(detail::pixel_rows_pay(256, 117)); // 0.94
+  CHECK(detail::pixel_rows_pay(512, 24));  // 0.75
+  CHECK(detail::conv1x1_fmas(42, 50, false) == 44 * 4);
+  CHECK(detail::conv1x1_fmas(42, 50, true) == 52 * 3);
+  CHECK(!detail::pixel_rows_pay(36, 220)); // 1.31
+  CHECK(detail::pixel_rows_pay(42, 50));   // 0.89
 }
 
 #if SHADOWSENSE_X86_KERNELS

@@ -80,11 +80,13 @@ public:
   // phases where detail::winograd_conv0_pays(h0, w0, nr) says so (a third of the multiply-adds
   // of the direct convolution on every input size but tiny ones); direct and winograd force one.
   enum class Conv0 { automatic, direct, winograd };
-  // The dense layers' 1x1 convolutions on the AVX-512 kernel: channel_rows puts 8 output
-  // channels on the kernel's rows and 32 pixels on its columns; pixel_rows the transpose (8
-  // pixels, 32 channels: detail::gemm_pixel_rows_avx512), which fills the kernel where a
-  // block has few pixels; automatic takes pixel rows where detail::pixel_rows_pay(channels,
-  // pixels) says so. Every choice gives the same logits bit for bit; other kernels ignore it.
+  // The 1x1 convolutions (the dense layers' and the transitions') on the AVX-512 kernel:
+  // channel_rows puts 8 output channels on the kernel's rows and 32 pixels on its columns;
+  // pixel_rows the transpose (8 pixels, 32 channels: detail::gemm_pixel_rows_avx512), which
+  // fills the kernel where there are few pixels; automatic takes pixel rows where
+  // detail::pixel_rows_pay(channels, pixels) says so (DenseNet-121 at 3 x 150 x 220: blocks
+  // 3-4 and transitions 2-3). Every choice gives the same logits bit for bit; other kernels
+  // ignore it.
   enum class Conv1x1 { automatic, channel_rows, pixel_rows };
   // float32: every convolution in float; int8: the quantised convolutions of the model file's
   // int8 section (InvalidArgument without one); automatic: int8 when the file has the section.
@@ -329,7 +331,8 @@ public:
                     classifier_b_.size() + 2 * norm5_.scale.size();
     for (const auto& u : conv0_winograd_.u) n += u.data.size();
     for (const auto& b : blocks_) {
-      n += b.transition.data.size() + 2 * b.transition_norm.scale.size();
+      n += b.transition.data.size() + b.transition_pixels.data.size() +
+           2 * b.transition_norm.scale.size();
       for (const auto& l : b.layers) {
         n += l.conv1.data.size() + l.conv2.data.size() + l.bias1.size() + 2 * l.norm1.scale.size();
         n += l.conv1_pixels.data.size();
@@ -406,9 +409,10 @@ private:
   };
   struct Block {
     std::vector<Layer> layers;
-    Affine transition_norm;          // empty for the last block
-    detail::PackedMatrix transition; // (c/2) x c
-    QConv qt;                        // int8 path: the transition's convolution
+    Affine transition_norm;                    // empty for the last block
+    detail::PackedMatrix transition;           // (c/2) x c
+    detail::PixelRowWeights transition_pixels; // the same, where pixel rows pay (Config::conv1x1)
+    QConv qt;                                  // int8 path: the transition's convolution
     int c_in = 0, c_out = 0;
   };
 
@@ -826,6 +830,7 @@ private:
     block_pw_.clear();
     block_plane_.clear();
     block_pixel_rows_.clear();
+    transition_pixel_rows_.clear();
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -873,6 +878,17 @@ private:
         }
       H /= 2;
       W /= 2;
+      if (b + 1 < blocks_.size()) { // the transition's 1x1 convolution, at the pooled size
+        Block& blk = blocks_[b];
+        const bool t_pixel_rows = fused_ && !int8_ &&
+                                  (config_.conv1x1 == Conv1x1::pixel_rows ||
+                                   (config_.conv1x1 == Conv1x1::automatic &&
+                                    detail::pixel_rows_pay(blk.transition.m, H * W)));
+        transition_pixel_rows_.push_back(t_pixel_rows);
+        if (t_pixel_rows && blk.transition_pixels.empty())
+          blk.transition_pixels.set(blk.transition.unpack().data(), blk.transition.m,
+                                    blk.transition.k);
+      }
     }
     if (int8_) ensure_int8_buffers();
   }
@@ -1138,13 +1154,18 @@ private:
     };
     float* next = block_buf_[b + 1].data();
 #if SHADOWSENSE_X86_KERNELS
+    auto segments = [&](int n0, int cols, detail::TileSegments& seg) {
+      detail::image_row_segments(n0, cols, on, on, on, 0, seg);
+    };
+    if (fused_ && transition_pixel_rows_[b]) {
+      detail::gemm_pixel_rows_avx512(blk.transition_pixels, on, pack, segments, next,
+                                     static_cast<std::size_t>(on), nullptr, false, *pool_,
+                                     scratch_);
+      return;
+    }
     if (fused_) {
-      detail::gemm_fused_avx512(
-          blk.transition, on, pack, nullptr, nullptr,
-          [&](int n0, int cols, detail::TileSegments& seg) {
-            detail::image_row_segments(n0, cols, on, on, on, 0, seg);
-          },
-          next, static_cast<std::size_t>(on), nullptr, false, *pool_, scratch_);
+      detail::gemm_fused_avx512(blk.transition, on, pack, nullptr, nullptr, segments, next,
+                                static_cast<std::size_t>(on), nullptr, false, *pool_, scratch_);
       return;
     }
 #endif
@@ -1260,6 +1281,7 @@ private:
   std::vector<int> block_tile_;        // per block: its 3x3 method, 0 (direct) or the Winograd tile
   std::vector<int> block_pw_;          // per block: the padded bottleneck's row stride
   std::vector<char> block_pixel_rows_; // per block: its 1x1 convolutions by pixel rows
+  std::vector<char> transition_pixel_rows_; // per transition: its convolution by pixel rows
   std::vector<std::size_t>
       block_plane_;                    // per block: floats from one bottleneck channel to the next
   const float* stage_input_ = nullptr; // the staged run's image (begin_stages), or none
