@@ -340,9 +340,9 @@ inline void run_panel_units(ThreadPool& pool, int n_panels, int m_panels, Fn&& f
 // each run of at most nr columns of thread t's range, in order: each thread prepares only its
 // own columns (12 columns over 2 threads: 0-8 and 8-12, where run_panel_units would give both
 // threads the one panel). The boundary between threads t - 1 and t is the multiple of step
-// nearest to n * t / threads (step: the kernel's narrowest width, MicroKernel::step), so no
-// thread pays a kernel width it does not fill twice over: 35 columns in steps of 8 are 0-16 and
-// 16-35 (two and three steps, 16- and 24-column kernels) where whole panels are 32 and 3
+// nearest to n * t / threads (step: the kernel's narrowest width, MicroKernel::step), so each
+// thread's share of kernel steps is near half (two threads): 35 columns in steps of 8 are 0-16
+// and 16-35 (two and three steps: 16- and 24-column kernels), where whole panels are 32 and 3
 // (four steps and one).
 inline int column_range_start(int n, int tasks, int t, int step) {
   const long s = std::max(step, 1);
