@@ -861,10 +861,7 @@ private:
               static_cast<int>(static_cast<std::size_t>(c) * plane) + (t / 3) * pw + t % 3;
       tap_offsets_.push_back(std::move(taps));
       // The 1x1 convolutions' layout (Config::conv1x1), and its weights once.
-      const bool pixel_rows =
-          fused_ && !int8_ &&
-          (config_.conv1x1 == Conv1x1::pixel_rows ||
-           (config_.conv1x1 == Conv1x1::automatic && detail::pixel_rows_pay(inner, H * W)));
+      const bool pixel_rows = conv1x1_pixel_rows(inner, H * W);
       block_pixel_rows_.push_back(pixel_rows);
       if (pixel_rows)
         for (Layer& layer : blocks_[b].layers)
@@ -880,10 +877,7 @@ private:
       W /= 2;
       if (b + 1 < blocks_.size()) { // the transition's 1x1 convolution, at the pooled size
         Block& blk = blocks_[b];
-        const bool t_pixel_rows = fused_ && !int8_ &&
-                                  (config_.conv1x1 == Conv1x1::pixel_rows ||
-                                   (config_.conv1x1 == Conv1x1::automatic &&
-                                    detail::pixel_rows_pay(blk.transition.m, H * W)));
+        const bool t_pixel_rows = conv1x1_pixel_rows(blk.transition.m, H * W);
         transition_pixel_rows_.push_back(t_pixel_rows);
         if (t_pixel_rows && blk.transition_pixels.empty())
           blk.transition_pixels.set(blk.transition.unpack().data(), blk.transition.m,
@@ -1124,6 +1118,14 @@ private:
     }
 #endif
     detail::gemm(kernel_, layer.conv2, bh * pw, pack, store, *pool_, scratch_);
+  }
+
+  // Whether a 1x1 convolution of m output channels over n pixels runs by pixel rows
+  // (Config::conv1x1; the fused AVX-512 float path only).
+  bool conv1x1_pixel_rows(int m, int n) const {
+    return fused_ && !int8_ &&
+           (config_.conv1x1 == Conv1x1::pixel_rows ||
+            (config_.conv1x1 == Conv1x1::automatic && detail::pixel_rows_pay(m, n)));
   }
 
   // Transition after block b: relu(norm) -> avgpool 2x2 -> conv 1x1 -> block b+1's buffer
