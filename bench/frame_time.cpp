@@ -14,7 +14,11 @@
 // wall time and as the thread's CPU time (the CPU time is the figure to trust when other
 // processes share the machine). Allocations are counted by this program's own global operator
 // new (common/counting_new.hpp; the library is not changed for it).
-//   frame_time [--model PATH] [--frames N] [--rounds R] [--json]
+// With --period-ms P the frames come at a camera's pace: each step starts P ms after the
+// previous one started, the thread sleeping in between, and only the step is timed. A robot's
+// loop runs that way, and a core that slept since the last frame runs the next one slower (its
+// caches, clock and wide vector units warm up again), which back-to-back rounds never show.
+//   frame_time [--model PATH] [--frames N] [--rounds R] [--period-ms P] [--json]
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
 #include <shadowsense/runtime/densenet_runtime.hpp>
@@ -36,6 +40,7 @@
 #include <iostream>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
 
 namespace ss = shadowsense;
@@ -44,11 +49,14 @@ using bench::thread_cpu_ms;
 namespace {
 
 constexpr std::string_view usage =
-    "usage: frame_time [--model PATH] [--frames N] [--rounds R] [--json] [--help] [--version]\n"
+    "usage: frame_time [--model PATH] [--frames N] [--rounds R] [--period-ms P] [--json]\n"
+    "       [--help] [--version]\n"
     "Times the whole frame of a model (default models/default.ssm) on one core: segmenter,\n"
     "touch pipeline, frame encoder, forward pass, classify, and all of it together, on robot-rig\n"
     "generator frames; prints per-frame median wall and CPU ms and heap allocations per frame\n"
-    "after warm-up.\n";
+    "after warm-up.\n"
+    "  --period-ms P  start a step every P ms (a camera's pace, e.g. 33.3 for 30 fps), sleeping\n"
+    "                 in between, and time the steps only (default 0: back to back)\n";
 
 struct StageResult {
   std::string name;
@@ -56,24 +64,45 @@ struct StageResult {
 };
 
 // Runs step(i) for every frame index, `rounds` times after one warm-up round; the medians of
-// the per-frame means, and the allocations per frame of the measured rounds.
-StageResult measure(const std::string& name, int frames, int rounds,
+// the per-frame means, and the allocations per frame of the measured rounds. With period_ms >
+// 0 every step starts period_ms after the one before (sleeping until then) and the per-frame
+// means are of the steps alone.
+StageResult measure(const std::string& name, int frames, int rounds, double period_ms,
                     const std::function<void(int)>& step) {
   for (int i = 0; i < frames; ++i) step(i); // warm-up: buffers, caches
+  using clock = std::chrono::steady_clock;
+  const auto period = std::chrono::duration_cast<clock::duration>(
+      std::chrono::duration<double, std::milli>(period_ms));
+  auto next = clock::now();
   std::vector<double> wall, cpu;
   std::size_t allocs = 0;
   for (int r = 0; r < rounds; ++r) {
     counting_new::measuring = true;
     const std::size_t a0 = counting_new::count();
-    const double c0 = thread_cpu_ms();
-    const auto t0 = std::chrono::steady_clock::now();
-    for (int i = 0; i < frames; ++i) step(i);
-    const auto t1 = std::chrono::steady_clock::now();
-    const double c1 = thread_cpu_ms();
+    double wall_ms = 0, cpu_ms = 0;
+    if (period_ms > 0) {
+      for (int i = 0; i < frames; ++i) {
+        next += period;
+        std::this_thread::sleep_until(next); // outside the counted region: it may allocate
+        const double c0 = thread_cpu_ms();
+        const auto t0 = clock::now();
+        step(i);
+        const auto t1 = clock::now();
+        cpu_ms += thread_cpu_ms() - c0;
+        wall_ms += std::chrono::duration<double, std::milli>(t1 - t0).count();
+      }
+    } else {
+      const double c0 = thread_cpu_ms();
+      const auto t0 = clock::now();
+      for (int i = 0; i < frames; ++i) step(i);
+      const auto t1 = clock::now();
+      cpu_ms = thread_cpu_ms() - c0;
+      wall_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    }
     allocs += counting_new::count() - a0;
     counting_new::measuring = false;
-    wall.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count() / frames);
-    cpu.push_back((c1 - c0) / frames);
+    wall.push_back(wall_ms / frames);
+    cpu.push_back(cpu_ms / frames);
   }
   auto median = [](std::vector<double> v) {
     std::sort(v.begin(), v.end());
@@ -89,9 +118,13 @@ int main(int argc, char** argv) {
   const std::string& model_path = options.model_path;
   const int &frames = options.frames, &rounds = options.rounds;
   const bool& json = options.json;
+  double period_ms = 0;
   return cli::run("frame_time", [&] {
     cli::Parser p("frame_time", "");
     bench::declare_frame_options(p, usage, options);
+    p.option("--period-ms", "P", "start a step every P ms, sleeping in between (0: back to back)",
+             period_ms)
+        .range(0.0, 10000.0);
     p.parse(argc, argv);
     cv::setNumThreads(1);
     const ss::ModelFile model = ss::ModelFile::load(model_path);
@@ -112,24 +145,24 @@ int main(int argc, char** argv) {
     std::size_t sink = 0;
 
     std::vector<StageResult> out;
-    out.push_back(measure("segment", frames, rounds, [&](int i) {
+    out.push_back(measure("segment", frames, rounds, period_ms, [&](int i) {
       segmenter.segment(images[static_cast<std::size_t>(i)], seg);
       sink += seg.shadows.size();
     }));
-    out.push_back(measure("pipeline", frames, rounds, [&](int i) {
+    out.push_back(measure("pipeline", frames, rounds, period_ms, [&](int i) {
       sink += pipeline.update(images[static_cast<std::size_t>(i)], t_ms += 33.0).tracks.size();
     }));
-    out.push_back(measure("encode", frames, rounds,
+    out.push_back(measure("encode", frames, rounds, period_ms,
                           [&](int i) { encoder.run(images[static_cast<std::size_t>(i)], input); }));
-    out.push_back(measure("forward", frames, rounds, [&](int) {
+    out.push_back(measure("forward", frames, rounds, period_ms, [&](int) {
       classifier.classify(input, result);
       sink += static_cast<std::size_t>(result.index);
     }));
-    out.push_back(measure("classify", frames, rounds, [&](int i) {
+    out.push_back(measure("classify", frames, rounds, period_ms, [&](int i) {
       classifier.classify(images[static_cast<std::size_t>(i)], result);
       sink += static_cast<std::size_t>(result.index);
     }));
-    out.push_back(measure("frame", frames, rounds, [&](int i) {
+    out.push_back(measure("frame", frames, rounds, period_ms, [&](int i) {
       const cv::Mat& im = images[static_cast<std::size_t>(i)];
       sink += pipeline.update(im, t_ms += 33.0).tracks.size();
       classifier.classify(im, result);
@@ -139,7 +172,7 @@ int main(int argc, char** argv) {
     ss::Runtime runtime(ss::TouchPipeline(ss::segmenter_from(calibration)),
                         ss::make_densenet_classifier(model, {.threads = 1}));
     std::size_t classified = 0;
-    out.push_back(measure("runtime", frames, rounds, [&](int i) {
+    out.push_back(measure("runtime", frames, rounds, period_ms, [&](int i) {
       const ss::RuntimeFrame& r = runtime.update(images[static_cast<std::size_t>(i)], t_ms += 33.0);
       sink += r.touch.tracks.size() + runtime.output().events.size();
       classified += r.classified;
@@ -147,8 +180,10 @@ int main(int argc, char** argv) {
 
     const double parts = out[1].cpu_ms + out[4].cpu_ms;
     if (json) {
-      std::printf("{\"model\": \"%s\", \"frame\": [%d, %d], \"input\": [%d, %d], \"stages\": [",
-                  model_path.c_str(), images[0].cols, images[0].rows, input.h(), input.w());
+      std::printf("{\"model\": \"%s\", \"frame\": [%d, %d], \"input\": [%d, %d], "
+                  "\"period_ms\": %.3f, \"stages\": [",
+                  model_path.c_str(), images[0].cols, images[0].rows, input.h(), input.w(),
+                  period_ms);
       for (std::size_t i = 0; i < out.size(); ++i)
         std::printf("%s{\"stage\": \"%s\", \"wall_ms\": %.4f, \"cpu_ms\": %.4f, "
                     "\"allocations_per_frame\": %.3f}",
@@ -157,9 +192,14 @@ int main(int argc, char** argv) {
       std::printf("], \"sum_of_parts_cpu_ms\": %.4f, \"checksum\": %zu}\n", parts, sink);
     } else {
       std::printf("model %s, frames %dx%d (robot rig), network input %dx%d, %d frames x %d "
-                  "rounds, 1 thread\n",
+                  "rounds, 1 thread",
                   model_path.c_str(), images[0].cols, images[0].rows, input.w(), input.h(), frames,
                   rounds);
+      if (period_ms > 0)
+        std::printf(", one step every %.1f ms (sleeping in between; steps timed alone)\n",
+                    period_ms);
+      else
+        std::printf(", back to back\n");
       std::printf(
           "| stage | wall ms/frame | CPU ms/frame | allocations/frame |\n|---|---|---|---|\n");
       for (const auto& s : out)
