@@ -16,8 +16,8 @@
 // new (common/counting_new.hpp; the library is not changed for it).
 // With --period-ms P the frames come at a camera's pace: each step starts P ms after the
 // previous one started, the thread sleeping in between, and only the step is timed. A robot's
-// loop runs that way, and a core that slept since the last frame runs the next one slower (its
-// caches, clock and wide vector units warm up again), which back-to-back rounds never show.
+// loop runs that way, and the first step after an idle gap can run slower than back-to-back
+// rounds show (docs/roofline.md, "At a camera's pace").
 //   frame_time [--model PATH] [--frames N] [--rounds R] [--period-ms P] [--json]
 #include <shadowsense/backends/densenet/classifier.hpp>
 #include <shadowsense/eval/track_eval.hpp>
