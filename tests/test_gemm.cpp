@@ -387,6 +387,15 @@ TEST_CASE("element-wise loops equal the reference loops (pack exactly, arithmeti
       }
       CHECK(d[static_cast<std::size_t>(n)] == 9.0f); // nothing written past n
       if (n > 2) CHECK(std::isnan(d[1]));            // the window holding s[2]
+      // A row cut into two calls anywhere gives the same bits as one call.
+      for (int cut = 1; cut < n; ++cut) {
+        CAPTURE(cut);
+        std::vector<float> f(d.size(), 9.0f);
+        const float* r1 = s.data() + 2 * n + 7;
+        ops.pool_affine_relu(s.data(), r1, f.data(), cut, sc, sh);
+        ops.pool_affine_relu(s.data() + 2 * cut, r1 + 2 * cut, f.data() + cut, n - cut, sc, sh);
+        CHECK(std::memcmp(f.data(), d.data(), f.size() * sizeof(float)) == 0);
+      }
       // The 1x1 input panel: every channel as affine_relu, zeros to nr (32: the AVX-512 full
       // panel when n == 32; 24 and 40 the masked paths).
       for (int nr : {24, 32, 40})

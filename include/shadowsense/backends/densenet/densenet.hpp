@@ -831,6 +831,7 @@ private:
     block_plane_.clear();
     block_pixel_rows_.clear();
     transition_pixel_rows_.clear();
+    std::size_t transition_in_size = 0;
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       block_h_.push_back(H);
       block_w_.push_back(W);
@@ -877,6 +878,8 @@ private:
       W /= 2;
       if (b + 1 < blocks_.size()) { // the transition's 1x1 convolution, at the pooled size
         Block& blk = blocks_[b];
+        transition_in_size =
+            std::max(transition_in_size, static_cast<std::size_t>(blk.c_out) * H * W);
         const bool t_pixel_rows = conv1x1_pixel_rows(blk.transition.m, H * W);
         transition_pixel_rows_.push_back(t_pixel_rows);
         if (t_pixel_rows && blk.transition_pixels.empty())
@@ -884,6 +887,7 @@ private:
                                     blk.transition.k);
       }
     }
+    transition_in_.assign(int8_ ? 0 : transition_in_size, 0.0f);
     if (int8_) ensure_int8_buffers();
   }
 
@@ -1129,28 +1133,38 @@ private:
   }
 
   // Transition after block b: relu(norm) -> avgpool 2x2 -> conv 1x1 -> block b+1's buffer
-  // (pool first: both are linear after the ReLU, 4x cheaper, equal up to rounding).
+  // (pool first: both are linear after the ReLU, 4x cheaper, equal up to rounding). The pool
+  // runs first over whole planes, channel after channel, into transition_in_, and the GEMM's
+  // panels are copied from there: pooling inside the packing read two short runs from each of
+  // hundreds of planes per panel, an access the prefetchers do not follow, and waited on the
+  // cache for each (on a host with a slow last-level cache, two to three times the GEMM's own
+  // time). The pool is called on whole rows (its AVX-512 loop's values do not depend on the
+  // length of a call; the packing's runs once depended on where panels cut the rows).
   void transition(std::size_t b) {
     const int nr = kernel_.nr, bw = block_w_[b], n = block_h_[b] * bw;
     const Block& blk = blocks_[b];
     const float* feat = block_buf_[b].data();
-    const int ow = block_w_[b + 1], on = block_h_[b + 1] * ow;
+    const int oh = block_h_[b + 1], ow = block_w_[b + 1], on = oh * ow;
     const Affine& a = blk.transition_norm;
-    auto pack = [&](float* dst, int n0, int cols, int*) {
-      for (int c = 0; c < blk.c_out; ++c) {
+    float* pooled = transition_in_.data();
+    const int pool_tasks = std::min(pool_->size(), blk.c_out);
+    auto pool_planes = [&](int t) {
+      for (int c = blk.c_out * t / pool_tasks; c < blk.c_out * (t + 1) / pool_tasks; ++c) {
         const float* s = feat + static_cast<std::size_t>(c) * n;
-        float* d = dst + static_cast<std::size_t>(c) * nr;
+        float* d = pooled + static_cast<std::size_t>(c) * on;
         const float sc = a.scale[static_cast<std::size_t>(c)];
         const float sh = a.shift[static_cast<std::size_t>(c)];
-        int y = n0 / ow, x = n0 % ow;
-        for (int j = 0; j < cols;) { // runs within one output row
-          const int run = std::min(cols - j, ow - x);
-          const float* r0 = s + 2 * y * bw + 2 * x;
-          ops_.pool_affine_relu(r0, r0 + bw, d + j, run, sc, sh);
-          j += run;
-          x = 0;
-          ++y;
+        for (int y = 0; y < oh; ++y) {
+          const float* r0 = s + static_cast<std::size_t>(2 * y) * bw;
+          ops_.pool_affine_relu(r0, r0 + bw, d + static_cast<std::size_t>(y) * ow, ow, sc, sh);
         }
+      }
+    };
+    pool_->run(pool_tasks, pool_planes);
+    auto pack = [&](float* dst, int n0, int cols, int*) {
+      for (int c = 0; c < blk.c_out; ++c) {
+        float* d = dst + static_cast<std::size_t>(c) * nr;
+        std::copy_n(pooled + static_cast<std::size_t>(c) * on + n0, cols, d);
         if (cols < nr) std::fill(d + cols, d + nr, 0.0f); // (a zero-length fill is a call)
       }
     };
@@ -1284,6 +1298,7 @@ private:
   std::vector<int> block_pw_;          // per block: the padded bottleneck's row stride
   std::vector<char> block_pixel_rows_; // per block: its 1x1 convolutions by pixel rows
   std::vector<char> transition_pixel_rows_; // per transition: its convolution by pixel rows
+  std::vector<float> transition_in_;        // a transition's pooled input, channels x pooled pixels
   std::vector<std::size_t>
       block_plane_;                    // per block: floats from one bottleneck channel to the next
   const float* stage_input_ = nullptr; // the staged run's image (begin_stages), or none

@@ -408,18 +408,35 @@ pack3x3_avx512(const float* __restrict s, float* __restrict d, int cols, int nr,
       for (; j < nr; ++j) d[j] = j < cols ? r[j] : 0.0f;
     }
 }
+// pool_affine_relu (gemm.hpp's contract), 16 windows a step, every value by one FMA, so a
+// value does not depend on n or on where a row is cut into calls (the compiler's own
+// vectorisation of the scalar loop fused in its vector loop and not in its remainder).
+// max(0, v) keeps a NaN and a -0 as `v < 0 ? 0 : v` does (the second operand is returned).
 __attribute__((target("avx512f"))) inline void pool_affine_relu_avx512(const float* __restrict r0,
                                                                        const float* __restrict r1,
                                                                        float* __restrict d, int n,
                                                                        float sc, float sh) {
-  for (int j = 0; j < n; ++j) {
-    float a = r0[2 * j] * sc + sh, b = r0[2 * j + 1] * sc + sh;
-    float c = r1[2 * j] * sc + sh, e = r1[2 * j + 1] * sc + sh;
-    a = a < 0.0f ? 0.0f : a;
-    b = b < 0.0f ? 0.0f : b;
-    c = c < 0.0f ? 0.0f : c;
-    e = e < 0.0f ? 0.0f : e;
-    d[j] = ((a + b) + (c + e)) * 0.25f;
+  const __m512i even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+  const __m512i odd = _mm512_setr_epi32(1, 3, 5, 7, 9, 11, 13, 15, 17, 19, 21, 23, 25, 27, 29, 31);
+  const __m512 vs = _mm512_set1_ps(sc), vh = _mm512_set1_ps(sh), z = _mm512_setzero_ps();
+  const __m512 quarter = _mm512_set1_ps(0.25f);
+  for (int j = 0; j < n; j += 16) {
+    const int left = n - j; // windows left: 2 * left inputs a row
+    const __mmask16 lo = tail_mask_avx512(2 * left), hi = tail_mask_avx512(2 * left - 16);
+    const __m512 p0 = _mm512_maskz_loadu_ps(lo, r0 + 2 * j);
+    const __m512 p1 = _mm512_maskz_loadu_ps(hi, r0 + 2 * j + 16);
+    const __m512 q0 = _mm512_maskz_loadu_ps(lo, r1 + 2 * j);
+    const __m512 q1 = _mm512_maskz_loadu_ps(hi, r1 + 2 * j + 16);
+    const __m512 a = _mm512_maskz_max_ps(
+        0xFFFF, z, _mm512_fmadd_ps(_mm512_permutex2var_ps(p0, even, p1), vs, vh));
+    const __m512 b = _mm512_maskz_max_ps(
+        0xFFFF, z, _mm512_fmadd_ps(_mm512_permutex2var_ps(p0, odd, p1), vs, vh));
+    const __m512 c = _mm512_maskz_max_ps(
+        0xFFFF, z, _mm512_fmadd_ps(_mm512_permutex2var_ps(q0, even, q1), vs, vh));
+    const __m512 e = _mm512_maskz_max_ps(
+        0xFFFF, z, _mm512_fmadd_ps(_mm512_permutex2var_ps(q0, odd, q1), vs, vh));
+    const __m512 sum = _mm512_add_ps(_mm512_add_ps(a, b), _mm512_add_ps(c, e));
+    _mm512_mask_storeu_ps(d + j, tail_mask_avx512(left), _mm512_mul_ps(sum, quarter));
   }
 }
 // max_pool3s2 (gemm.hpp's contract): the column pass 16 floats a step, the window pass 16
