@@ -348,7 +348,8 @@ public:
     return n * sizeof(float);
   }
   std::size_t activation_bytes() const {
-    std::size_t n = phases_.size() + conv0_out_.size() + features_.size() + logits_.size();
+    std::size_t n = phases_.size() + conv0_out_.size() + features_.size() + logits_.size() +
+                    transition_in_.size();
     for (const auto& b : block_buf_) n += b.size();
     for (const auto& b : bottleneck_) n += b.size();
     for (const auto& s : scratch_)
